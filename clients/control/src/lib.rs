@@ -1,0 +1,1 @@
+//! splatphys-control (work in progress).

@@ -1,0 +1,1 @@
+//! splatphys-record (work in progress).

@@ -1,0 +1,1 @@
+//! splatphys-render (work in progress).

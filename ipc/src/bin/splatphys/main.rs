@@ -1,0 +1,20 @@
+//! `splatphys`: the main job, the server, inspection and benchmarks.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+/// splatphys: captured 3D Gaussian Splatting scenes made physical.
+#[derive(Parser, Debug)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {}
+}

@@ -1,0 +1,1 @@
+//! splatphys_ipc (work in progress).

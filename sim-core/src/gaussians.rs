@@ -1,0 +1,104 @@
+//! A set of 3D Gaussians in the INRIA 3DGS parameterisation (Kerbl et al. 2023).
+//!
+//! Values are stored exactly as a trainer writes them (log scales, logit opacity, raw
+//! quaternions), so that PLY -> [`GaussianCloud`] -> PLY is bit-exact. Use the decoding
+//! accessors ([`GaussianCloud::scale`], [`GaussianCloud::opacity`],
+//! [`GaussianCloud::rotation`], [`GaussianCloud::covariance`]) to get physical values.
+
+use glam::{Mat3, Quat, Vec3};
+
+/// Number of SH coefficients per colour channel for an SH degree (0..=3): (degree + 1)².
+pub const fn sh_coeffs_per_channel(degree: u8) -> usize {
+    (degree as usize + 1) * (degree as usize + 1)
+}
+
+/// Gaussians in struct-of-arrays form, `N` = [`GaussianCloud::len`].
+///
+/// Frame: the file's own frame and units until a scene transform is applied
+/// ([`GaussianCloud::transform`]); after that world metres, z up.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GaussianCloud {
+    /// `[N][3]` centre positions (m once placed in the world).
+    pub positions: Vec<[f32; 3]>,
+    /// `[N][3]` normals when the file had `nx ny nz`, else `None`. Unused by the physics.
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// SH degree 0..=3.
+    pub sh_degree: u8,
+    /// `[N][3]` SH DC coefficients `f_dc_0..2` (one per RGB channel).
+    pub sh_dc: Vec<[f32; 3]>,
+    /// `[N][3 * (K - 1)]` flattened, `K` = [`sh_coeffs_per_channel`]: the `f_rest_*` values in
+    /// file order (INRIA: channel-major, all R coefficients, then G, then B). Empty for degree 0
+    /// files that carry no `f_rest_*` properties; all zeros when the file stores zeros.
+    pub sh_rest: Vec<f32>,
+    /// Number of `f_rest_*` properties per Gaussian as found in the file (0, 9, 24 or 45).
+    pub sh_rest_len: usize,
+    /// `[N]` opacity logits (opacity = sigmoid(logit)).
+    pub opacity_logit: Vec<f32>,
+    /// `[N][3]` natural-log scales (standard deviations in file units).
+    pub log_scales: Vec<[f32; 3]>,
+    /// `[N][4]` rotation quaternions `w x y z` exactly as stored (not always unit length).
+    pub rotations_wxyz: Vec<[f32; 4]>,
+    /// Extra per-vertex properties kept by name, each `[N]` (semantic features `feat_*`...).
+    pub extra: Vec<(String, Vec<f32>)>,
+}
+
+impl GaussianCloud {
+    /// Number of Gaussians.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// True when there are no Gaussians.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Centre of Gaussian `i`.
+    pub fn position(&self, i: usize) -> Vec3 {
+        Vec3::from(self.positions[i])
+    }
+
+    /// Standard deviations (exp of the log scales) of Gaussian `i`.
+    pub fn scale(&self, i: usize) -> Vec3 {
+        Vec3::from(self.log_scales[i]).exp()
+    }
+
+    /// Opacity in [0, 1] (sigmoid of the stored logit) of Gaussian `i`.
+    pub fn opacity(&self, i: usize) -> f32 {
+        1.0 / (1.0 + (-self.opacity_logit[i]).exp())
+    }
+
+    /// Unit rotation of Gaussian `i` (the stored quaternion normalised; identity if degenerate).
+    pub fn rotation(&self, i: usize) -> Quat {
+        let [w, x, y, z] = self.rotations_wxyz[i];
+        let q = Quat::from_xyzw(x, y, z, w);
+        let n = q.length();
+        if n.is_finite() && n > 1e-12 { q / n } else { Quat::IDENTITY }
+    }
+
+    /// Covariance Σ0 = R S² Rᵀ of Gaussian `i` (file units squared).
+    pub fn covariance(&self, i: usize) -> Mat3 {
+        let r = Mat3::from_quat(self.rotation(i));
+        let s = self.scale(i);
+        let rs = r * Mat3::from_diagonal(s);
+        rs * rs.transpose()
+    }
+
+    /// All SH coefficients of Gaussian `i` as `[K][3]` RGB triples, DC first, in the order the
+    /// renderer evaluates them (coefficient-major). `K` = [`sh_coeffs_per_channel`].
+    pub fn sh_coefficients(&self, i: usize) -> Vec<[f32; 3]> {
+        let k = sh_coeffs_per_channel(self.sh_degree);
+        let mut out = Vec::with_capacity(k);
+        out.push(self.sh_dc[i]);
+        let rest = k - 1;
+        if rest > 0 && self.sh_rest_len >= 3 * rest {
+            let base = &self.sh_rest[i * self.sh_rest_len..(i + 1) * self.sh_rest_len];
+            for j in 0..rest {
+                out.push([base[j], base[rest + j], base[2 * rest + j]]);
+            }
+        } else {
+            out.resize(k, [0.0; 3]);
+        }
+        out
+    }
+}
