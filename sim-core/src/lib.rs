@@ -7,3 +7,11 @@
 
 pub mod gaussians;
 pub mod math;
+pub mod formats;
+pub mod procedural;
+pub mod selection;
+pub mod scene;
+pub mod fill;
+pub mod collider;
+pub mod material;
+pub mod mpm;

@@ -1,1 +1,16 @@
-//! splatphys-record (work in progress).
+//! splatphys_record: records a splatphys run to MCAP, replays it, and exports it.
+//!
+//! - [`writer`]: chunked zstd/lz4 MCAP with raw POD channels and a `foxglove.PointCloud`;
+//! - [`recorder`]: the lossless recording loop against a live server;
+//! - [`read`]: reading (also files cut off by a killed recorder) and CSV export;
+//! - [`replay`]: publishing a recording back onto the services.
+
+pub mod channels;
+pub mod error;
+pub mod pointcloud;
+pub mod read;
+pub mod recorder;
+pub mod replay;
+pub mod writer;
+
+pub use error::RecordError;

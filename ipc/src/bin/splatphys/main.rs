@@ -3,6 +3,8 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
+mod serve;
+
 /// splatphys: captured 3D Gaussian Splatting scenes made physical.
 #[derive(Parser, Debug)]
 #[command(version, about, long_about = None)]
@@ -12,9 +14,14 @@ struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-enum Command {}
+enum Command {
+    /// Serve a scene over iceoryx2 shared memory; clients attach and detach freely.
+    Serve(serve::ServeArgs),
+}
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
-    match cli.command {}
+    match cli.command {
+        Command::Serve(args) => serve::run(&args),
+    }
 }

@@ -1,0 +1,116 @@
+//! `splatphys-record`: record a run to MCAP, replay it, export objects to CSV.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+use splatphys_record::read::{messages, objects_csv, read_file};
+use splatphys_record::recorder::{RecordEnd, RecordOptions, record};
+use splatphys_record::replay::replay;
+use splatphys_record::writer::ChunkCompression;
+
+/// Record, replay and export splatphys runs (MCAP).
+#[derive(Parser, Debug)]
+#[command(version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Record a live server losslessly until it shuts down (or Ctrl-C).
+    Record {
+        /// Service prefix of the server (e.g. splatphys/<scene>).
+        #[arg(long)]
+        prefix: String,
+        /// Output MCAP file.
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Use lz4 instead of zstd.
+        #[arg(long)]
+        lz4: bool,
+        /// Stop after this many frames.
+        #[arg(long)]
+        frames: Option<u64>,
+        /// Write a /pointcloud every N frames (0 = never).
+        #[arg(long, default_value_t = 1)]
+        pointcloud_every: u64,
+        /// Seconds to wait for the server.
+        #[arg(long, default_value_t = 5.0)]
+        connect_timeout_s: f64,
+    },
+    /// Publish a recording back onto the services.
+    Replay {
+        /// The MCAP file.
+        file: PathBuf,
+        /// Service prefix to publish under.
+        #[arg(long, default_value = "splatphys/replay")]
+        prefix: String,
+        /// As fast as possible instead of the recorded timing.
+        #[arg(long)]
+        fast: bool,
+    },
+    /// Export the objects of every frame as CSV.
+    ExportObjects {
+        /// The MCAP file.
+        file: PathBuf,
+        /// Output CSV (stdout if absent).
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+    },
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().command {
+        Cmd::Record {
+            prefix,
+            out,
+            lz4,
+            frames,
+            pointcloud_every,
+            connect_timeout_s,
+        } => {
+            let mut opts = RecordOptions::new(&prefix);
+            opts.max_frames = frames;
+            opts.writer.pointcloud_every = pointcloud_every;
+            opts.connect_timeout = Duration::from_secs_f64(connect_timeout_s.max(0.0));
+            if lz4 {
+                opts.writer.compression = ChunkCompression::Lz4;
+            }
+            let (end, counts) = record(&out, &opts).with_context(|| format!("recording {prefix}"))?;
+            eprintln!(
+                "splatphys-record: {} frames, {} objects, {} scenes, {} commands, {} status -> {} ({end:?})",
+                counts.frames,
+                counts.objects,
+                counts.scenes,
+                counts.commands,
+                counts.statuses,
+                out.display()
+            );
+            if let RecordEnd::ServerGone(msg) = end {
+                bail!("{msg} (the recording up to that point is complete)");
+            }
+        }
+        Cmd::Replay { file, prefix, fast } => {
+            let c = replay(&file, &prefix, !fast).with_context(|| format!("replaying {}", file.display()))?;
+            eprintln!("splatphys-record replay: {} frames, {} scenes under {prefix}", c.frames, c.scenes);
+        }
+        Cmd::ExportObjects { file, out } => {
+            let bytes = read_file(&file)?;
+            let msgs = messages(&bytes, &file, true)?;
+            let rows = match out {
+                Some(p) => {
+                    let mut f = std::io::BufWriter::new(
+                        std::fs::File::create(&p).with_context(|| format!("creating {}", p.display()))?,
+                    );
+                    objects_csv(&msgs, &file, &mut f)?
+                }
+                None => objects_csv(&msgs, &file, &mut std::io::stdout().lock())?,
+            };
+            eprintln!("splatphys-record: {rows} object rows");
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,56 @@
+//! MCAP topics and schemas of a splatphys recording (documented in docs/protocol.md).
+//!
+//! Raw channels carry the wire PODs unchanged, message encoding [`POD_ENCODING`]:
+//! each message is the header struct's bytes followed by the payload slice's bytes
+//! (little endian, layouts of `splatphys_ipc::wire`, version in the schema name).
+//! `/pointcloud` is a `foxglove.PointCloud` in JSON so Foxglove shows the run.
+
+/// Message encoding of the raw channels.
+pub const POD_ENCODING: &str = "splatphys-pod";
+/// Schema encoding of the raw channels (the schema data is a text description).
+pub const POD_SCHEMA_ENCODING: &str = "splatphys-layout";
+
+/// `/scene`: `SceneHeader` (2144 B) + `[N] SceneGaussian` (228 B each); once per generation.
+pub const SCENE: &str = "/scene";
+/// `/frame`: `FrameHeader` (48 B) + `[N] FrameGaussian` (52 B each); every frame.
+pub const FRAME: &str = "/frame";
+/// `/objects`: `FrameHeader` (48 B) + `[M] ObjectState` (64 B each); every frame.
+pub const OBJECTS: &str = "/objects";
+/// `/status`: `Status` (352 B); about 10 Hz.
+pub const STATUS: &str = "/status";
+/// `/commands`: `CommandLogEntry` (248 B); every command any client sent, with its reply.
+pub const COMMANDS: &str = "/commands";
+/// `/pointcloud`: `foxglove.PointCloud` (JSON): positions and colours.
+pub const POINTCLOUD: &str = "/pointcloud";
+
+/// (topic, schema name, schema text) of the raw channels.
+pub const RAW_CHANNELS: [(&str, &str, &str); 5] = [
+    (
+        SCENE,
+        "splatphys.Scene.v1",
+        "SceneHeader{u32 scene_generation,u32 layout_version,u32 gaussian_count,u32 object_count,u32 sh_degree,u32 reserved,f64 frame_dt_s,u8[64] scene_name,u8[64][32] object_names} + SceneGaussian[N]{f32[48] sh,f32 opacity,f32[3] scale_m,f32[4] rotation_wxyz,u32 object_id}",
+    ),
+    (
+        FRAME,
+        "splatphys.Frame.v1",
+        "FrameHeader{u64 step,f64 time_s,u64 substeps,u64 frame_index,u32 count,u32 scene_generation,u32 layout_version,u32 reserved} + FrameGaussian[N]{f32[3] position_m,f32[6] covariance_m2 (xx,xy,xz,yy,yz,zz),f32[4] rotation_wxyz}",
+    ),
+    (
+        OBJECTS,
+        "splatphys.Objects.v1",
+        "FrameHeader + ObjectState[M]{u32 id,u32 contact_count,f32[3] position_m,f32[3] velocity_m_s,f32[4] orientation_wxyz,f32[3] angular_velocity_rad_s,f32 mass_kg}",
+    ),
+    (
+        STATUS,
+        "splatphys.Status.v1",
+        "Status (see splatphys_ipc::wire::Status)",
+    ),
+    (
+        COMMANDS,
+        "splatphys.CommandLogEntry.v1",
+        "CommandLogEntry{u64 received_step,CommandMsg command,ReplyMsg reply}",
+    ),
+];
+
+/// JSON schema of `foxglove.PointCloud` (the subset we write).
+pub const POINTCLOUD_SCHEMA: &str = r#"{"title":"foxglove.PointCloud","type":"object","properties":{"timestamp":{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frame_id":{"type":"string"},"pose":{"type":"object"},"point_stride":{"type":"integer"},"fields":{"type":"array"},"data":{"type":"string","contentEncoding":"base64"}}}"#;

@@ -1,0 +1,39 @@
+//! Errors of the recorder library.
+
+/// What can go wrong recording, reading or replaying.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    /// File I/O.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The MCAP library failed.
+    #[error("{path}: mcap: {source}")]
+    Mcap {
+        /// The file.
+        path: String,
+        /// The mcap error.
+        source: mcap::McapError,
+    },
+    /// A message on a raw channel is shorter than its header or not a whole number of elements.
+    #[error("{path}: message {sequence} on {topic} has {len} bytes, not a valid {what}")]
+    BadMessage {
+        /// The file.
+        path: String,
+        /// Topic.
+        topic: String,
+        /// Message sequence number.
+        sequence: u32,
+        /// Bytes found.
+        len: usize,
+        /// Expected layout.
+        what: &'static str,
+    },
+    /// The IPC layer failed.
+    #[error(transparent)]
+    Ipc(#[from] splatphys_ipc::IpcError),
+}

@@ -1,0 +1,492 @@
+//! Typed commands and replies, and their conversion to and from the wire PODs
+//! ([`CommandMsg`], [`ReplyMsg`]).
+//!
+//! Decoding never panics: an unknown kind or code decodes to a [`DecodeError`] that the server
+//! answers with a rejection.
+
+use crate::wire::{
+    CommandMsg, REPLY_MESSAGE_BYTES, ReplyMsg, read_fixed_str, write_fixed_str,
+};
+
+/// Wire codes of [`CommandMsg::kind`].
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandKind {
+    /// [`Command::Impulse`].
+    Impulse = 1,
+    /// [`Command::SetVelocity`].
+    SetVelocity = 2,
+    /// [`Command::EditMaterial`].
+    EditMaterial = 3,
+    /// [`Command::SetKind`].
+    SetKind = 4,
+    /// [`Command::Pause`].
+    Pause = 5,
+    /// [`Command::Resume`].
+    Resume = 6,
+    /// [`Command::Step`].
+    Step = 7,
+    /// [`Command::Reset`].
+    Reset = 8,
+    /// [`Command::Shutdown`].
+    Shutdown = 9,
+}
+
+/// [`CommandMsg::fields`]: `point_m` is present.
+pub const FIELD_POINT: u32 = 1;
+/// [`CommandMsg::fields`]: `code` (material model) is present.
+pub const FIELD_MODEL: u32 = 2;
+/// [`CommandMsg::fields`]: `youngs_modulus_pa` is present.
+pub const FIELD_E: u32 = 4;
+/// [`CommandMsg::fields`]: `poisson_ratio` is present.
+pub const FIELD_NU: u32 = 8;
+/// [`CommandMsg::fields`]: `density_kg_m3` is present.
+pub const FIELD_DENSITY: u32 = 16;
+/// [`CommandMsg::fields`]: `restitution` is present.
+pub const FIELD_RESTITUTION: u32 = 32;
+/// [`CommandMsg::fields`]: `friction` is present.
+pub const FIELD_FRICTION: u32 = 64;
+
+/// Constitutive models an object can be switched to (DESIGN.md, "Materials").
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MaterialModel {
+    /// Fixed-corotated elastic ("jelly").
+    FixedCorotated = 0,
+    /// Neo-Hookean elastic.
+    NeoHookean = 1,
+    /// Snow (Stomakhin 2013).
+    Snow = 2,
+    /// Sand (Drucker-Prager, Klár 2016).
+    Sand = 3,
+    /// Metal (von Mises on Hencky strain).
+    Metal = 4,
+    /// Plasticine.
+    Plasticine = 5,
+    /// Foam.
+    Foam = 6,
+}
+
+impl MaterialModel {
+    /// Decodes a wire code.
+    pub fn from_code(code: u32) -> Option<Self> {
+        use MaterialModel::*;
+        [FixedCorotated, NeoHookean, Snow, Sand, Metal, Plasticine, Foam]
+            .into_iter()
+            .find(|m| *m as u32 == code)
+    }
+
+    /// Parses a CLI/TOML name (`jelly`, `fixed-corotated`, `neo-hookean`, `snow`, ...).
+    pub fn from_name(name: &str) -> Option<Self> {
+        use MaterialModel::*;
+        Some(match name.to_ascii_lowercase().replace('_', "-").as_str() {
+            "jelly" | "fixed-corotated" | "corotated" => FixedCorotated,
+            "neo-hookean" | "neohookean" => NeoHookean,
+            "snow" => Snow,
+            "sand" => Sand,
+            "metal" => Metal,
+            "plasticine" => Plasticine,
+            "foam" => Foam,
+            _ => return None,
+        })
+    }
+}
+
+/// How an object moves.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObjectKind {
+    /// Per-object MPM.
+    Deformable = 0,
+    /// Rigid body.
+    Rigid = 1,
+    /// Static collider.
+    Static = 2,
+}
+
+impl ObjectKind {
+    /// Decodes a wire code.
+    pub fn from_code(code: u32) -> Option<Self> {
+        match code {
+            0 => Some(Self::Deformable),
+            1 => Some(Self::Rigid),
+            2 => Some(Self::Static),
+            _ => None,
+        }
+    }
+}
+
+/// A material edit: `None` keeps the current value.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MaterialEdit {
+    /// New constitutive model.
+    pub model: Option<MaterialModel>,
+    /// Young's modulus E, pascals (> 0).
+    pub youngs_modulus_pa: Option<f64>,
+    /// Poisson ratio nu, in (-1, 0.5).
+    pub poisson_ratio: Option<f64>,
+    /// Density, kg/m³ (> 0).
+    pub density_kg_m3: Option<f64>,
+    /// Coefficient of restitution e, in [0, 1].
+    pub restitution: Option<f64>,
+    /// Coulomb friction coefficient (>= 0).
+    pub friction: Option<f64>,
+}
+
+/// A command a client sends to the server.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Command {
+    /// Apply an impulse (N·s, world) to an object, at a point (m, world) or at its COM.
+    Impulse {
+        /// Target object id.
+        object: u32,
+        /// Impulse, N·s.
+        impulse_n_s: [f64; 3],
+        /// Point of application, metres; `None` = centre of mass.
+        point_m: Option<[f64; 3]>,
+    },
+    /// Set an object's COM velocity, m/s.
+    SetVelocity {
+        /// Target object id.
+        object: u32,
+        /// Velocity, m/s.
+        velocity_m_s: [f64; 3],
+    },
+    /// Edit an object's material.
+    EditMaterial {
+        /// Target object id.
+        object: u32,
+        /// The fields to change.
+        edit: MaterialEdit,
+    },
+    /// Change how an object moves.
+    SetKind {
+        /// Target object id.
+        object: u32,
+        /// New kind.
+        kind: ObjectKind,
+    },
+    /// Stop stepping (frames and status keep flowing).
+    Pause,
+    /// Resume stepping.
+    Resume,
+    /// While paused, advance this many published frames.
+    Step {
+        /// Frames to advance (>= 1).
+        count: u64,
+    },
+    /// Reset the scene to its initial state (bumps the scene generation).
+    Reset,
+    /// Ask the server to shut down cleanly.
+    Shutdown,
+}
+
+/// Why a command message could not be decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeError {
+    /// `kind` is not a known [`CommandKind`].
+    #[error("unknown command kind {kind}")]
+    UnknownKind {
+        /// The code received.
+        kind: u32,
+    },
+    /// `code` is not a known material model.
+    #[error("unknown material model code {code}")]
+    UnknownModel {
+        /// The code received.
+        code: u32,
+    },
+    /// `code` is not a known object kind.
+    #[error("unknown object kind code {code}")]
+    UnknownObjectKind {
+        /// The code received.
+        code: u32,
+    },
+}
+
+impl Command {
+    /// Encodes to the wire form with the given sequence number.
+    pub fn to_msg(&self, sequence: u64) -> CommandMsg {
+        let mut m = CommandMsg {
+            sequence,
+            ..Default::default()
+        };
+        match *self {
+            Command::Impulse {
+                object,
+                impulse_n_s,
+                point_m,
+            } => {
+                m.kind = CommandKind::Impulse as u32;
+                m.object_id = object;
+                m.vector = impulse_n_s;
+                if let Some(p) = point_m {
+                    m.point_m = p;
+                    m.fields |= FIELD_POINT;
+                }
+            }
+            Command::SetVelocity {
+                object,
+                velocity_m_s,
+            } => {
+                m.kind = CommandKind::SetVelocity as u32;
+                m.object_id = object;
+                m.vector = velocity_m_s;
+            }
+            Command::EditMaterial { object, edit } => {
+                m.kind = CommandKind::EditMaterial as u32;
+                m.object_id = object;
+                let mut set = |flag: u32, v: Option<f64>, dst: &mut f64| {
+                    if let Some(v) = v {
+                        *dst = v;
+                        m.fields |= flag;
+                    }
+                };
+                set(FIELD_E, edit.youngs_modulus_pa, &mut m.youngs_modulus_pa);
+                set(FIELD_NU, edit.poisson_ratio, &mut m.poisson_ratio);
+                set(FIELD_DENSITY, edit.density_kg_m3, &mut m.density_kg_m3);
+                set(FIELD_RESTITUTION, edit.restitution, &mut m.restitution);
+                set(FIELD_FRICTION, edit.friction, &mut m.friction);
+                if let Some(model) = edit.model {
+                    m.code = model as u32;
+                    m.fields |= FIELD_MODEL;
+                }
+            }
+            Command::SetKind { object, kind } => {
+                m.kind = CommandKind::SetKind as u32;
+                m.object_id = object;
+                m.code = kind as u32;
+            }
+            Command::Pause => m.kind = CommandKind::Pause as u32,
+            Command::Resume => m.kind = CommandKind::Resume as u32,
+            Command::Step { count } => {
+                m.kind = CommandKind::Step as u32;
+                m.count = count;
+            }
+            Command::Reset => m.kind = CommandKind::Reset as u32,
+            Command::Shutdown => m.kind = CommandKind::Shutdown as u32,
+        }
+        m
+    }
+
+    /// Decodes the wire form. Values are not checked here; see [`crate::validate`].
+    pub fn from_msg(m: &CommandMsg) -> Result<Self, DecodeError> {
+        let opt = |flag: u32, v: f64| (m.fields & flag != 0).then_some(v);
+        Ok(match m.kind {
+            1 => Command::Impulse {
+                object: m.object_id,
+                impulse_n_s: m.vector,
+                point_m: (m.fields & FIELD_POINT != 0).then_some(m.point_m),
+            },
+            2 => Command::SetVelocity {
+                object: m.object_id,
+                velocity_m_s: m.vector,
+            },
+            3 => Command::EditMaterial {
+                object: m.object_id,
+                edit: MaterialEdit {
+                    model: if m.fields & FIELD_MODEL != 0 {
+                        Some(
+                            MaterialModel::from_code(m.code)
+                                .ok_or(DecodeError::UnknownModel { code: m.code })?,
+                        )
+                    } else {
+                        None
+                    },
+                    youngs_modulus_pa: opt(FIELD_E, m.youngs_modulus_pa),
+                    poisson_ratio: opt(FIELD_NU, m.poisson_ratio),
+                    density_kg_m3: opt(FIELD_DENSITY, m.density_kg_m3),
+                    restitution: opt(FIELD_RESTITUTION, m.restitution),
+                    friction: opt(FIELD_FRICTION, m.friction),
+                },
+            },
+            4 => Command::SetKind {
+                object: m.object_id,
+                kind: ObjectKind::from_code(m.code)
+                    .ok_or(DecodeError::UnknownObjectKind { code: m.code })?,
+            },
+            5 => Command::Pause,
+            6 => Command::Resume,
+            7 => Command::Step { count: m.count },
+            8 => Command::Reset,
+            9 => Command::Shutdown,
+            kind => return Err(DecodeError::UnknownKind { kind }),
+        })
+    }
+
+    /// The object this command targets, if any.
+    pub fn object(&self) -> Option<u32> {
+        match *self {
+            Command::Impulse { object, .. }
+            | Command::SetVelocity { object, .. }
+            | Command::EditMaterial { object, .. }
+            | Command::SetKind { object, .. } => Some(object),
+            _ => None,
+        }
+    }
+}
+
+/// Wire codes of [`ReplyMsg::reject_code`].
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RejectCode {
+    /// Not rejected.
+    None = 0,
+    /// The message could not be decoded.
+    Malformed = 1,
+    /// A NaN or infinite value.
+    NotFinite = 2,
+    /// The object id does not exist.
+    UnknownObject = 3,
+    /// A value outside its physical range.
+    OutOfRange = 4,
+    /// The impulse exceeds the server's limit.
+    ImpulseTooLarge = 5,
+    /// The simulation refused it.
+    Refused = 6,
+}
+
+impl RejectCode {
+    /// Decodes a wire code (unknown codes map to `Refused`).
+    pub fn from_code(code: u32) -> Self {
+        use RejectCode::*;
+        [None, Malformed, NotFinite, UnknownObject, OutOfRange, ImpulseTooLarge]
+            .into_iter()
+            .find(|c| *c as u32 == code)
+            .unwrap_or(Refused)
+    }
+}
+
+/// The server's answer to one command.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Reply {
+    /// Accepted; it takes effect at this step.
+    Accepted {
+        /// Step index at which the command takes effect.
+        effective_step: u64,
+    },
+    /// Rejected and not applied.
+    Rejected {
+        /// Category.
+        code: RejectCode,
+        /// Human-readable reason.
+        reason: String,
+    },
+}
+
+impl Reply {
+    /// Encodes to the wire form.
+    pub fn to_msg(&self, sequence: u64) -> ReplyMsg {
+        let mut m = ReplyMsg {
+            sequence,
+            ..Default::default()
+        };
+        match self {
+            Reply::Accepted { effective_step } => {
+                m.accepted = 1;
+                m.effective_step = *effective_step;
+            }
+            Reply::Rejected { code, reason } => {
+                m.reject_code = *code as u32;
+                write_fixed_str(&mut m.message[..REPLY_MESSAGE_BYTES], reason);
+            }
+        }
+        m
+    }
+
+    /// Decodes the wire form.
+    pub fn from_msg(m: &ReplyMsg) -> Self {
+        if m.accepted == 1 {
+            Reply::Accepted {
+                effective_step: m.effective_step,
+            }
+        } else {
+            Reply::Rejected {
+                code: RejectCode::from_code(m.reject_code),
+                reason: read_fixed_str(&m.message),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_command_round_trips_through_the_wire() {
+        let cmds = [
+            Command::Impulse {
+                object: 3,
+                impulse_n_s: [0.0, 0.0, 2.0],
+                point_m: Some([1.0, 2.0, 3.0]),
+            },
+            Command::Impulse {
+                object: 0,
+                impulse_n_s: [1.0, 0.0, 0.0],
+                point_m: None,
+            },
+            Command::SetVelocity {
+                object: 1,
+                velocity_m_s: [0.5, 0.0, 0.0],
+            },
+            Command::EditMaterial {
+                object: 2,
+                edit: MaterialEdit {
+                    model: Some(MaterialModel::Snow),
+                    youngs_modulus_pa: Some(1e5),
+                    poisson_ratio: None,
+                    density_kg_m3: Some(1000.0),
+                    restitution: None,
+                    friction: Some(0.3),
+                },
+            },
+            Command::SetKind {
+                object: 1,
+                kind: ObjectKind::Rigid,
+            },
+            Command::Pause,
+            Command::Resume,
+            Command::Step { count: 7 },
+            Command::Reset,
+            Command::Shutdown,
+        ];
+        for (i, c) in cmds.iter().enumerate() {
+            let m = c.to_msg(i as u64);
+            assert_eq!(m.sequence, i as u64);
+            assert_eq!(Command::from_msg(&m).unwrap(), *c);
+        }
+    }
+
+    #[test]
+    fn unknown_codes_decode_to_errors_not_panics() {
+        let m = CommandMsg {
+            kind: 99,
+            ..Default::default()
+        };
+        assert_eq!(
+            Command::from_msg(&m),
+            Err(DecodeError::UnknownKind { kind: 99 })
+        );
+        let m = CommandMsg {
+            kind: 4,
+            code: 17,
+            ..Default::default()
+        };
+        assert!(matches!(
+            Command::from_msg(&m),
+            Err(DecodeError::UnknownObjectKind { code: 17 })
+        ));
+    }
+
+    #[test]
+    fn reply_round_trips_with_reason() {
+        let r = Reply::Rejected {
+            code: RejectCode::OutOfRange,
+            reason: "nu = 0.6 outside (-1, 0.5)".into(),
+        };
+        assert_eq!(Reply::from_msg(&r.to_msg(5)), r);
+        let a = Reply::Accepted { effective_step: 12 };
+        assert_eq!(Reply::from_msg(&a.to_msg(5)), a);
+    }
+}

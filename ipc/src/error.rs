@@ -1,0 +1,87 @@
+//! Errors of the IPC layer (server and client helpers).
+
+use crate::simulation::SimulationError;
+
+/// Everything that can go wrong talking to or serving over iceoryx2.
+#[derive(Debug, thiserror::Error)]
+pub enum IpcError {
+    /// An iceoryx2 call failed.
+    #[error("iceoryx2: {op} failed for `{service}`: {detail}")]
+    Iceoryx {
+        /// What was attempted (e.g. "create service", "loan frame").
+        op: &'static str,
+        /// Service name or port concerned.
+        service: String,
+        /// iceoryx2's error.
+        detail: String,
+    },
+    /// A service or node name was rejected by iceoryx2.
+    #[error("invalid name `{name}`: {detail}")]
+    BadName {
+        /// The name.
+        name: String,
+        /// Why.
+        detail: String,
+    },
+    /// Another live server already owns this prefix.
+    #[error("prefix `{prefix}` is already served by another live process")]
+    PrefixInUse {
+        /// The prefix.
+        prefix: String,
+    },
+    /// No server appeared under the prefix within the connect timeout.
+    #[error("no splatphys server under prefix `{prefix}` after {waited_ms} ms (is `splatphys serve` running?)")]
+    ServerNotFound {
+        /// The prefix.
+        prefix: String,
+        /// How long the client waited, ms.
+        waited_ms: u64,
+    },
+    /// The server's heartbeat stopped: it was killed or hangs.
+    #[error("splatphys server under `{prefix}` is gone: no heartbeat for {silent_ms} ms")]
+    ServerGone {
+        /// The prefix.
+        prefix: String,
+        /// Time since the last heartbeat, ms.
+        silent_ms: u64,
+    },
+    /// The server announced a clean shutdown and everything it sent has been received.
+    #[error("splatphys server under `{prefix}` shut down")]
+    ServerShutDown {
+        /// The prefix.
+        prefix: String,
+    },
+    /// The server speaks another layout version.
+    #[error("layout version mismatch: server {server}, this client {client}")]
+    LayoutMismatch {
+        /// Server's [`crate::wire::LAYOUT_VERSION`].
+        server: u32,
+        /// Ours.
+        client: u32,
+    },
+    /// A command got no reply in time.
+    #[error("no reply to command #{sequence} within {waited_ms} ms")]
+    NoReply {
+        /// The command's sequence number.
+        sequence: u64,
+        /// How long we waited, ms.
+        waited_ms: u64,
+    },
+    /// SIGINT or SIGTERM arrived while waiting.
+    #[error("interrupted by a termination signal")]
+    Interrupted,
+    /// The simulation failed.
+    #[error(transparent)]
+    Simulation(#[from] SimulationError),
+}
+
+impl IpcError {
+    /// Wraps an iceoryx2 error.
+    pub(crate) fn iox(op: &'static str, service: &str, e: impl core::fmt::Debug) -> Self {
+        IpcError::Iceoryx {
+            op,
+            service: service.to_owned(),
+            detail: format!("{e:?}"),
+        }
+    }
+}

@@ -1,0 +1,336 @@
+//! The wire contract: every type that crosses process boundaries over iceoryx2.
+//!
+//! All types are `#[repr(C)]` plain old data (bytemuck [`Pod`], iceoryx2 [`ZeroCopySend`]),
+//! built from arrays of `f32`/`f64`/integers only (no glam types), with sizes checked at compile
+//! time. Python and C clients map these layouts byte for byte; see `docs/protocol.md`.
+//! Every type carries an explicit iceoryx2 type name (`splatphys::<Type>`) so that clients in
+//! other languages can open the services.
+//!
+//! Units are SI and stated in field names: metres (`_m`), seconds (`_s`), kilograms (`_kg`),
+//! pascals (`_pa`). The world frame is right-handed and z up.
+//!
+//! Commands and replies travel as fixed-size PODs ([`CommandMsg`], [`ReplyMsg`]); the typed
+//! Rust views are [`crate::command::Command`] and [`crate::command::Reply`].
+
+use bytemuck::{Pod, Zeroable};
+use iceoryx2::prelude::ZeroCopySend;
+
+/// Version of the byte layout of every type in this module. Bumped on any change.
+pub const LAYOUT_VERSION: u32 = 1;
+
+/// Maximum SH degree carried on the wire (degree 3: 16 coefficients per colour channel).
+pub const MAX_SH_DEGREE: u32 = 3;
+/// SH coefficients per channel at [`MAX_SH_DEGREE`].
+pub const SH_COEFFS_PER_CHANNEL: usize = 16;
+/// Objects whose names fit into [`SceneHeader::object_names`].
+pub const MAX_NAMED_OBJECTS: usize = 64;
+/// Bytes per object name (UTF-8, NUL padded, no terminator needed when full).
+pub const OBJECT_NAME_BYTES: usize = 32;
+/// Bytes of the scene name in [`SceneHeader::scene_name`].
+pub const SCENE_NAME_BYTES: usize = 64;
+/// Subscribers reported individually in [`Status::subscribers`].
+pub const MAX_REPORTED_SUBSCRIBERS: usize = 8;
+/// Bytes of the human-readable reason in [`ReplyMsg::message`].
+pub const REPLY_MESSAGE_BYTES: usize = 96;
+
+/// User header of every `frame` and `objects` sample.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::FrameHeader")]
+pub struct FrameHeader {
+    /// Simulation step index after the step that produced this frame (0 = initial state).
+    pub step: u64,
+    /// Simulated time at this frame, seconds.
+    pub time_s: f64,
+    /// Substeps done since the start (or the last reset).
+    pub substeps: u64,
+    /// Frames published since the server started; consecutive frames differ by exactly 1.
+    pub frame_index: u64,
+    /// Elements in the payload slice (Gaussians for `frame`, objects for `objects`).
+    pub count: u32,
+    /// Scene generation; bumped on reset or on edits that change the Gaussian count.
+    pub scene_generation: u32,
+    /// [`LAYOUT_VERSION`] of the publisher.
+    pub layout_version: u32,
+    /// Reserved, zero.
+    pub reserved: u32,
+}
+const _: () = assert!(size_of::<FrameHeader>() == 48);
+
+/// Dynamic state of one published Gaussian. `frame` payload: `[N]` of these, 52 bytes each,
+/// in the order of the `scene` payload of the same generation.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::FrameGaussian")]
+pub struct FrameGaussian {
+    /// Centre in world metres.
+    pub position_m: [f32; 3],
+    /// World covariance Σ = Fe Σ0 Feᵀ, upper triangle (xx, xy, xz, yy, yz, zz), m².
+    pub covariance_m2: [f32; 6],
+    /// Rotation R of the polar decomposition of Fe (w, x, y, z); rotates SH view directions.
+    pub rotation_wxyz: [f32; 4],
+}
+const _: () = assert!(size_of::<FrameGaussian>() == 52);
+
+/// Static part of one published Gaussian. `scene` payload: `[N]` of these, 228 bytes each.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::SceneGaussian")]
+pub struct SceneGaussian {
+    /// SH coefficients `[16][3]` (coefficient-major, RGB inner), DC first, unused entries zero.
+    pub sh: [f32; 48],
+    /// Opacity in 0..1 (already through the sigmoid).
+    pub opacity: f32,
+    /// Initial scales (standard deviations) along the local axes, metres.
+    pub scale_m: [f32; 3],
+    /// Initial rotation (w, x, y, z), normalised.
+    pub rotation_wxyz: [f32; 4],
+    /// Object this Gaussian belongs to (index into the objects of the scene).
+    pub object_id: u32,
+}
+const _: () = assert!(size_of::<SceneGaussian>() == 228);
+
+impl Default for SceneGaussian {
+    fn default() -> Self {
+        Self {
+            sh: [0.0; 48],
+            opacity: 1.0,
+            scale_m: [0.01; 3],
+            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
+            object_id: 0,
+        }
+    }
+}
+
+/// User header of every `scene` sample.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::SceneHeader")]
+pub struct SceneHeader {
+    /// Scene generation this static data belongs to.
+    pub scene_generation: u32,
+    /// [`LAYOUT_VERSION`] of the publisher.
+    pub layout_version: u32,
+    /// Gaussians in the payload (equals the `frame` count of this generation).
+    pub gaussian_count: u32,
+    /// Objects in the scene (equals the `objects` count).
+    pub object_count: u32,
+    /// SH degree actually used (0..=3); higher coefficients are zero.
+    pub sh_degree: u32,
+    /// Reserved, zero.
+    pub reserved: u32,
+    /// Fixed simulated time between published frames, seconds.
+    pub frame_dt_s: f64,
+    /// Scene name, UTF-8, NUL padded.
+    pub scene_name: [u8; SCENE_NAME_BYTES],
+    /// Names of objects `0..min(object_count, 64)`, UTF-8, NUL padded.
+    pub object_names: [[u8; OBJECT_NAME_BYTES]; MAX_NAMED_OBJECTS],
+}
+const _: () = assert!(size_of::<SceneHeader>() == 32 + SCENE_NAME_BYTES + 64 * 32);
+
+impl Default for SceneHeader {
+    fn default() -> Self {
+        Zeroable::zeroed()
+    }
+}
+
+/// Per-object state, `objects` payload: `[M]` of these, 64 bytes each.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::ObjectState")]
+pub struct ObjectState {
+    /// Object id (index into the scene's objects).
+    pub id: u32,
+    /// Contacts resolved for this object in the last step.
+    pub contact_count: u32,
+    /// Centre of mass, world metres.
+    pub position_m: [f32; 3],
+    /// Centre-of-mass velocity, m/s.
+    pub velocity_m_s: [f32; 3],
+    /// Orientation (w, x, y, z) relative to the rest pose.
+    pub orientation_wxyz: [f32; 4],
+    /// Angular velocity, rad/s, world frame.
+    pub angular_velocity_rad_s: [f32; 3],
+    /// Mass, kilograms.
+    pub mass_kg: f32,
+}
+const _: () = assert!(size_of::<ObjectState>() == 64);
+
+/// Wire form of a command (see [`crate::command::Command`] for the typed view).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::CommandMsg")]
+pub struct CommandMsg {
+    /// A [`crate::command::CommandKind`] code.
+    pub kind: u32,
+    /// Target object id (impulse, set velocity, edit material, set kind).
+    pub object_id: u32,
+    /// Client-chosen sequence number, echoed in the reply.
+    pub sequence: u64,
+    /// Impulse (N·s) or velocity (m/s), world frame.
+    pub vector: [f64; 3],
+    /// Point of application of an impulse, world metres (valid when `FIELD_POINT` is set).
+    pub point_m: [f64; 3],
+    /// Bit set of `FIELD_*` flags saying which optional fields are present.
+    pub fields: u32,
+    /// Material model code (edit material) or object kind code (set kind).
+    pub code: u32,
+    /// Young's modulus E, pascals.
+    pub youngs_modulus_pa: f64,
+    /// Poisson ratio nu, dimensionless.
+    pub poisson_ratio: f64,
+    /// Density, kg/m³.
+    pub density_kg_m3: f64,
+    /// Coefficient of restitution e, 0..1.
+    pub restitution: f64,
+    /// Coulomb friction coefficient.
+    pub friction: f64,
+    /// Step count for `StepN`.
+    pub count: u64,
+}
+const _: () = assert!(size_of::<CommandMsg>() == 120);
+
+/// Wire form of a reply (see [`crate::command::Reply`]).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::ReplyMsg")]
+pub struct ReplyMsg {
+    /// Sequence number of the command this answers.
+    pub sequence: u64,
+    /// Step at which an accepted command takes effect.
+    pub effective_step: u64,
+    /// 1 accepted, 0 rejected.
+    pub accepted: u32,
+    /// A [`crate::command::RejectCode`] code when rejected, 0 otherwise.
+    pub reject_code: u32,
+    /// Human-readable reason, UTF-8, NUL padded.
+    pub message: [u8; REPLY_MESSAGE_BYTES],
+}
+const _: () = assert!(size_of::<ReplyMsg>() == 120);
+
+impl Default for ReplyMsg {
+    fn default() -> Self {
+        Zeroable::zeroed()
+    }
+}
+
+/// One entry of the `command_log` service: every command the server received, with its reply,
+/// so a recorder captures the commands of every client.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::CommandLogEntry")]
+pub struct CommandLogEntry {
+    /// Step at which the server received it (it was applied before the next step).
+    pub received_step: u64,
+    /// The command as received.
+    pub command: CommandMsg,
+    /// The reply sent.
+    pub reply: ReplyMsg,
+}
+const _: () = assert!(size_of::<CommandLogEntry>() == 248);
+
+/// Statistics of one subscriber of the `frame` service as seen by the server.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::SubscriberLag")]
+pub struct SubscriberLag {
+    /// Low 64 bits of the iceoryx2 subscriber id.
+    pub id_lo: u64,
+    /// High 64 bits of the iceoryx2 subscriber id.
+    pub id_hi: u64,
+    /// Frames this subscriber did not get (full buffer; for a lossless one: after the limit).
+    pub frames_dropped: u64,
+    /// Longest time the server waited on it in the last status period, milliseconds.
+    pub max_wait_ms: f32,
+    /// 1 when it asked for lossless delivery.
+    pub lossless: u32,
+}
+const _: () = assert!(size_of::<SubscriberLag>() == 32);
+
+/// [`Status::flags`]: the server is shutting down; this is its last status.
+pub const STATUS_SHUTTING_DOWN: u32 = 1;
+/// [`Status::flags`]: stepping is paused.
+pub const STATUS_PAUSED: u32 = 2;
+/// [`Status::flags`]: the simulation reached its end.
+pub const STATUS_FINISHED: u32 = 4;
+/// [`Status::flags`]: a lossless subscriber is lagging (hit the backpressure limit recently).
+pub const STATUS_LOSSLESS_LAGGING: u32 = 8;
+
+/// Server heartbeat and statistics, published on `status` at [`crate::services::STATUS_PERIOD`].
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::Status")]
+pub struct Status {
+    /// Increments by one per status message.
+    pub heartbeat: u64,
+    /// Current step.
+    pub step: u64,
+    /// Current simulated time, seconds.
+    pub time_s: f64,
+    /// Frames published so far.
+    pub frames_published: u64,
+    /// Steps per wall-clock second over the last period.
+    pub steps_per_s: f64,
+    /// Substeps per wall-clock second over the last period.
+    pub substeps_per_s: f64,
+    /// Frames skipped by best-effort subscribers (their buffer was full), total.
+    pub frames_dropped: u64,
+    /// Frames lossless subscribers (recorders) lost after the backpressure limit, total.
+    pub recorder_frames_lost: u64,
+    /// Commands received so far.
+    pub commands_received: u64,
+    /// Commands rejected so far.
+    pub commands_rejected: u64,
+    /// `STATUS_*` flags.
+    pub flags: u32,
+    /// Current scene generation.
+    pub scene_generation: u32,
+    /// Connected `frame` subscribers.
+    pub subscriber_count: u32,
+    /// Valid entries in `subscribers`.
+    pub reported_subscribers: u32,
+    /// Per-subscriber statistics, first `reported_subscribers` valid.
+    pub subscribers: [SubscriberLag; MAX_REPORTED_SUBSCRIBERS],
+}
+const _: () = assert!(size_of::<Status>() == 96 + 32 * MAX_REPORTED_SUBSCRIBERS);
+
+/// Writes `s` into a NUL-padded fixed buffer, truncating at a UTF-8 boundary.
+pub fn write_fixed_str(dst: &mut [u8], s: &str) {
+    dst.fill(0);
+    let mut end = s.len().min(dst.len());
+    while !s.is_char_boundary(end) {
+        end -= 1;
+    }
+    dst[..end].copy_from_slice(&s.as_bytes()[..end]);
+}
+
+/// Reads a NUL-padded fixed buffer as a string (invalid UTF-8 replaced).
+pub fn read_fixed_str(src: &[u8]) -> String {
+    let end = src.iter().position(|&b| b == 0).unwrap_or(src.len());
+    String::from_utf8_lossy(&src[..end]).into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_strings_round_trip_and_truncate_on_char_boundary() {
+        let mut buf = [0u8; 5];
+        write_fixed_str(&mut buf, "ab");
+        assert_eq!(read_fixed_str(&buf), "ab");
+        write_fixed_str(&mut buf, "abcdé"); // 'é' is 2 bytes and does not fit
+        assert_eq!(read_fixed_str(&buf), "abcd");
+    }
+
+    #[test]
+    fn frame_gaussian_is_13_floats_without_padding() {
+        let g = FrameGaussian {
+            position_m: [1.0, 2.0, 3.0],
+            ..Default::default()
+        };
+        let floats: &[f32] = bytemuck::cast_slice(std::slice::from_ref(&g));
+        assert_eq!(floats.len(), 13);
+        assert_eq!(&floats[..3], &[1.0, 2.0, 3.0]);
+    }
+}

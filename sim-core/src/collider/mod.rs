@@ -1,0 +1,94 @@
+//! Grid colliders: the boundary conditions MLS-MPM applies to grid velocities after the momentum
+//! update (Hu et al. 2018, section 4; PhysGaussian's boundary conditions, with slip done right).
+//!
+//! A collider is a shape ([`plane`], [`boxes`]) that tells whether a grid node is inside it and
+//! its outward normal there, a [`Surface`] rule (sticky / slip / separate) with a Coulomb
+//! friction coefficient ([`surface`]), and optionally a constant velocity over an active time
+//! window (moving kinematic boxes). The domain bound is a box the material stays inside.
+
+pub mod boxes;
+pub mod plane;
+pub mod surface;
+
+pub use boxes::BoxShape;
+pub use plane::Plane;
+pub use surface::{Surface, apply_surface};
+
+use glam::Vec3A;
+
+/// A collider's geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// Half-space below a plane.
+    Plane(Plane),
+    /// Solid axis-aligned box.
+    Box(BoxShape),
+    /// The inside of this box is the domain: nodes outside it are boundary nodes.
+    DomainBound(BoxShape),
+}
+
+/// A grid collider.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Collider {
+    /// Geometry at time `active_s.0` (or t = 0 for static colliders).
+    pub shape: Shape,
+    /// Boundary rule.
+    pub surface: Surface,
+    /// Coulomb friction coefficient μ (>= 0) for slip and separate surfaces.
+    pub friction: f32,
+    /// Velocity in m/s while active (moving kinematic colliders); zero for static ones.
+    pub velocity_m_s: Vec3A,
+    /// Active window `[start, end)` in s; `None` = always active and never moving.
+    pub active_s: Option<(f64, f64)>,
+}
+
+impl Collider {
+    /// A static collider active at all times.
+    pub fn fixed(shape: Shape, surface: Surface, friction: f32) -> Self {
+        Self { shape, surface, friction, velocity_m_s: Vec3A::ZERO, active_s: None }
+    }
+
+    /// Whether the collider acts at time `t_s`.
+    pub fn is_active(&self, t_s: f64) -> bool {
+        self.active_s.is_none_or(|(a, b)| t_s >= a && t_s < b)
+    }
+
+    /// Displacement of a moving collider at time `t_s` (m): velocity × elapsed active time.
+    fn offset(&self, t_s: f64) -> Vec3A {
+        match self.active_s {
+            Some((a, _)) => self.velocity_m_s * ((t_s - a).max(0.0) as f32),
+            None => Vec3A::ZERO,
+        }
+    }
+
+    /// Velocity of the collider at time `t_s` (zero when inactive or static).
+    pub fn velocity_at(&self, t_s: f64) -> Vec3A {
+        if self.active_s.is_some() && self.is_active(t_s) { self.velocity_m_s } else { Vec3A::ZERO }
+    }
+
+    /// Outward normal if grid node position `x` is inside the collider at time `t_s`.
+    #[inline]
+    pub fn contact_normal(&self, x: Vec3A, t_s: f64) -> Option<Vec3A> {
+        if !self.is_active(t_s) {
+            return None;
+        }
+        let x = x - self.offset(t_s);
+        match &self.shape {
+            Shape::Plane(p) => p.contact_normal(x),
+            Shape::Box(b) => b.contact_normal(x),
+            Shape::DomainBound(b) => b.outside_normal(x),
+        }
+    }
+
+    /// Applies the boundary condition to grid velocity `v` (m/s) at node position `x` (m).
+    #[inline]
+    pub fn apply(&self, x: Vec3A, v: Vec3A, t_s: f64) -> Vec3A {
+        match self.contact_normal(x, t_s) {
+            Some(n) => {
+                let vc = self.velocity_at(t_s);
+                apply_surface(v - vc, n, self.surface, self.friction) + vc
+            }
+            None => v,
+        }
+    }
+}

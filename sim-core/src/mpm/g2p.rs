@@ -1,0 +1,90 @@
+//! Grid to particle (MLS-MPM G2P with APIC, Hu et al. 2018 eqs. 17 and 29): v = Σ w vi,
+//! C = (4/dx²) Σ w vi (xi - xp)ᵀ, then F ← (I + dt C) F, the material's return mapping, and
+//! x ← x + dt v. A particle whose new state would not be finite is left untouched and reported,
+//! so a NaN never enters the state.
+
+use glam::{Mat3A, Vec3A};
+use rayon::prelude::*;
+
+use super::binning::{BLOCK, BLOCK_NODES, Binning};
+use super::bspline::Stencil;
+use super::grid::SparseGrid;
+use super::particles::Particles;
+use crate::material::{ConstitutiveModel, Material};
+
+/// What a G2P pass found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GatherReport {
+    /// Largest particle speed after the update (m/s).
+    pub max_speed_m_s: f32,
+    /// Smallest index of a particle whose update was not finite (left unchanged).
+    pub first_non_finite: Option<usize>,
+}
+
+/// Gathers grid velocities into every particle and advances it by `dt_s`.
+pub fn gather(
+    particles: &mut Particles,
+    bins: &Binning,
+    grid: &SparseGrid,
+    materials: &[Material],
+    dx_m: f32,
+    dt_s: f32,
+) -> GatherReport {
+    let inv_dx = 1.0 / dx_m;
+    let d_inv = 4.0 * inv_dx * inv_dx;
+    let Particles { x, v, c, f, plastic, material, .. } = particles;
+    let (speed2, bad) = (x, v, c, f, plastic, &*material, &bins.block_of)
+        .into_par_iter()
+        .enumerate()
+        .map(|(p, (x, v, c, f, plastic, mat, &b))| {
+            let s = Stencil::new(*x, inv_dx);
+            let origin = bins.blocks[b as usize].key * BLOCK;
+            let local = (s.base - origin).as_uvec3();
+            let neighbours = &grid.pb_grid[b as usize];
+            let mut new_v = Vec3A::ZERO;
+            let mut new_c = Mat3A::ZERO;
+            for k in 0..3usize {
+                let rz = local.z as usize + k;
+                for j in 0..3usize {
+                    let ry = local.y as usize + j;
+                    for i in 0..3usize {
+                        let rx = local.x as usize + i;
+                        let corner = (rx >= 4) as usize + 2 * (ry >= 4) as usize + 4 * (rz >= 4) as usize;
+                        let gb = neighbours[corner] as usize;
+                        let l = (rx & 3) + 4 * (ry & 3) + 16 * (rz & 3);
+                        let vi = grid.velocity_m_s[gb * BLOCK_NODES + l];
+                        let w = s.weight(i, j, k);
+                        let dpos = Vec3A::new(i as f32, j as f32, k as f32) - s.fx;
+                        new_v += vi * w;
+                        let wv = vi * w;
+                        new_c += Mat3A::from_cols(wv * dpos.x, wv * dpos.y, wv * dpos.z);
+                    }
+                }
+            }
+            // dpos above is in cells: (4/dx²) · dx = 4/dx.
+            let new_c = new_c * (d_inv * dx_m);
+            let mut new_f = (Mat3A::IDENTITY + new_c * dt_s) * *f;
+            let mut new_plastic = *plastic;
+            materials[*mat as usize].project(&mut new_f, &mut new_plastic, dt_s);
+            let new_x = *x + new_v * dt_s;
+            let ok = new_x.is_finite()
+                && new_v.is_finite()
+                && new_c.is_finite()
+                && new_f.is_finite()
+                && new_plastic.is_finite();
+            if !ok {
+                return (0.0f32, p);
+            }
+            *x = new_x;
+            *v = new_v;
+            *c = new_c;
+            *f = new_f;
+            *plastic = new_plastic;
+            (new_v.length_squared(), usize::MAX)
+        })
+        .reduce(|| (0.0, usize::MAX), |a, b| (a.0.max(b.0), a.1.min(b.1)));
+    GatherReport {
+        max_speed_m_s: speed2.sqrt(),
+        first_non_finite: (bad != usize::MAX).then_some(bad),
+    }
+}

@@ -1,0 +1,71 @@
+//! Grid update: sums each grid block's node momenta and masses from the (up to 8) particle-block
+//! regions that reach it, in a fixed corner order, turns momentum into velocity, adds gravity
+//! (v ← p / m + dt g) and applies the colliders in the order given.
+
+use glam::{IVec3, Vec3A, Vec4};
+use rayon::prelude::*;
+
+use super::binning::{BLOCK, BLOCK_NODES, REGION};
+use super::grid::{CORNERS, NONE, SparseGrid};
+use super::p2g::{Region, region_index};
+use crate::collider::Collider;
+
+/// Reduces `scratch` into `grid`, then updates node velocities. Returns the first non-finite
+/// node velocity's block index if any.
+#[allow(clippy::too_many_arguments)]
+pub fn update(
+    grid: &mut SparseGrid,
+    scratch: &[Region],
+    dx_m: f32,
+    dt_s: f32,
+    gravity_m_s2: Vec3A,
+    colliders: &[Collider],
+    time_s: f64,
+) -> Option<usize> {
+    let SparseGrid { keys, contributors, mass_kg, velocity_m_s, .. } = grid;
+    let bad = mass_kg
+        .par_chunks_mut(BLOCK_NODES)
+        .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
+        .zip(keys.par_iter().zip(contributors.par_iter()))
+        .enumerate()
+        .map(|(gb, ((mass, vel), (key, contrib)))| {
+            let origin = *key * BLOCK;
+            let mut finite = true;
+            for lz in 0..BLOCK as usize {
+                for ly in 0..BLOCK as usize {
+                    for lx in 0..BLOCK as usize {
+                        let mut sum = Vec4::ZERO;
+                        for (c, d) in CORNERS.iter().enumerate() {
+                            let pb = contrib[c];
+                            if pb == NONE {
+                                continue;
+                            }
+                            let rx = lx + 4 * d.x as usize;
+                            let ry = ly + 4 * d.y as usize;
+                            let rz = lz + 4 * d.z as usize;
+                            if rx < REGION && ry < REGION && rz < REGION {
+                                sum += scratch[pb as usize][region_index(rx, ry, rz)];
+                            }
+                        }
+                        let l = lx + 4 * ly + 16 * lz;
+                        mass[l] = sum.w;
+                        vel[l] = if sum.w > 0.0 {
+                            let mut v = Vec3A::new(sum.x, sum.y, sum.z) / sum.w + gravity_m_s2 * dt_s;
+                            let node = (origin + IVec3::new(lx as i32, ly as i32, lz as i32)).as_vec3a() * dx_m;
+                            for collider in colliders {
+                                v = collider.apply(node, v, time_s);
+                            }
+                            finite &= v.is_finite();
+                            v
+                        } else {
+                            Vec3A::ZERO
+                        };
+                    }
+                }
+            }
+            if finite { usize::MAX } else { gb }
+        })
+        .min()
+        .unwrap_or(usize::MAX);
+    (bad != usize::MAX).then_some(bad)
+}

@@ -1,0 +1,144 @@
+//! One MLS-MPM substep on one particle set with its own sparse grid: binning, P2G, grid update,
+//! G2P. The COM layer gives every deformable object its own solver; the shared-grid baseline uses
+//! one for all particles.
+
+use glam::Vec3A;
+
+use super::binning::Binning;
+use super::g2p;
+use super::grid::SparseGrid;
+use super::grid_update;
+use super::p2g::{self, Region};
+use super::particles::Particles;
+use crate::collider::Collider;
+use crate::material::Material;
+
+/// Why a substep failed. The particle state holds no NaN afterwards.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MpmError {
+    /// A particle's update was not finite (left at its previous state).
+    #[error("particle {particle} became non-finite (NaN or inf) in G2P: the run is unstable (dt too large for the material?)")]
+    NonFiniteParticle {
+        /// Particle index.
+        particle: usize,
+    },
+    /// A grid node velocity was not finite before G2P (nothing was written to particles).
+    #[error("grid block {block} has a non-finite velocity after the grid update: the run is unstable")]
+    NonFiniteGrid {
+        /// Grid block index.
+        block: usize,
+    },
+    /// A particle position outside the addressable grid or not finite.
+    #[error("particle {particle} is outside the addressable grid or not finite")]
+    OutOfGrid {
+        /// Particle index.
+        particle: usize,
+    },
+    /// A particle refers to a material the solver was not given.
+    #[error("particle {particle} has material index {material} but only {count} materials exist")]
+    BadMaterial {
+        /// Particle index.
+        particle: usize,
+        /// Its material index.
+        material: u16,
+        /// Materials given.
+        count: usize,
+    },
+}
+
+/// What one substep needs besides the particles.
+#[derive(Debug, Clone, Copy)]
+pub struct SubstepInput<'a> {
+    /// Material table indexed by `Particles::material`.
+    pub materials: &'a [Material],
+    /// Colliders, applied in order at every grid node.
+    pub colliders: &'a [Collider],
+    /// Gravity (m/s²).
+    pub gravity_m_s2: Vec3A,
+    /// Substep (s).
+    pub dt_s: f32,
+    /// Simulated time at the start of the substep (s), for moving colliders.
+    pub time_s: f64,
+}
+
+/// What one substep did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SubstepReport {
+    /// Largest particle speed after the substep (m/s).
+    pub max_speed_m_s: f32,
+    /// Grid blocks allocated (each 4³ nodes).
+    pub grid_blocks: usize,
+    /// Particle blocks (occupied 4³-cell blocks).
+    pub particle_blocks: usize,
+}
+
+/// An MLS-MPM solver with cell size `dx_m` and reusable sparse-grid buffers.
+#[derive(Debug, Clone)]
+pub struct MpmSolver {
+    /// Grid cell size (m).
+    pub dx_m: f32,
+    bins: Binning,
+    grid: SparseGrid,
+    scratch: Vec<Region>,
+}
+
+impl MpmSolver {
+    /// A solver with grid cell size `dx_m` (m, > 0).
+    pub fn new(dx_m: f32) -> Self {
+        Self { dx_m, bins: Binning::default(), grid: SparseGrid::default(), scratch: Vec::new() }
+    }
+
+    /// The sparse grid as of the last substep (node masses and velocities).
+    pub fn grid(&self) -> &SparseGrid {
+        &self.grid
+    }
+
+    /// Advances `particles` by one substep.
+    ///
+    /// # Errors
+    /// [`MpmError`] when the state would become non-finite or a particle leaves the grid; no NaN
+    /// is written into `particles`.
+    pub fn substep(&mut self, particles: &mut Particles, input: &SubstepInput<'_>) -> Result<SubstepReport, MpmError> {
+        if particles.is_empty() {
+            return Ok(SubstepReport::default());
+        }
+        if let Some(p) = particles.material.iter().position(|&m| m as usize >= input.materials.len()) {
+            return Err(MpmError::BadMaterial {
+                particle: p,
+                material: particles.material[p],
+                count: input.materials.len(),
+            });
+        }
+        let inv_dx = 1.0 / self.dx_m;
+        self.bins.rebuild(&particles.x, inv_dx).map_err(|particle| MpmError::OutOfGrid { particle })?;
+        self.grid.rebuild(&self.bins);
+        p2g::scatter(particles, &self.bins, input.materials, self.dx_m, input.dt_s, &mut self.scratch);
+        if let Some(block) = grid_update::update(
+            &mut self.grid,
+            &self.scratch,
+            self.dx_m,
+            input.dt_s,
+            input.gravity_m_s2,
+            input.colliders,
+            input.time_s,
+        ) {
+            return Err(MpmError::NonFiniteGrid { block });
+        }
+        let r = g2p::gather(particles, &self.bins, &self.grid, input.materials, self.dx_m, input.dt_s);
+        if let Some(particle) = r.first_non_finite {
+            return Err(MpmError::NonFiniteParticle { particle });
+        }
+        Ok(SubstepReport {
+            max_speed_m_s: r.max_speed_m_s,
+            grid_blocks: self.grid.block_count(),
+            particle_blocks: self.bins.blocks.len(),
+        })
+    }
+
+    /// Releases scratch memory beyond what the last substep used.
+    pub fn shrink(&mut self) {
+        self.scratch.truncate(self.bins.blocks.len());
+        self.scratch.shrink_to_fit();
+    }
+}
+

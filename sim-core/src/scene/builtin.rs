@@ -1,0 +1,87 @@
+//! The built-in default scene, used when `splatphys run` is given no scene file: an elastic
+//! jelly sphere dropping onto a table-top box, next to a snow cube, a sticky floor and a camera.
+//! All procedural (see [`crate::procedural`]), about 9 000 particles.
+
+use super::model::*;
+use crate::procedural::{Shape, shape_gaussians};
+
+impl Scene {
+    /// The built-in default scene (see the module docs). Deterministic.
+    pub fn builtin_default() -> Scene {
+        let spacing = 0.01;
+        let mk = |shape: Shape, color: [f32; 3], seed: u64| {
+            // Fixed, valid parameters: filling cannot fail.
+            shape_gaussians(&shape, spacing, color, seed).unwrap_or_default()
+        };
+        let n_of = |c: &crate::gaussians::GaussianCloud| vec![true; c.len()];
+        let table = mk(Shape::Box { min_m: [-0.25, -0.25, 0.0], max_m: [0.25, 0.25, 0.06] }, [0.55, 0.38, 0.22], 1);
+        let jelly = mk(Shape::Sphere { center_m: [0.0, 0.0, 0.35], radius_m: 0.06 }, [0.9, 0.2, 0.3], 2);
+        let snow = mk(Shape::Box { min_m: [0.1, -0.15, 0.06], max_m: [0.2, -0.05, 0.16] }, [0.95, 0.95, 0.98], 3);
+        let objects = vec![
+            SceneObject {
+                name: "table".into(),
+                kind: ObjectKind::Static,
+                material: MaterialSpec::new("jelly", 1e7, 0.3, 800.0),
+                restitution: 0.3,
+                friction: 0.5,
+                velocity_m_s: [0.0; 3],
+                visible: n_of(&table),
+                gaussians: table,
+            },
+            SceneObject {
+                name: "jelly".into(),
+                kind: ObjectKind::Deformable,
+                material: MaterialSpec::new("jelly", 2e5, 0.3, 1000.0),
+                restitution: 0.5,
+                friction: 0.3,
+                velocity_m_s: [0.0; 3],
+                visible: n_of(&jelly),
+                gaussians: jelly,
+            },
+            SceneObject {
+                name: "snow".into(),
+                kind: ObjectKind::Deformable,
+                material: MaterialSpec::new("snow", 1.4e5, 0.2, 400.0),
+                restitution: 0.1,
+                friction: 0.5,
+                velocity_m_s: [0.0; 3],
+                visible: n_of(&snow),
+                gaussians: snow,
+            },
+        ];
+        Scene {
+            simulation: SimulationSettings {
+                method: Method::Com,
+                duration_s: 2.0,
+                frame_rate_hz: 30.0,
+                grid_dx_m: 0.01,
+                cfl: 0.5,
+                dt_s: None,
+                force_dt: false,
+                gravity_m_s2: [0.0, 0.0, -9.81],
+                domain_m: Some([[-0.5, -0.5, -0.02], [0.5, 0.5, 0.8]]),
+                seed: 0,
+            },
+            objects,
+            background: Default::default(),
+            colliders: vec![ColliderSpec {
+                name: "floor".into(),
+                shape: ColliderShape::Plane { point_m: [0.0, 0.0, 0.0], normal: [0.0, 0.0, 1.0] },
+                surface: Surface::Sticky,
+                friction: 0.0,
+                velocity_m_s: [0.0; 3],
+                active_s: None,
+            }],
+            events: Vec::new(),
+            cameras: vec![CameraSpec {
+                name: "main".into(),
+                position_m: [0.9, -0.9, 0.6],
+                look_at_m: [0.0, 0.0, 0.12],
+                up: [0.0, 0.0, 1.0],
+                fov_y_deg: 45.0,
+                width_px: 640,
+                height_px: 480,
+            }],
+        }
+    }
+}

@@ -1,0 +1,284 @@
+//! The plain-data scene the simulation consumes: settings, objects with world-frame Gaussians,
+//! background, colliders, events, cameras. SI units, world frame right-handed, z up.
+
+use serde::{Deserialize, Serialize};
+
+use crate::gaussians::GaussianCloud;
+
+/// Simulation method (DESIGN.md, "Objects and the COM layer").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Per-object MPM + centre-of-mass collision layer (the paper's method).
+    #[default]
+    Com,
+    /// Standard MPM, one shared grid.
+    Mpm,
+    /// Multi-velocity-field contact MPM (Bardenhagen 2000).
+    MultiField,
+}
+
+/// How an object moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ObjectKind {
+    /// MPM-simulated.
+    #[default]
+    Deformable,
+    /// Rigid body (skips MPM).
+    Rigid,
+    /// Does not move; acts as a collider.
+    Static,
+}
+
+/// Collider surface condition (PhysGaussian's boundary conditions).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Surface {
+    /// Velocity set to the collider's.
+    #[default]
+    Sticky,
+    /// Normal component removed (plus Coulomb friction).
+    Slip,
+    /// Only approaching normal component removed (plus Coulomb friction).
+    Separate,
+}
+
+/// Material model names accepted in `material.model`.
+pub const MATERIAL_MODELS: [&str; 7] =
+    ["jelly", "neo-hookean", "snow", "sand", "metal", "plasticine", "foam"];
+
+/// A material as plain data; the simulation maps `model` to its constitutive model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MaterialSpec {
+    /// One of [`MATERIAL_MODELS`].
+    pub model: String,
+    /// Young's modulus E, Pa (> 0).
+    pub youngs_modulus_pa: f32,
+    /// Poisson ratio ν, in (-1, 0.5).
+    pub poisson_ratio: f32,
+    /// Density ρ, kg/m³ (> 0).
+    pub density_kg_m3: f32,
+    /// Sand: Drucker-Prager friction angle, degrees.
+    pub friction_angle_deg: Option<f32>,
+    /// Metal / plasticine: yield stress, Pa.
+    pub yield_stress_pa: Option<f32>,
+    /// Plasticine / foam: softening factor.
+    pub softening: Option<f32>,
+    /// Viscosity, Pa·s.
+    pub viscosity_pa_s: Option<f32>,
+    /// Snow: hardening coefficient ξ (Stomakhin 2013 default 10).
+    pub hardening: Option<f32>,
+    /// Snow: critical compression θc (default 2.5e-2).
+    pub critical_compression: Option<f32>,
+    /// Snow: critical stretch θs (default 7.5e-3).
+    pub critical_stretch: Option<f32>,
+}
+
+impl MaterialSpec {
+    /// A material with only the three common parameters.
+    pub fn new(model: &str, youngs_modulus_pa: f32, poisson_ratio: f32, density_kg_m3: f32) -> Self {
+        Self {
+            model: model.to_string(),
+            youngs_modulus_pa,
+            poisson_ratio,
+            density_kg_m3,
+            friction_angle_deg: None,
+            yield_stress_pa: None,
+            softening: None,
+            viscosity_pa_s: None,
+            hardening: None,
+            critical_compression: None,
+            critical_stretch: None,
+        }
+    }
+}
+
+/// Simulation settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimulationSettings {
+    /// Method. Default [`Method::Com`].
+    pub method: Method,
+    /// Simulated time, s. Default 2.0.
+    pub duration_s: f64,
+    /// Published frames per simulated second, Hz. Default 30.
+    pub frame_rate_hz: f64,
+    /// MPM grid cell size, m. Default 0.01.
+    pub grid_dx_m: f64,
+    /// CFL number C in dt <= C dx / (c_p + |v|max). Default 0.5.
+    pub cfl: f64,
+    /// Fixed substep, s, when given (the CFL bound still caps it unless `force_dt`).
+    pub dt_s: Option<f64>,
+    /// Use `dt_s` as is, even above the CFL bound. Default false.
+    pub force_dt: bool,
+    /// Gravity, m/s². Default (0, 0, -9.81).
+    pub gravity_m_s2: [f32; 3],
+    /// Simulation domain `[min, max]`, m; `None`: the simulation derives it from the scene.
+    pub domain_m: Option<[[f32; 3]; 2]>,
+    /// Seed for every random choice in building the scene. Default 0.
+    pub seed: u64,
+}
+
+/// One simulated (or static) object.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneObject {
+    /// Unique name (events and commands refer to it).
+    pub name: String,
+    /// How it moves.
+    pub kind: ObjectKind,
+    /// Its material.
+    pub material: MaterialSpec,
+    /// Coefficient of restitution e in [0, 1]. Default 0.5.
+    pub restitution: f32,
+    /// Coulomb friction coefficient (>= 0). Default 0.3.
+    pub friction: f32,
+    /// Initial velocity, m/s.
+    pub velocity_m_s: [f32; 3],
+    /// Its particles as Gaussians, world frame (m, z up). `[N]`.
+    pub gaussians: GaussianCloud,
+    /// `[N]`: false for interior fill particles (simulated, never published).
+    pub visible: Vec<bool>,
+}
+
+/// Collider geometry.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum ColliderShape {
+    /// Half-space boundary: the free side is where `normal` points.
+    Plane {
+        /// A point on the plane, m.
+        point_m: [f32; 3],
+        /// Unit normal (normalised on load).
+        normal: [f32; 3],
+    },
+    /// Solid axis-aligned box.
+    Box {
+        /// Lower corner, m.
+        min_m: [f32; 3],
+        /// Upper corner, m.
+        max_m: [f32; 3],
+    },
+}
+
+/// A kinematic collider.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ColliderSpec {
+    /// Name.
+    pub name: String,
+    /// Geometry at t = 0.
+    pub shape: ColliderShape,
+    /// Surface condition. Default sticky.
+    pub surface: Surface,
+    /// Coulomb friction (slip/separate). Default 0.
+    pub friction: f32,
+    /// Velocity, m/s (a box moves; a plane too). Default 0.
+    pub velocity_m_s: [f32; 3],
+    /// Active window `[start, end]`, s; `None` = always.
+    pub active_s: Option<[f64; 2]>,
+}
+
+/// What an event does.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EventAction {
+    /// Apply an impulse.
+    Impulse {
+        /// Object name.
+        object: String,
+        /// Impulse, N·s.
+        vector_n_s: [f32; 3],
+        /// Application point, m; `None` = the centre of mass.
+        point_m: Option<[f32; 3]>,
+    },
+    /// Set an object's velocity.
+    SetVelocity {
+        /// Object name.
+        object: String,
+        /// Velocity, m/s.
+        velocity_m_s: [f32; 3],
+    },
+    /// Change an object's material and/or contact coefficients.
+    SetMaterial {
+        /// Object name.
+        object: String,
+        /// New material, if any.
+        material: Option<MaterialSpec>,
+        /// New restitution, if any.
+        restitution: Option<f32>,
+        /// New friction, if any.
+        friction: Option<f32>,
+    },
+}
+
+/// A scripted event.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventSpec {
+    /// Simulated time, s.
+    pub at_s: f64,
+    /// The action.
+    pub action: EventAction,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 0.0, 1.0]
+}
+fn default_fov() -> f32 {
+    45.0
+}
+fn default_width() -> u32 {
+    640
+}
+fn default_height() -> u32 {
+    480
+}
+
+/// A pinhole camera.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Name.
+    pub name: String,
+    /// Eye position, m.
+    pub position_m: [f32; 3],
+    /// Point looked at, m.
+    pub look_at_m: [f32; 3],
+    /// Up vector. Default (0, 0, 1).
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view, degrees. Default 45.
+    #[serde(default = "default_fov")]
+    pub fov_y_deg: f32,
+    /// Image width, px. Default 640.
+    #[serde(default = "default_width")]
+    pub width_px: u32,
+    /// Image height, px. Default 480.
+    #[serde(default = "default_height")]
+    pub height_px: u32,
+}
+
+/// A built scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Settings.
+    pub simulation: SimulationSettings,
+    /// Objects, in file order.
+    pub objects: Vec<SceneObject>,
+    /// Gaussians no object claimed: static, rendered, not simulated. World frame.
+    pub background: GaussianCloud,
+    /// Colliders.
+    pub colliders: Vec<ColliderSpec>,
+    /// Events, sorted by time (stable).
+    pub events: Vec<EventSpec>,
+    /// Cameras.
+    pub cameras: Vec<CameraSpec>,
+}
+
+impl Scene {
+    /// Index of the object called `name`.
+    pub fn object_index(&self, name: &str) -> Option<usize> {
+        self.objects.iter().position(|o| o.name == name)
+    }
+
+    /// Total particles over all objects (fill included).
+    pub fn particle_count(&self) -> usize {
+        self.objects.iter().map(|o| o.gaussians.len()).sum()
+    }
+}

@@ -1,0 +1,221 @@
+//! Semantic selection by text query, Feature Splatting's rule (Qiu et al. 2024, §3.3, after
+//! LERF's relevancy score): each Gaussian's feature f is compared with phrase embeddings e by
+//! cosine similarity divided by a temperature τ (0.05), a softmax runs over the canonical
+//! phrases ("object", "things"), optional negatives and the positive query, and the positive's
+//! probability is kept; Gaussians above a threshold (0.6) are candidates. Clean-up: DBSCAN keeps
+//! the largest cluster, then kNN infill adds Gaussians most of whose k nearest neighbours are
+//! selected. No language model runs here: embeddings come from a file (JSON `{phrase: [D floats]}`
+//! or `.npy` `[P][D]` with rows positive, "object", "things", negatives...).
+
+use std::collections::BTreeMap;
+use std::num::NonZero;
+use std::path::Path;
+
+use kiddo::SquaredEuclidean;
+
+use super::SelectionError;
+use super::cluster::{build_tree, clusters_from_labels, dbscan};
+
+/// The canonical phrases of Feature Splatting / LERF.
+pub const CANONICAL: [&str; 2] = ["object", "things"];
+
+/// Parameters of [`select`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SemanticParams {
+    /// Softmax temperature τ. Default 0.05.
+    pub temperature: f32,
+    /// Positive-probability threshold. Default 0.6.
+    pub threshold: f32,
+    /// DBSCAN radius, m. Default 0.02.
+    pub eps_m: f32,
+    /// DBSCAN min samples (the point included). Default 5.
+    pub min_samples: usize,
+    /// kNN infill neighbour count (0 disables). Default 8.
+    pub knn: usize,
+}
+
+impl Default for SemanticParams {
+    fn default() -> Self {
+        Self { temperature: 0.05, threshold: 0.6, eps_m: 0.02, min_samples: 5, knn: 8 }
+    }
+}
+
+/// Phrase embeddings: the positive, the canonical phrases and the negatives, each `[D]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QueryEmbeddings {
+    /// The query phrase's embedding.
+    pub positive: Vec<f32>,
+    /// Canonical phrases' embeddings.
+    pub canonical: Vec<Vec<f32>>,
+    /// Negative phrases' embeddings.
+    pub negatives: Vec<Vec<f32>>,
+}
+
+impl QueryEmbeddings {
+    /// Picks `query`, [`CANONICAL`] and `negatives` (all other phrases when `None`) from a
+    /// phrase → embedding map.
+    ///
+    /// # Errors
+    /// [`SelectionError::MissingPhrase`] when a named phrase is absent.
+    pub fn from_map(
+        file: &str,
+        map: &BTreeMap<String, Vec<f32>>,
+        query: &str,
+        negatives: Option<&[String]>,
+    ) -> Result<Self, SelectionError> {
+        let get = |p: &str| {
+            map.get(p).cloned().ok_or_else(|| SelectionError::MissingPhrase {
+                file: file.to_string(),
+                phrase: p.to_string(),
+                available: map.keys().cloned().collect(),
+            })
+        };
+        let positive = get(query)?;
+        let canonical = CANONICAL.iter().map(|c| get(c)).collect::<Result<Vec<_>, _>>()?;
+        let negatives = match negatives {
+            Some(list) => list.iter().map(|p| get(p)).collect::<Result<Vec<_>, _>>()?,
+            None => map
+                .iter()
+                .filter(|(k, _)| k.as_str() != query && !CANONICAL.contains(&k.as_str()))
+                .map(|(_, v)| v.clone())
+                .collect(),
+        };
+        Ok(Self { positive, canonical, negatives })
+    }
+
+    /// Reads embeddings from JSON (`{phrase: [floats]}`) or `.npy` (`[P][D]`, rows: positive,
+    /// "object", "things", then negatives).
+    ///
+    /// # Errors
+    /// [`SelectionError::File`] for unreadable files, [`SelectionError::MissingPhrase`].
+    pub fn load(path: &Path, query: &str, negatives: Option<&[String]>) -> Result<Self, SelectionError> {
+        let file = path.display().to_string();
+        let ferr = |message: String| SelectionError::File { file: file.clone(), message };
+        if path.extension().is_some_and(|e| e == "npy") {
+            let (rows, dim) = read_npy_matrix(path)?;
+            if rows.len() < 3 * dim || dim == 0 {
+                return Err(ferr(format!("need at least 3 rows (positive, object, things), got {}", rows.len() / dim.max(1))));
+            }
+            let row = |r: usize| rows[r * dim..(r + 1) * dim].to_vec();
+            let n = rows.len() / dim;
+            return Ok(Self {
+                positive: row(0),
+                canonical: vec![row(1), row(2)],
+                negatives: (3..n).map(row).collect(),
+            });
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| ferr(e.to_string()))?;
+        let map: BTreeMap<String, Vec<f32>> = serde_json::from_str(&text).map_err(|e| ferr(e.to_string()))?;
+        Self::from_map(&file, &map, query, negatives)
+    }
+}
+
+/// Reads a 2-D `.npy` of float32 or float16 as `(row-major values, columns)`.
+///
+/// # Errors
+/// [`SelectionError::File`] for unreadable files, other dtypes or shapes.
+pub fn read_npy_matrix(path: &Path) -> Result<(Vec<f32>, usize), SelectionError> {
+    let file = path.display().to_string();
+    let ferr = |message: String| SelectionError::File { file: file.clone(), message };
+    let bytes = std::fs::read(path).map_err(|e| ferr(e.to_string()))?;
+    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| ferr(e.to_string()))?;
+    let shape = npy.shape().to_vec();
+    if shape.len() != 2 || npy.order() != npyz::Order::C {
+        return Err(ferr(format!("expected a C-order 2-D array, shape {shape:?}")));
+    }
+    let dim = shape[1] as usize;
+    let dtype = npy.dtype();
+    let values: Vec<f32> = match dtype.descr().as_str() {
+        "<f4" => npy.into_vec::<f32>().map_err(|e| ferr(e.to_string()))?,
+        "<f2" => npy
+            .into_vec::<npyz::half::f16>()
+            .map_err(|e| ferr(e.to_string()))?
+            .into_iter()
+            .map(f32::from)
+            .collect(),
+        other => return Err(ferr(format!("dtype {other} not supported (float32 or float16)"))),
+    };
+    Ok((values, dim))
+}
+
+fn cosine(a: &[f32], b: &[f32]) -> f32 {
+    let (mut ab, mut aa, mut bb) = (0f32, 0f32, 0f32);
+    for (x, y) in a.iter().zip(b) {
+        ab += x * y;
+        aa += x * x;
+        bb += y * y;
+    }
+    let d = (aa * bb).sqrt();
+    if d > 0.0 { ab / d } else { 0.0 }
+}
+
+/// Positive probability `[N]` for row-major features `[N][D]`.
+///
+/// # Errors
+/// [`SelectionError::Shape`] when a dimension disagrees.
+pub fn positive_probability(
+    features: &[f32],
+    dim: usize,
+    q: &QueryEmbeddings,
+    temperature: f32,
+) -> Result<Vec<f32>, SelectionError> {
+    let shape = |what: &str, expected, found| SelectionError::Shape { what: what.to_string(), expected, found };
+    if dim == 0 || !features.len().is_multiple_of(dim) {
+        return Err(shape("features length (multiple of D)", dim, features.len()));
+    }
+    for e in std::iter::once(&q.positive).chain(&q.canonical).chain(&q.negatives) {
+        if e.len() != dim {
+            return Err(shape("embedding dimension", dim, e.len()));
+        }
+    }
+    let t = temperature.max(1e-6);
+    Ok(features
+        .chunks_exact(dim)
+        .map(|f| {
+            let pos = cosine(f, &q.positive) / t;
+            let others: Vec<f32> = q.canonical.iter().chain(&q.negatives).map(|e| cosine(f, e) / t).collect();
+            let m = others.iter().copied().fold(pos, f32::max);
+            let num = (pos - m).exp();
+            num / (num + others.iter().map(|o| (o - m).exp()).sum::<f32>())
+        })
+        .collect())
+}
+
+/// Selected indices (ascending) into `points` `[N][3]` given probabilities `[N]`: threshold,
+/// largest DBSCAN cluster, kNN infill (see the module docs).
+///
+/// # Errors
+/// [`SelectionError::Empty`] when nothing passes the threshold or no cluster forms.
+pub fn select(points: &[[f32; 3]], prob: &[f32], params: &SemanticParams) -> Result<Vec<usize>, SelectionError> {
+    let passed: Vec<usize> = (0..points.len()).filter(|&i| prob.get(i).is_some_and(|&p| p > params.threshold)).collect();
+    if passed.is_empty() {
+        return Err(SelectionError::Empty { why: format!("no Gaussian above probability {}", params.threshold) });
+    }
+    let sub: Vec<[f32; 3]> = passed.iter().map(|&i| points[i]).collect();
+    let clusters = clusters_from_labels(&dbscan(&sub, params.eps_m, params.min_samples), 1);
+    let Some(largest) = clusters.first() else {
+        return Err(SelectionError::Empty { why: "no DBSCAN cluster among the Gaussians above threshold".into() });
+    };
+    let mut selected = vec![false; points.len()];
+    for &j in largest {
+        selected[passed[j]] = true;
+    }
+    if let Some(k) = NonZero::new(params.knn) {
+        let tree = build_tree(points);
+        let base = selected.clone();
+        for i in 0..points.len() {
+            if base[i] {
+                continue;
+            }
+            let nn = tree.nearest_n::<SquaredEuclidean>(&points[i], NonZero::new(k.get() + 1).unwrap_or(k));
+            let (hits, total) = nn
+                .iter()
+                .filter(|n| n.item as usize != i)
+                .fold((0, 0), |(h, t), n| (h + usize::from(base[n.item as usize]), t + 1));
+            if total > 0 && 2 * hits > total {
+                selected[i] = true;
+            }
+        }
+    }
+    Ok((0..points.len()).filter(|&i| selected[i]).collect())
+}
