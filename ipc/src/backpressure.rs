@@ -178,7 +178,10 @@ mod tests {
         let b = LagBook::new(Duration::from_millis(100));
         b.set_subscribers(&[(7, true)]);
         b.begin_frame(1);
-        assert_eq!(b.decide(7, Duration::from_millis(99)), BackpressureAction::Retry);
+        assert_eq!(
+            b.decide(7, Duration::from_millis(99)),
+            BackpressureAction::Retry
+        );
         assert_eq!(
             b.decide(7, Duration::from_millis(100)),
             BackpressureAction::DiscardData

@@ -29,9 +29,10 @@ use iceoryx2::sample::Sample;
 use crate::command::{Command, Reply};
 use crate::error::IpcError;
 use crate::services::{
-    CommandLogService, CommandService, FrameService, HEARTBEAT_TIMEOUT, Iox, LOSSLESS_PORT_NAME, MAX_FRAME_BUFFER,
-    ObjectsService, Role, SceneService, ServiceNames, StatusService, command_service,
-    command_log_service, create_node, frame_service, objects_service, scene_service, status_service,
+    CommandLogService, CommandService, FrameService, HEARTBEAT_TIMEOUT, Iox, LOSSLESS_PORT_NAME,
+    MAX_FRAME_BUFFER, ObjectsService, Role, SceneService, ServiceNames, StatusService,
+    command_log_service, command_service, create_node, frame_service, objects_service,
+    scene_service, status_service,
 };
 use crate::wire::{
     CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, LAYOUT_VERSION, ObjectState, ReplyMsg,
@@ -188,8 +189,12 @@ impl Connection {
             })
             .transpose()?;
         let port_name = |lossless: bool| {
-            PortName::new(if lossless { LOSSLESS_PORT_NAME } else { "best-effort" })
-                .map_err(|e| IpcError::iox("port name", "subscriber", e))
+            PortName::new(if lossless {
+                LOSSLESS_PORT_NAME
+            } else {
+                "best-effort"
+            })
+            .map_err(|e| IpcError::iox("port name", "subscriber", e))
         };
         let status_sub = status
             .subscriber_builder()
@@ -285,7 +290,9 @@ impl Connection {
         let silent = self.last_beat.elapsed();
         if !self.shutting_down && silent > self.opts.heartbeat_timeout {
             // Remove what the dead server left in shared memory.
-            let _ = self.node.try_cleanup_dead_nodes();
+            let _ = self
+                .node
+                .blocking_cleanup_dead_nodes(Duration::from_millis(100));
             return Err(IpcError::ServerGone {
                 prefix: self.names.prefix().to_owned(),
                 silent_ms: silent.as_millis() as u64,
@@ -420,7 +427,11 @@ impl Connection {
     /// iceoryx2 failures (e.g. too many commands in flight), or no command service opened.
     pub fn send_command(&mut self, cmd: &Command) -> Result<(u64, PendingCommand), IpcError> {
         let Some(client) = &self.command_client else {
-            return Err(IpcError::iox("send command", &self.names.name("command"), "not opened"));
+            return Err(IpcError::iox(
+                "send command",
+                &self.names.name("command"),
+                "not opened",
+            ));
         };
         let sequence = self.next_sequence;
         self.next_sequence += 1;

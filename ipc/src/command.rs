@@ -4,9 +4,7 @@
 //! Decoding never panics: an unknown kind or code decodes to a [`DecodeError`] that the server
 //! answers with a rejection.
 
-use crate::wire::{
-    CommandMsg, REPLY_MESSAGE_BYTES, ReplyMsg, read_fixed_str, write_fixed_str,
-};
+use crate::wire::{CommandMsg, REPLY_MESSAGE_BYTES, ReplyMsg, read_fixed_str, write_fixed_str};
 
 /// Wire codes of [`CommandMsg::kind`].
 #[repr(u32)]
@@ -71,9 +69,17 @@ impl MaterialModel {
     /// Decodes a wire code.
     pub fn from_code(code: u32) -> Option<Self> {
         use MaterialModel::*;
-        [FixedCorotated, NeoHookean, Snow, Sand, Metal, Plasticine, Foam]
-            .into_iter()
-            .find(|m| *m as u32 == code)
+        [
+            FixedCorotated,
+            NeoHookean,
+            Snow,
+            Sand,
+            Metal,
+            Plasticine,
+            Foam,
+        ]
+        .into_iter()
+        .find(|m| *m as u32 == code)
     }
 
     /// Parses a CLI/TOML name (`jelly`, `fixed-corotated`, `neo-hookean`, `snow`, ...).
@@ -350,10 +356,17 @@ impl RejectCode {
     /// Decodes a wire code (unknown codes map to `Refused`).
     pub fn from_code(code: u32) -> Self {
         use RejectCode::*;
-        [None, Malformed, NotFinite, UnknownObject, OutOfRange, ImpulseTooLarge]
-            .into_iter()
-            .find(|c| *c as u32 == code)
-            .unwrap_or(Refused)
+        [
+            None,
+            Malformed,
+            NotFinite,
+            UnknownObject,
+            OutOfRange,
+            ImpulseTooLarge,
+        ]
+        .into_iter()
+        .find(|c| *c as u32 == code)
+        .unwrap_or(Refused)
     }
 }
 

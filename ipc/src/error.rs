@@ -30,7 +30,9 @@ pub enum IpcError {
         prefix: String,
     },
     /// No server appeared under the prefix within the connect timeout.
-    #[error("no splatphys server under prefix `{prefix}` after {waited_ms} ms (is `splatphys serve` running?)")]
+    #[error(
+        "no splatphys server under prefix `{prefix}` after {waited_ms} ms (is `splatphys serve` running?)"
+    )]
     ServerNotFound {
         /// The prefix.
         prefix: String,

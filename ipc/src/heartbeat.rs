@@ -44,10 +44,9 @@ impl Heartbeat {
                     let setup = (|| {
                         let node = create_node("splatphys-heartbeat")?;
                         let service = status_service(&node, &names, Role::Owner)?;
-                        let publisher = service
-                            .publisher_builder()
-                            .create()
-                            .map_err(|e| IpcError::iox("create publisher", &names.name("status"), e))?;
+                        let publisher = service.publisher_builder().create().map_err(|e| {
+                            IpcError::iox("create publisher", &names.name("status"), e)
+                        })?;
                         Ok((node, service, publisher))
                     })();
                     let (_node, _service, publisher) = match setup {

@@ -25,8 +25,7 @@ use crate::error::IpcError;
 use crate::heartbeat::Heartbeat;
 use crate::services::{
     FrameService, Iox, LOSSLESS_PORT_NAME, ObjectsService, Role, ServiceNames, command_log_service,
-    command_service,
-    create_node, frame_service, objects_service, scene_service,
+    command_service, create_node, frame_service, objects_service, scene_service,
 };
 use crate::simulation::Simulation;
 use crate::validate::{Limits, validate};
@@ -142,22 +141,24 @@ impl Ports {
         use iceoryx2::service::port_factory::PortFactory;
         let counts = (
             self.frame_service.dynamic_config().number_of_subscribers(),
-            self.objects_service.dynamic_config().number_of_subscribers(),
+            self.objects_service
+                .dynamic_config()
+                .number_of_subscribers(),
         );
         if !force && counts == self.subscriber_counts {
             return;
         }
         self.subscriber_counts = counts;
         let f = subscriber_ids(|cb| {
-            self.frame_service.dynamic_config().list_subscribers(|d| {
-                cb(d.subscriber_id.value(), d.subscriber_name.as_str())
-            });
+            self.frame_service
+                .dynamic_config()
+                .list_subscribers(|d| cb(d.subscriber_id.value(), d.subscriber_name.as_str()));
         });
         self.frame_book.set_subscribers(&f);
         let o = subscriber_ids(|cb| {
-            self.objects_service.dynamic_config().list_subscribers(|d| {
-                cb(d.subscriber_id.value(), d.subscriber_name.as_str())
-            });
+            self.objects_service
+                .dynamic_config()
+                .list_subscribers(|d| cb(d.subscriber_id.value(), d.subscriber_name.as_str()));
         });
         self.objects_book.set_subscribers(&o);
     }
@@ -198,11 +199,7 @@ fn publish_scene<S: Simulation>(
     Ok(())
 }
 
-fn publish_frame<S: Simulation>(
-    sim: &S,
-    ports: &Ports,
-    frame_index: u64,
-) -> Result<(), IpcError> {
+fn publish_frame<S: Simulation>(sim: &S, ports: &Ports, frame_index: u64) -> Result<(), IpcError> {
     let header = |count: usize| FrameHeader {
         step: sim.step(),
         time_s: sim.time_s(),
@@ -452,10 +449,7 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
         if finished && cfg.exit_when_finished {
             break StopReason::Finished;
         }
-        if cfg
-            .max_frames
-            .is_some_and(|m| report.frames_published > m)
-        {
+        if cfg.max_frames.is_some_and(|m| report.frames_published > m) {
             break StopReason::MaxFrames;
         }
         let stepping = !finished && (!paused || pending_steps > 0);
@@ -489,8 +483,8 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
             );
             period = (Instant::now(), sim.step(), sim.substeps());
             ports.refresh_subscribers(true);
-            let flags = if paused { STATUS_PAUSED } else { 0 }
-                | if finished { STATUS_FINISHED } else { 0 };
+            let flags =
+                if paused { STATUS_PAUSED } else { 0 } | if finished { STATUS_FINISHED } else { 0 };
             heartbeat.update(&status(sim, &ports, &report, rates, flags));
             last_status = Instant::now();
         }
@@ -505,7 +499,11 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
     let totals = ports.frame_book.totals();
     report.frames_dropped = totals.best_effort_dropped;
     report.recorder_frames_lost = totals.lossless_lost;
-    let finished = if sim.is_finished() { STATUS_FINISHED } else { 0 };
+    let finished = if sim.is_finished() {
+        STATUS_FINISHED
+    } else {
+        0
+    };
     heartbeat.update(&status(sim, &ports, &report, rates, finished));
     heartbeat.finish(STATUS_SHUTTING_DOWN)?;
     Ok(report)

@@ -28,8 +28,8 @@ use iceoryx2::service::port_factory::{publish_subscribe, request_response};
 
 use crate::error::IpcError;
 use crate::wire::{
-    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, ObjectState, ReplyMsg, SceneGaussian, SceneHeader,
-    Status,
+    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, ObjectState, ReplyMsg, SceneGaussian,
+    SceneHeader, Status,
 };
 
 /// The iceoryx2 service flavour used everywhere (inter-process, single-threaded ports).
@@ -115,11 +115,10 @@ pub fn iox_config() -> Result<Config, IpcError> {
     set_log_level_from_env_or(LogLevel::Error);
     let mut config = Config::global_config().clone();
     if let Ok(prefix) = std::env::var(IOX2_PREFIX_ENV) {
-        config.global.prefix =
-            FileName::new(prefix.as_bytes()).map_err(|e| IpcError::BadName {
-                name: prefix.clone(),
-                detail: format!("{e:?}"),
-            })?;
+        config.global.prefix = FileName::new(prefix.as_bytes()).map_err(|e| IpcError::BadName {
+            name: prefix.clone(),
+            detail: format!("{e:?}"),
+        })?;
     }
     Ok(config)
 }
@@ -137,6 +136,19 @@ pub fn create_node(name: &str) -> Result<Node<Iox>, IpcError> {
         .config(&config)
         .create::<Iox>()
         .map_err(|e| IpcError::iox("create node", name, e))
+}
+
+/// Removes the shared-memory resources of every dead splatphys/iceoryx2 node (e.g. a server
+/// killed with SIGKILL). Call it after dropping a [`crate::client::Connection`] whose server
+/// died: while a client still holds the dead server's services they cannot be removed.
+/// Returns (nodes cleaned, nodes that could not be cleaned).
+///
+/// # Errors
+/// When no node can be created.
+pub fn cleanup_dead_nodes() -> Result<(u64, u64), IpcError> {
+    let node = create_node("splatphys-cleanup")?;
+    let state = node.blocking_cleanup_dead_nodes(Duration::from_millis(200));
+    Ok((state.cleanups, state.failed_cleanups))
 }
 
 macro_rules! open_by_role {

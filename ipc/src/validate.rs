@@ -36,16 +36,15 @@ fn finite3(name: &str, v: &[f64; 3]) -> Result<(), Reply> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
-        reject(
-            RejectCode::NotFinite,
-            format!("{name} {v:?} is not finite"),
-        )
+        reject(RejectCode::NotFinite, format!("{name} {v:?} is not finite"))
     }
 }
 
 fn finite(name: &str, v: Option<f64>) -> Result<(), Reply> {
     match v {
-        Some(x) if !x.is_finite() => reject(RejectCode::NotFinite, format!("{name} {x} is not finite")),
+        Some(x) if !x.is_finite() => {
+            reject(RejectCode::NotFinite, format!("{name} {x} is not finite"))
+        }
         _ => Ok(()),
     }
 }
@@ -81,7 +80,10 @@ pub fn validate(cmd: &Command, object_count: u32, limits: &Limits) -> Result<(),
             if m > limits.max_impulse_n_s {
                 return reject(
                     RejectCode::ImpulseTooLarge,
-                    format!("impulse {m:.3e} N·s above limit {:.3e}", limits.max_impulse_n_s),
+                    format!(
+                        "impulse {m:.3e} N·s above limit {:.3e}",
+                        limits.max_impulse_n_s
+                    ),
                 );
             }
         }

@@ -27,7 +27,12 @@ pub struct FillParams {
 
 impl Default for FillParams {
     fn default() -> Self {
-        Self { spacing_m: 0.01, density_threshold: 0.5, max_particles: 200_000, max_grid_cells: 8_000_000 }
+        Self {
+            spacing_m: 0.01,
+            density_threshold: 0.5,
+            max_particles: 200_000,
+            max_grid_cells: 8_000_000,
+        }
     }
 }
 
@@ -39,7 +44,9 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
     }
     let [lo, hi] = crate::formats::inspect::bounds(cloud);
     let mut h = params.spacing_m;
-    let dims = |h: f32| -> [usize; 3] { [0, 1, 2].map(|k| (((hi[k] - lo[k]) / h).floor() as usize).saturating_add(1)) };
+    let dims = |h: f32| -> [usize; 3] {
+        [0, 1, 2].map(|k| (((hi[k] - lo[k]) / h).floor() as usize).saturating_add(1))
+    };
     let mut d = dims(h);
     while d.iter().map(|&v| v as f64).product::<f64>() > params.max_grid_cells.max(1) as f64 {
         h *= 2.0;
@@ -52,31 +59,35 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
         let c = [0, 1, 2].map(|k| (((p[k] - lo[k]) / h) as usize).min(d[k] - 1));
         density[idx(c[0], c[1], c[2])] += cloud.opacity(g);
     }
-    let surface: Vec<bool> = density.iter().map(|&v| v >= params.density_threshold).collect();
+    let surface: Vec<bool> = density
+        .iter()
+        .map(|&v| v >= params.density_threshold)
+        .collect();
     // hits[c] counts the directions in which a surface cell lies beyond c.
     let mut hits = vec![0u8; surface.len()];
-    let mut sweep = |len: usize, others: [usize; 2], cell: &dyn Fn(usize, usize, usize) -> usize| {
-        for a in 0..others[0] {
-            for b in 0..others[1] {
-                let mut seen = false;
-                for t in 0..len {
-                    let c = cell(t, a, b);
-                    if seen && !surface[c] {
-                        hits[c] += 1;
+    let mut sweep =
+        |len: usize, others: [usize; 2], cell: &dyn Fn(usize, usize, usize) -> usize| {
+            for a in 0..others[0] {
+                for b in 0..others[1] {
+                    let mut seen = false;
+                    for t in 0..len {
+                        let c = cell(t, a, b);
+                        if seen && !surface[c] {
+                            hits[c] += 1;
+                        }
+                        seen |= surface[c];
                     }
-                    seen |= surface[c];
-                }
-                seen = false;
-                for t in (0..len).rev() {
-                    let c = cell(t, a, b);
-                    if seen && !surface[c] {
-                        hits[c] += 1;
+                    seen = false;
+                    for t in (0..len).rev() {
+                        let c = cell(t, a, b);
+                        if seen && !surface[c] {
+                            hits[c] += 1;
+                        }
+                        seen |= surface[c];
                     }
-                    seen |= surface[c];
                 }
             }
-        }
-    };
+        };
     sweep(nx, [ny, nz], &|t, a, b| idx(t, a, b));
     sweep(ny, [nx, nz], &|t, a, b| idx(a, t, b));
     sweep(nz, [nx, ny], &|t, a, b| idx(a, b, t));

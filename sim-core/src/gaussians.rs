@@ -73,7 +73,11 @@ impl GaussianCloud {
         let [w, x, y, z] = self.rotations_wxyz[i];
         let q = Quat::from_xyzw(x, y, z, w);
         let n = q.length();
-        if n.is_finite() && n > 1e-12 { q / n } else { Quat::IDENTITY }
+        if n.is_finite() && n > 1e-12 {
+            q / n
+        } else {
+            Quat::IDENTITY
+        }
     }
 
     /// Covariance Σ0 = R S² Rᵀ of Gaussian `i` (file units squared).

@@ -5,13 +5,13 @@
 //! (MLS-MPM, per object or shared) with [`material`] and [`collider`] -> [`world`] (the COM object
 //! layer, stage 2) -> [`kinematics`] (particle state back to Gaussians).
 
-pub mod gaussians;
-pub mod math;
-pub mod formats;
-pub mod procedural;
-pub mod selection;
-pub mod scene;
-pub mod fill;
 pub mod collider;
+pub mod fill;
+pub mod formats;
+pub mod gaussians;
 pub mod material;
+pub mod math;
 pub mod mpm;
+pub mod procedural;
+pub mod scene;
+pub mod selection;

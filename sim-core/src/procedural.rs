@@ -65,7 +65,9 @@ pub enum ProceduralError {
         value: f32,
     },
     /// The lattice would exceed [`MAX_PARTICLES`].
-    #[error("shape at spacing {spacing_m} m needs about {estimate} particles (limit {MAX_PARTICLES})")]
+    #[error(
+        "shape at spacing {spacing_m} m needs about {estimate} particles (limit {MAX_PARTICLES})"
+    )]
     TooManyParticles {
         /// The spacing asked for, m.
         spacing_m: f32,
@@ -92,19 +94,30 @@ impl Shape {
             Shape::Sphere { center_m, radius_m } => {
                 positive("radius_m", radius_m)?;
                 if !Vec3::from(center_m).is_finite() {
-                    return Err(ProceduralError::BadParameter { what: "center_m", value: f32::NAN });
+                    return Err(ProceduralError::BadParameter {
+                        what: "center_m",
+                        value: f32::NAN,
+                    });
                 }
             }
             Shape::Box { min_m, max_m } => {
                 let d = Vec3::from(max_m) - Vec3::from(min_m);
                 positive("box", d.min_element())?;
             }
-            Shape::Cylinder { base_m, axis, radius_m, height_m } => {
+            Shape::Cylinder {
+                base_m,
+                axis,
+                radius_m,
+                height_m,
+            } => {
                 positive("radius_m", radius_m)?;
                 positive("height_m", height_m)?;
                 positive("axis", Vec3::from(axis).length())?;
                 if !Vec3::from(base_m).is_finite() {
-                    return Err(ProceduralError::BadParameter { what: "base_m", value: f32::NAN });
+                    return Err(ProceduralError::BadParameter {
+                        what: "base_m",
+                        value: f32::NAN,
+                    });
                 }
             }
         }
@@ -119,7 +132,12 @@ impl Shape {
                 (c - radius_m, c + radius_m)
             }
             Shape::Box { min_m, max_m } => (Vec3::from(min_m), Vec3::from(max_m)),
-            Shape::Cylinder { base_m, axis, radius_m, height_m } => {
+            Shape::Cylinder {
+                base_m,
+                axis,
+                radius_m,
+                height_m,
+            } => {
                 let a = Vec3::from(axis).normalize_or_zero();
                 let b = Vec3::from(base_m);
                 let t = b + a * height_m;
@@ -139,7 +157,12 @@ impl Shape {
             Shape::Box { min_m, max_m } => {
                 p.cmpge(Vec3::from(min_m)).all() && p.cmple(Vec3::from(max_m)).all()
             }
-            Shape::Cylinder { base_m, axis, radius_m, height_m } => {
+            Shape::Cylinder {
+                base_m,
+                axis,
+                radius_m,
+                height_m,
+            } => {
                 let a = Vec3::from(axis).normalize_or_zero();
                 let d = p - Vec3::from(base_m);
                 let h = d.dot(a);
@@ -152,10 +175,12 @@ impl Shape {
     pub fn volume_m3(&self) -> f32 {
         match *self {
             Shape::Sphere { radius_m, .. } => 4.0 / 3.0 * std::f32::consts::PI * radius_m.powi(3),
-            Shape::Box { min_m, max_m } => (Vec3::from(max_m) - Vec3::from(min_m)).element_product(),
-            Shape::Cylinder { radius_m, height_m, .. } => {
-                std::f32::consts::PI * radius_m * radius_m * height_m
+            Shape::Box { min_m, max_m } => {
+                (Vec3::from(max_m) - Vec3::from(min_m)).element_product()
             }
+            Shape::Cylinder {
+                radius_m, height_m, ..
+            } => std::f32::consts::PI * radius_m * radius_m * height_m,
         }
     }
 }
@@ -165,14 +190,21 @@ impl Shape {
 ///
 /// # Errors
 /// [`ProceduralError`] for bad sizes or more than [`MAX_PARTICLES`] lattice cells.
-pub fn fill_points(shape: &Shape, spacing_m: f32, seed: u64) -> Result<Vec<[f32; 3]>, ProceduralError> {
+pub fn fill_points(
+    shape: &Shape,
+    spacing_m: f32,
+    seed: u64,
+) -> Result<Vec<[f32; 3]>, ProceduralError> {
     positive("spacing_m", spacing_m)?;
     shape.validate()?;
     let (lo, hi) = shape.aabb();
     let cells = ((hi - lo) / spacing_m).ceil().max(Vec3::ONE);
     let estimate = (cells.x as f64 * cells.y as f64 * cells.z as f64) as u64;
     if estimate > MAX_PARTICLES as u64 {
-        return Err(ProceduralError::TooManyParticles { spacing_m, estimate });
+        return Err(ProceduralError::TooManyParticles {
+            spacing_m,
+            estimate,
+        });
     }
     let [nx, ny, nz] = [cells.x as usize, cells.y as usize, cells.z as usize];
     // Centre the lattice in the box so symmetric shapes fill symmetrically.
@@ -200,7 +232,11 @@ pub fn fill_points(shape: &Shape, spacing_m: f32, seed: u64) -> Result<Vec<[f32;
 
 /// Isotropic Gaussians of linear RGB `color` (each in [0, 1]) at `positions` (m), standard
 /// deviation `sigma_m` on every axis.
-pub fn isotropic_gaussians(positions: Vec<[f32; 3]>, sigma_m: f32, color: [f32; 3]) -> GaussianCloud {
+pub fn isotropic_gaussians(
+    positions: Vec<[f32; 3]>,
+    sigma_m: f32,
+    color: [f32; 3],
+) -> GaussianCloud {
     let n = positions.len();
     let dc = color.map(|c| ((f64::from(c) - 0.5) / SH_C0) as f32);
     let ls = sigma_m.ln();

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Pod;
 use mcap::read::{MessageStream, Options};
 use splatphys_ipc::wire::{FrameHeader, ObjectState};
 
@@ -44,16 +44,21 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>, RecordError> {
 ///
 /// # Errors
 /// MCAP errors (without `recover`, or before the first message).
-pub fn messages(bytes: &[u8], path: &Path, recover: bool) -> Result<Vec<RecordedMessage>, RecordError> {
+pub fn messages(
+    bytes: &[u8],
+    path: &Path,
+    recover: bool,
+) -> Result<Vec<RecordedMessage>, RecordError> {
     let opts = if recover {
         Options::IgnoreEndMagic.into()
     } else {
         Default::default()
     };
-    let stream = MessageStream::new_with_options(bytes, opts).map_err(|source| RecordError::Mcap {
-        path: path.display().to_string(),
-        source,
-    })?;
+    let stream =
+        MessageStream::new_with_options(bytes, opts).map_err(|source| RecordError::Mcap {
+            path: path.display().to_string(),
+            source,
+        })?;
     let mut out = Vec::new();
     for m in stream {
         match m {
@@ -80,7 +85,11 @@ pub fn messages(bytes: &[u8], path: &Path, recover: bool) -> Result<Vec<Recorded
 ///
 /// # Errors
 /// [`RecordError::BadMessage`] when the sizes do not fit.
-pub fn split<H: Pod, T: Pod>(m: &RecordedMessage, path: &Path, what: &'static str) -> Result<(H, Vec<T>), RecordError> {
+pub fn split<H: Pod, T: Pod>(
+    m: &RecordedMessage,
+    path: &Path,
+    what: &'static str,
+) -> Result<(H, Vec<T>), RecordError> {
     let bad = || RecordError::BadMessage {
         path: path.display().to_string(),
         topic: m.topic.clone(),
@@ -89,7 +98,7 @@ pub fn split<H: Pod, T: Pod>(m: &RecordedMessage, path: &Path, what: &'static st
         what,
     };
     let hs = size_of::<H>();
-    if m.data.len() < hs || (m.data.len() - hs) % size_of::<T>().max(1) != 0 {
+    if m.data.len() < hs || !(m.data.len() - hs).is_multiple_of(size_of::<T>().max(1)) {
         return Err(bad());
     }
     let header: H = bytemuck::pod_read_unaligned(&m.data[..hs]);
@@ -103,7 +112,10 @@ pub fn split<H: Pod, T: Pod>(m: &RecordedMessage, path: &Path, what: &'static st
 ///
 /// # Errors
 /// As [`split`].
-pub fn frame_headers(msgs: &[RecordedMessage], path: &Path) -> Result<Vec<FrameHeader>, RecordError> {
+pub fn frame_headers(
+    msgs: &[RecordedMessage],
+    path: &Path,
+) -> Result<Vec<FrameHeader>, RecordError> {
     msgs.iter()
         .filter(|m| m.topic == FRAME)
         .map(|m| {
@@ -116,7 +128,9 @@ pub fn frame_headers(msgs: &[RecordedMessage], path: &Path) -> Result<Vec<FrameH
                     what: "frame",
                 });
             }
-            Ok(bytemuck::pod_read_unaligned(&m.data[..size_of::<FrameHeader>()]))
+            Ok(bytemuck::pod_read_unaligned(
+                &m.data[..size_of::<FrameHeader>()],
+            ))
         })
         .collect()
 }
@@ -126,12 +140,20 @@ pub fn frame_headers(msgs: &[RecordedMessage], path: &Path) -> Result<Vec<FrameH
 ///
 /// # Errors
 /// As [`split`], and I/O errors of `out`.
-pub fn objects_csv(msgs: &[RecordedMessage], path: &Path, out: &mut impl std::io::Write) -> Result<u64, RecordError> {
+pub fn objects_csv(
+    msgs: &[RecordedMessage],
+    path: &Path,
+    out: &mut impl std::io::Write,
+) -> Result<u64, RecordError> {
     let io = |source| RecordError::Io {
         path: path.display().to_string(),
         source,
     };
-    writeln!(out, "step,time_s,object,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg").map_err(io)?;
+    writeln!(
+        out,
+        "step,time_s,object,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg"
+    )
+    .map_err(io)?;
     let mut rows = 0;
     for m in msgs.iter().filter(|m| m.topic == OBJECTS) {
         let (h, objs): (FrameHeader, Vec<ObjectState>) = split(m, path, "objects")?;

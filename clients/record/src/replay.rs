@@ -96,11 +96,15 @@ pub fn replay(path: &Path, prefix: &str, realtime: bool) -> Result<ReplayCounts,
                 break;
             }
         }
-        scene_pub.update_connections().map_err(|e| iox("update", e))?;
+        scene_pub
+            .update_connections()
+            .map_err(|e| iox("update", e))?;
         match m.topic.as_str() {
             SCENE => {
                 let (h, p): (SceneHeader, Vec<SceneGaussian>) = split(m, path, "scene")?;
-                let s = scene_pub.loan_slice_uninit(p.len()).map_err(|e| iox("loan", e))?;
+                let s = scene_pub
+                    .loan_slice_uninit(p.len())
+                    .map_err(|e| iox("loan", e))?;
                 let mut s = s.write_from_slice(&p);
                 *s.user_header_mut() = h;
                 s.send().map_err(|e| iox("send", e))?;
@@ -108,7 +112,9 @@ pub fn replay(path: &Path, prefix: &str, realtime: bool) -> Result<ReplayCounts,
             }
             FRAME => {
                 let (h, p): (FrameHeader, Vec<FrameGaussian>) = split(m, path, "frame")?;
-                let s = frame_pub.loan_slice_uninit(p.len()).map_err(|e| iox("loan", e))?;
+                let s = frame_pub
+                    .loan_slice_uninit(p.len())
+                    .map_err(|e| iox("loan", e))?;
                 let mut s = s.write_from_slice(&p);
                 *s.user_header_mut() = h;
                 s.send().map_err(|e| iox("send", e))?;
@@ -120,7 +126,9 @@ pub fn replay(path: &Path, prefix: &str, realtime: bool) -> Result<ReplayCounts,
             }
             OBJECTS => {
                 let (h, p): (FrameHeader, Vec<ObjectState>) = split(m, path, "objects")?;
-                let s = objects_pub.loan_slice_uninit(p.len()).map_err(|e| iox("loan", e))?;
+                let s = objects_pub
+                    .loan_slice_uninit(p.len())
+                    .map_err(|e| iox("loan", e))?;
                 let mut s = s.write_from_slice(&p);
                 *s.user_header_mut() = h;
                 s.send().map_err(|e| iox("send", e))?;

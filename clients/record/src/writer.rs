@@ -143,7 +143,11 @@ impl RunWriter {
             channels.insert(topic, cid);
         }
         let sid = writer
-            .add_schema("foxglove.PointCloud", "jsonschema", POINTCLOUD_SCHEMA.as_bytes())
+            .add_schema(
+                "foxglove.PointCloud",
+                "jsonschema",
+                POINTCLOUD_SCHEMA.as_bytes(),
+            )
             .map_err(mcap_err)?;
         let cid = writer
             .add_channel(sid, POINTCLOUD, "json", &meta)
@@ -160,7 +164,12 @@ impl RunWriter {
         })
     }
 
-    fn write(&mut self, topic: &'static str, publish_time_s: f64, data: &[u8]) -> Result<(), RecordError> {
+    fn write(
+        &mut self,
+        topic: &'static str,
+        publish_time_s: f64,
+        data: &[u8],
+    ) -> Result<(), RecordError> {
         self.sequence = self.sequence.wrapping_add(1);
         let header = MessageHeader {
             channel_id: self.channels[topic],
@@ -180,7 +189,11 @@ impl RunWriter {
     ///
     /// # Errors
     /// MCAP errors.
-    pub fn scene(&mut self, header: &SceneHeader, payload: &[SceneGaussian]) -> Result<(), RecordError> {
+    pub fn scene(
+        &mut self,
+        header: &SceneHeader,
+        payload: &[SceneGaussian],
+    ) -> Result<(), RecordError> {
         self.colours = colours(payload);
         self.write(SCENE, 0.0, &concat(header, payload))?;
         self.counts.scenes += 1;
@@ -191,10 +204,18 @@ impl RunWriter {
     ///
     /// # Errors
     /// MCAP errors.
-    pub fn frame(&mut self, header: &FrameHeader, payload: &[FrameGaussian]) -> Result<(), RecordError> {
+    pub fn frame(
+        &mut self,
+        header: &FrameHeader,
+        payload: &[FrameGaussian],
+    ) -> Result<(), RecordError> {
         self.write(FRAME, header.time_s, &concat(header, payload))?;
         self.counts.frames += 1;
-        if self.opts.pointcloud_every > 0 && header.frame_index % self.opts.pointcloud_every == 0 {
+        if self.opts.pointcloud_every > 0
+            && header
+                .frame_index
+                .is_multiple_of(self.opts.pointcloud_every)
+        {
             let pc = pointcloud_json(payload, &self.colours, header.time_s);
             self.write(POINTCLOUD, header.time_s, &pc)?;
             self.counts.pointclouds += 1;
@@ -206,7 +227,11 @@ impl RunWriter {
     ///
     /// # Errors
     /// MCAP errors.
-    pub fn objects(&mut self, header: &FrameHeader, payload: &[ObjectState]) -> Result<(), RecordError> {
+    pub fn objects(
+        &mut self,
+        header: &FrameHeader,
+        payload: &[ObjectState],
+    ) -> Result<(), RecordError> {
         self.write(OBJECTS, header.time_s, &concat(header, payload))?;
         self.counts.objects += 1;
         Ok(())

@@ -10,6 +10,8 @@
 //! ([`Splat2D::alpha_box_px`]); each pixel still sees exactly the reference's sequence of
 //! operations, so the result is the same as the reference's pixel-outer loop.
 
+use wide::{f32x4, i32x4};
+
 use crate::project::{ALPHA_MIN, Splat2D, TILE_PX};
 
 /// Pixels per tile.
@@ -55,51 +57,84 @@ pub fn render_tile(
     let mut alive = ((x_end - x0) * (y_end - y0)) as usize;
 
     let mut transmittance = [1.0f32; TILE_PIXELS];
-    let mut color = [[0.0f32; 3]; TILE_PIXELS];
-    let mut done = [false; TILE_PIXELS];
+
+    let mut color_r = [0.0f32; TILE_PIXELS];
+    let mut color_g = [0.0f32; TILE_PIXELS];
+    let mut color_b = [0.0f32; TILE_PIXELS];
+    // 1.0 while a pixel still blends, 0.0 once it has stopped (pixels outside the image are
+    // never inside a splat's α box, so they stay 1.0 untouched).
+    let mut live = [1.0f32; TILE_PIXELS];
+    // Bit i of row_live[r] is set while pixel (i, r) of the tile still blends.
+    let mut row_live = [0u32; TILE_PX as usize];
+    for bits in row_live.iter_mut().take((y_end - y0) as usize) {
+        *bits = (1u32 << (x_end - x0)) - 1;
+    }
 
     for &key in keys.iter() {
         let s = &splats[(key & 0xffff_ffff) as usize];
         let [bx0, by0, bx1, by1] = s.alpha_box_px;
-        let px0 = (bx0.max(x0 as i32)) as u32;
-        let py0 = (by0.max(y0 as i32)) as u32;
-        let px1 = (bx1 + 1).min(x_end as i32);
+        let py0 = by0.max(y0 as i32);
         let py1 = (by1 + 1).min(y_end as i32);
-        if px1 <= px0 as i32 || py1 <= py0 as i32 {
+        let bx0 = bx0.max(x0 as i32);
+        let bx1 = (bx1 + 1).min(x_end as i32);
+        if bx1 <= bx0 || py1 <= py0 {
             continue;
         }
         let [ca, cb, cc] = s.conic;
+        let [mx, my] = s.mean_px;
         // α < 1/255 <=> power < ln(1 / (255 o)); the 1e-3 slack leaves the exact test to the
         // blending code for pixels near the threshold.
         let power_min = (ALPHA_MIN / s.opacity).ln() - 1e-3;
-        for py in py0..py1 as u32 {
-            let dy = s.mean_px[1] - py as f32;
-            let row = ((py - y0) * TILE_PX) as usize;
-            for px in px0..px1 as u32 {
-                let p = row + (px - x0) as usize;
-                if done[p] {
-                    continue;
+        // Per row, the pixels with power >= power_min lie in one interval of dx (the chord of the
+        // ellipse ca dx² + 2 cb dx dy + cc dy² <= -2 power_min); one pixel of slack on each side.
+        let chord = -2.0 * power_min;
+        for py in py0..py1 {
+            let dy = my - py as f32;
+            let disc = cb * cb * dy * dy - ca * (cc * dy * dy - chord);
+            if !(disc >= 0.0) {
+                continue;
+            }
+            let root = disc.sqrt();
+            let dx_lo = (-cb * dy - root) / ca;
+            let dx_hi = (-cb * dy + root) / ca;
+            // dx = mx - px, so px runs from mx - dx_hi to mx - dx_lo.
+            let px0 = ((mx - dx_hi - 1.0).floor() as i32).max(bx0);
+            let px1 = ((mx - dx_lo + 1.0).ceil() as i32 + 1).min(bx1);
+            if px1 <= px0 {
+                continue;
+            }
+            // Narrow the run to the pixels of this row that still blend.
+            let r = (py as u32 - y0) as usize;
+            let (c0, c1) = ((px0 as u32 - x0), (px1 as u32 - x0));
+            let bits = row_live[r] & (((1u32 << c1) - 1) & !((1u32 << c0) - 1));
+            if bits == 0 {
+                continue;
+            }
+            let px0 = (x0 + bits.trailing_zeros()) as i32;
+            let px1 = (x0 + 32 - bits.leading_zeros()) as i32;
+            let row = r * TILE_PX as usize;
+            let c0 = px0 as u32 - x0;
+            let c1 = px1 as u32 - x0;
+            let stopped = blend_row(
+                s,
+                dy,
+                mx - x0 as f32,
+                [c0, c1],
+                &mut transmittance[row..row + TILE_PX as usize],
+                &mut live[row..row + TILE_PX as usize],
+                [
+                    &mut color_r[row..row + TILE_PX as usize],
+                    &mut color_g[row..row + TILE_PX as usize],
+                    &mut color_b[row..row + TILE_PX as usize],
+                ],
+            ) as usize;
+            if stopped > 0 {
+                alive -= stopped;
+                for (i, &l) in live[row..row + TILE_PX as usize].iter().enumerate() {
+                    if l == 0.0 {
+                        row_live[r] &= !(1u32 << i);
+                    }
                 }
-                let dx = s.mean_px[0] - px as f32;
-                let power = -0.5 * (ca * dx * dx + cc * dy * dy) - cb * dx * dy;
-                if power > 0.0 || power < power_min {
-                    continue;
-                }
-                let alpha = ALPHA_MAX.min(s.opacity * power.exp());
-                if alpha < ALPHA_MIN {
-                    continue;
-                }
-                let test_t = transmittance[p] * (1.0 - alpha);
-                if test_t < T_MIN {
-                    done[p] = true;
-                    alive -= 1;
-                    continue;
-                }
-                let t = transmittance[p];
-                for ch in 0..3 {
-                    color[p][ch] += s.color[ch] * alpha * t;
-                }
-                transmittance[p] = test_t;
             }
         }
         if alive == 0 {
@@ -111,10 +146,135 @@ pub fn render_tile(
     for py in 0..(y_end - y0) as usize {
         for px in 0..(x_end - x0) as usize {
             let p = py * TILE_PX as usize + px;
-            for ch in 0..3 {
-                out[p][ch] = color[p][ch] + transmittance[p] * background[ch];
-            }
+            let t = transmittance[p];
+            out[p] = [
+                color_r[p] + t * background[0],
+                color_g[p] + t * background[1],
+                color_b[p] + t * background[2],
+            ];
         }
     }
     out
+}
+
+/// Lanes per group in [`blend_row`] (one SSE register of f32; 16 is a multiple).
+const LANES: usize = 4;
+
+/// Blends splat `s` into the pixels `span[0]..span[1]` of one 16-pixel tile row (`dy` = centre
+/// − row, `dx_first` = centre − the row's first column), 4 lanes at a time with SIMD selects;
+/// lanes outside the span or already stopped are left unchanged. Returns how many pixels stopped.
+#[inline]
+fn blend_row(
+    s: &Splat2D,
+    dy: f32,
+    dx_first: f32,
+    span: [u32; 2],
+    transmittance: &mut [f32],
+    live: &mut [f32],
+    rgb: [&mut [f32]; 3],
+) -> u32 {
+    let [ca, cb, cc] = s.conic;
+    let [cr, cg, cbl] = s.color.map(f32x4::splat);
+    let o = f32x4::splat(s.opacity);
+    let [red, green, blue] = rgb;
+    let (lo, hi) = (f32x4::splat(span[0] as f32), f32x4::splat(span[1] as f32));
+    let cc_dy2 = f32x4::splat(cc * dy * dy);
+    let cb_dy = f32x4::splat(cb * dy);
+    let ca = f32x4::splat(ca);
+    let zero = f32x4::ZERO;
+    let mut stopped = 0;
+    let first = span[0] as usize / LANES;
+    let last = (span[1] as usize).div_ceil(LANES);
+    for group in first..last {
+        let range = group * LANES..(group + 1) * LANES;
+        let base = (group * LANES) as f32;
+        let lane = f32x4::new([base, base + 1.0, base + 2.0, base + 3.0]);
+        let dx = f32x4::splat(dx_first) - lane;
+        // Same expression as the reference: −½(a dx² + c dy²) − b dx dy.
+        let power = f32x4::splat(-0.5) * (ca * dx * dx + cc_dy2) - cb_dy * dx;
+        let g = o * exp_neg_x4(power);
+        let alpha = g.simd_lt(f32x4::splat(ALPHA_MAX)).select(g, f32x4::splat(ALPHA_MAX));
+        let t = load(&transmittance[range.clone()]);
+        let l = load(&live[range.clone()]);
+        let test_t = t * (f32x4::ONE - alpha);
+        let counts = lane.simd_ge(lo)
+            & lane.simd_lt(hi)
+            & l.simd_gt(zero)
+            & power.simd_le(zero)
+            & alpha.simd_ge(f32x4::splat(ALPHA_MIN));
+        let low = test_t.simd_lt(f32x4::splat(T_MIN));
+        let stop = counts & low;
+        let blend = counts & !low;
+        let w = blend.select(alpha, zero);
+        let sum = load(&red[range.clone()]) + cr * w * t;
+        store(&mut red[range.clone()], sum);
+        let sum = load(&green[range.clone()]) + cg * w * t;
+        store(&mut green[range.clone()], sum);
+        let sum = load(&blue[range.clone()]) + cbl * w * t;
+        store(&mut blue[range.clone()], sum);
+        store(&mut transmittance[range.clone()], blend.select(test_t, t));
+        store(&mut live[range], stop.select(zero, l));
+        stopped += stop.to_bitmask().count_ones();
+    }
+    stopped
+}
+
+fn load(v: &[f32]) -> f32x4 {
+    f32x4::new([v[0], v[1], v[2], v[3]])
+}
+
+fn store(v: &mut [f32], x: f32x4) {
+    v[..LANES].copy_from_slice(&x.to_array());
+}
+
+/// [`exp_neg`] on 4 lanes (the same operations, so the same bits).
+#[inline(always)]
+fn exp_neg_x4(x: f32x4) -> f32x4 {
+    let lo = f32x4::splat(-87.0);
+    let x = x.simd_lt(lo).select(lo, x);
+    let x = x.simd_gt(f32x4::ZERO).select(f32x4::ZERO, x);
+    let round = f32x4::splat(EXP_ROUND);
+    let shifted = x * f32x4::splat(std::f32::consts::LOG2_E) + round;
+    let n = shifted - round;
+    let n_int: i32x4 = bytemuck::cast::<f32x4, i32x4>(shifted) - i32x4::splat(EXP_ROUND.to_bits() as i32);
+    let r = (x - n * f32x4::splat(EXP_LN2_HI)) - n * f32x4::splat(EXP_LN2_LO);
+    let c = |v: f32| f32x4::splat(v);
+    let p = c(1.0)
+        + r * (c(1.0)
+            + r * (c(0.5)
+                + r * (c(1.0 / 6.0) + r * (c(1.0 / 24.0) + r * (c(1.0 / 120.0) + r * c(1.0 / 720.0))))));
+    let scale: f32x4 = bytemuck::cast((n_int + i32x4::splat(127)) << 23);
+    p * scale
+}
+
+const EXP_ROUND: f32 = 12_582_912.0; // 1.5 · 2^23: adding it rounds to an integer
+const EXP_LN2_HI: f32 = 0.693_359_4;
+const EXP_LN2_LO: f32 = -2.121_944_4e-4;
+
+/// e^x for x <= 0 (larger x are clamped to 0, x below −87 give 0 or a denormal-free tiny
+/// value), without libm so that it inlines and vectorises and gives the same bits on every
+/// platform: x = n ln 2 + r with |r| <= ln 2 / 2 (Cody-Waite split of ln 2), e^r by a degree-6
+/// Taylor polynomial (relative error < 2e-7 on that range, about the f32 rounding), times 2^n
+/// built in the exponent bits.
+#[inline(always)]
+pub fn exp_neg(x: f32) -> f32 {
+    const LOG2_E: f32 = std::f32::consts::LOG2_E;
+    const LN2_HI: f32 = EXP_LN2_HI;
+    const LN2_LO: f32 = EXP_LN2_LO;
+    const ROUND: f32 = EXP_ROUND;
+    // Selects rather than clamp/min/max: they vectorise without NaN fix-ups (NaN input gives
+    // NaN out through `r`).
+    let x = if x < -87.0 { -87.0 } else { x };
+    let x = if x > 0.0 { 0.0 } else { x };
+    let shifted = x * LOG2_E + ROUND;
+    let n = shifted - ROUND;
+    // n is an integer in [-126, 0]; it sits in the low mantissa bits of `shifted`.
+    let n_int = (shifted.to_bits() as i32).wrapping_sub(ROUND.to_bits() as i32);
+    let r = (x - n * LN2_HI) - n * LN2_LO;
+    let p = 1.0
+        + r * (1.0
+            + r * (0.5
+                + r * (1.0 / 6.0 + r * (1.0 / 24.0 + r * (1.0 / 120.0 + r * (1.0 / 720.0))))));
+    let scale = f32::from_bits((n_int.wrapping_add(127) as u32) << 23);
+    p * scale
 }

@@ -91,6 +91,11 @@ fn main() -> Result<()> {
         scene_gaussians.map_or(-1, |n| n as i64),
         started.elapsed().as_secs_f64()
     );
+    drop(conn);
+    if code == 2 {
+        // The dead server's resources can only go once nobody holds its services.
+        let _ = splatphys_ipc::services::cleanup_dead_nodes();
+    }
     if code != 0 {
         eprintln!("splatphys-probe: {reason}");
     }

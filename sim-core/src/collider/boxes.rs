@@ -15,7 +15,8 @@ pub struct BoxShape {
 impl BoxShape {
     /// A box from its corners; `None` unless finite with min < max on every axis.
     pub fn new(min_m: Vec3A, max_m: Vec3A) -> Option<Self> {
-        (min_m.is_finite() && max_m.is_finite() && min_m.cmplt(max_m).all()).then_some(Self { min_m, max_m })
+        (min_m.is_finite() && max_m.is_finite() && min_m.cmplt(max_m).all())
+            .then_some(Self { min_m, max_m })
     }
 
     /// Outward normal of the nearest face if `x` is inside the solid box.

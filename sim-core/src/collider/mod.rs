@@ -45,7 +45,13 @@ pub struct Collider {
 impl Collider {
     /// A static collider active at all times.
     pub fn fixed(shape: Shape, surface: Surface, friction: f32) -> Self {
-        Self { shape, surface, friction, velocity_m_s: Vec3A::ZERO, active_s: None }
+        Self {
+            shape,
+            surface,
+            friction,
+            velocity_m_s: Vec3A::ZERO,
+            active_s: None,
+        }
     }
 
     /// Whether the collider acts at time `t_s`.
@@ -63,7 +69,11 @@ impl Collider {
 
     /// Velocity of the collider at time `t_s` (zero when inactive or static).
     pub fn velocity_at(&self, t_s: f64) -> Vec3A {
-        if self.active_s.is_some() && self.is_active(t_s) { self.velocity_m_s } else { Vec3A::ZERO }
+        if self.active_s.is_some() && self.is_active(t_s) {
+            self.velocity_m_s
+        } else {
+            Vec3A::ZERO
+        }
     }
 
     /// Outward normal if grid node position `x` is inside the collider at time `t_s`.

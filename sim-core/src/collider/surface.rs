@@ -84,6 +84,9 @@ mod tests {
 
     #[test]
     fn sticky_stops_everything() {
-        assert_eq!(apply_surface(Vec3A::ONE, Vec3A::Z, Surface::Sticky, 0.0), Vec3A::ZERO);
+        assert_eq!(
+            apply_surface(Vec3A::ONE, Vec3A::Z, Surface::Sticky, 0.0),
+            Vec3A::ZERO
+        );
     }
 }

@@ -23,8 +23,18 @@ use crate::gaussians::GaussianCloud;
 pub const CHUNK_SIZE: usize = 256;
 
 const CHUNK_PROPS: [&str; 12] = [
-    "min_x", "min_y", "min_z", "max_x", "max_y", "max_z", "min_scale_x", "min_scale_y",
-    "min_scale_z", "max_scale_x", "max_scale_y", "max_scale_z",
+    "min_x",
+    "min_y",
+    "min_z",
+    "max_x",
+    "max_y",
+    "max_z",
+    "min_scale_x",
+    "min_scale_y",
+    "min_scale_z",
+    "max_scale_x",
+    "max_scale_y",
+    "max_scale_z",
 ];
 const COLOR_PROPS: [&str; 6] = ["min_r", "min_g", "min_b", "max_r", "max_g", "max_b"];
 const VERTEX_PROPS: [&str; 4] = [
@@ -124,7 +134,11 @@ pub fn parse_compressed_ply(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, 
                 problem: format!("{} rows for {n} vertices", sh.rows.len()),
             });
         }
-        let count = sh.props.iter().filter(|(p, _)| p.starts_with("f_rest_")).count();
+        let count = sh
+            .props
+            .iter()
+            .filter(|(p, _)| p.starts_with("f_rest_"))
+            .count();
         if ![0, 9, 24, 45].contains(&count) {
             return Err(FormatError::BadShCount {
                 path: path.to_path_buf(),
@@ -190,12 +204,19 @@ pub fn parse_compressed_ply(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, 
         cloud.opacity_logit.push(alpha_to_logit(rgba[3]));
         if let Some(sh) = sh {
             let srow = &sh.rows[i];
-            cloud
-                .sh_rest
-                .extend(sh_cols.iter().map(|&k| (srow[k] * (8.0 / 255.0) - 4.0) as f32));
+            cloud.sh_rest.extend(
+                sh_cols
+                    .iter()
+                    .map(|&k| (srow[k] * (8.0 / 255.0) - 4.0) as f32),
+            );
         }
     }
-    if let Some(i) = cloud.positions.iter().position(|p| p.iter().any(|x| !x.is_finite())) {
+    cloud.sh_degree = crate::formats::ply::effective_sh_degree(&cloud.sh_rest, n_rest);
+    if let Some(i) = cloud
+        .positions
+        .iter()
+        .position(|p| p.iter().any(|x| !x.is_finite()))
+    {
         return Err(FormatError::NonFinite {
             path: path.to_path_buf(),
             element: "vertex".into(),

@@ -191,18 +191,34 @@ pub fn guess_up_axis(cloud: &GaussianCloud, _bounds: &[[f32; 3]; 2]) -> UpAxisGu
     order.sort_by(|&a, &b| ext[a].total_cmp(&ext[b]));
     let (thin, mid, long) = (order[0], order[1], order[2]);
     let (axis, why) = if ext[thin] < 0.6 * ext[mid] {
-        (thin, format!("{} is the thinnest extent (flat object on its base)", AXES[thin]))
+        (
+            thin,
+            format!(
+                "{} is the thinnest extent (flat object on its base)",
+                AXES[thin]
+            ),
+        )
     } else if ext[long] > 1.5 * ext[mid] {
-        (long, format!("{} is the longest extent (standing object)", AXES[long]))
+        (
+            long,
+            format!("{} is the longest extent (standing object)", AXES[long]),
+        )
     } else {
-        (thin, format!("no clear shape; {} is the thinnest extent", AXES[thin]))
+        (
+            thin,
+            format!("no clear shape; {} is the thinnest extent", AXES[thin]),
+        )
     };
     // Spread of the other two coordinates within the end slabs.
     let (lo, hi) = ranges[axis];
     let slab = 0.1 * (hi - lo);
     let others: Vec<usize> = (0..3).filter(|&k| k != axis).collect();
     let spread = |in_slab: &dyn Fn(f32) -> bool| -> f32 {
-        let sel: Vec<&[f32; 3]> = cloud.positions.iter().filter(|p| in_slab(p[axis])).collect();
+        let sel: Vec<&[f32; 3]> = cloud
+            .positions
+            .iter()
+            .filter(|p| in_slab(p[axis]))
+            .collect();
         if sel.len() < 3 {
             return 0.0;
         }
@@ -236,9 +252,22 @@ impl fmt::Display for InspectReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let [lo, hi] = self.bounds;
         writeln!(f, "file        {}", self.path.display())?;
-        writeln!(f, "format      {} ({} bytes, read in {:.3} s)", self.format, self.file_bytes, self.load_s)?;
+        writeln!(
+            f,
+            "format      {} ({} bytes, read in {:.3} s)",
+            self.format, self.file_bytes, self.load_s
+        )?;
         writeln!(f, "gaussians   {}", self.count)?;
-        writeln!(f, "sh degree   {}{}", self.sh_degree, if self.has_normals { " (normals present)" } else { "" })?;
+        writeln!(
+            f,
+            "sh degree   {}{}",
+            self.sh_degree,
+            if self.has_normals {
+                " (normals present)"
+            } else {
+                ""
+            }
+        )?;
         writeln!(
             f,
             "bounds      x [{:.4}, {:.4}]  y [{:.4}, {:.4}]  z [{:.4}, {:.4}]  (file units)",
@@ -251,7 +280,10 @@ impl fmt::Display for InspectReport {
             hi[1] - lo[1],
             hi[2] - lo[2]
         )?;
-        writeln!(f, "log scale   axis   min      p5       median   p95      max")?;
+        writeln!(
+            f,
+            "log scale   axis   min      p5       median   p95      max"
+        )?;
         for (k, s) in self.log_scale.iter().enumerate() {
             writeln!(
                 f,
@@ -270,11 +302,20 @@ impl fmt::Display for InspectReport {
             o.max,
             100.0 * self.opaque_fraction
         )?;
-        writeln!(f, "rotations   {} of {} not unit length (normalised on use)", self.unnormalised_rotations, self.count)?;
+        writeln!(
+            f,
+            "rotations   {} of {} not unit length (normalised on use)",
+            self.unnormalised_rotations, self.count
+        )?;
         if self.extra_properties.is_empty() {
             writeln!(f, "extra       none")?;
         } else {
-            writeln!(f, "extra       {} properties: {}", self.extra_properties.len(), self.extra_properties.join(" "))?;
+            writeln!(
+                f,
+                "extra       {} properties: {}",
+                self.extra_properties.len(),
+                self.extra_properties.join(" ")
+            )?;
         }
         write!(f, "up (guess)  {}: {}", self.up.label, self.up.reason)
     }

@@ -179,7 +179,10 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> FileFormat {
         let head = &bytes[..bytes.len().min(64 * 1024)];
         let text = String::from_utf8_lossy(head);
         let header_end = text.find("end_header").unwrap_or(text.len());
-        if text[..header_end].lines().any(|l| l.trim_start().starts_with("element chunk")) {
+        if text[..header_end]
+            .lines()
+            .any(|l| l.trim_start().starts_with("element chunk"))
+        {
             FileFormat::CompressedPly
         } else {
             FileFormat::InriaPly

@@ -303,7 +303,11 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyFile, FormatError> {
         (Some(a), Some(b), Some(c)) => Some([a, b, c]),
         _ => None,
     };
-    let n_rest = v.props.iter().filter(|(n, _)| n.starts_with("f_rest_")).count();
+    let n_rest = v
+        .props
+        .iter()
+        .filter(|(n, _)| n.starts_with("f_rest_"))
+        .count();
     if ![0, 9, 24, 45].contains(&n_rest) {
         return Err(FormatError::BadShCount {
             path: path.to_path_buf(),
@@ -312,13 +316,20 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyFile, FormatError> {
     }
     let mut rest_cols = Vec::with_capacity(n_rest);
     for j in 0..n_rest {
-        rest_cols.push(v.col(&format!("f_rest_{j}")).ok_or(FormatError::BadShCount {
-            path: path.to_path_buf(),
-            count: n_rest,
-        })?);
+        rest_cols.push(
+            v.col(&format!("f_rest_{j}"))
+                .ok_or(FormatError::BadShCount {
+                    path: path.to_path_buf(),
+                    count: n_rest,
+                })?,
+        );
     }
     let mut used = vec![false; v.props.len()];
-    for &c in core.iter().chain(rest_cols.iter()).chain(normals.iter().flatten()) {
+    for &c in core
+        .iter()
+        .chain(rest_cols.iter())
+        .chain(normals.iter().flatten())
+    {
         used[c] = true;
     }
     let extra_cols: Vec<usize> = (0..v.props.len()).filter(|&c| !used[c]).collect();
@@ -360,10 +371,14 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyFile, FormatError> {
     };
     for row in &v.rows {
         let c = &core;
-        cloud.positions.push([f(row, c[0]), f(row, c[1]), f(row, c[2])]);
+        cloud
+            .positions
+            .push([f(row, c[0]), f(row, c[1]), f(row, c[2])]);
         cloud.sh_dc.push([f(row, c[3]), f(row, c[4]), f(row, c[5])]);
         cloud.opacity_logit.push(f(row, c[6]));
-        cloud.log_scales.push([f(row, c[7]), f(row, c[8]), f(row, c[9])]);
+        cloud
+            .log_scales
+            .push([f(row, c[7]), f(row, c[8]), f(row, c[9])]);
         cloud
             .rotations_wxyz
             .push([f(row, c[10]), f(row, c[11]), f(row, c[12]), f(row, c[13])]);
@@ -375,10 +390,40 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyFile, FormatError> {
             out.push(f(row, ec));
         }
     }
+    cloud.sh_degree = effective_sh_degree(&cloud.sh_rest, n_rest);
     Ok(PlyFile {
         cloud,
         comments: raw.comments,
     })
+}
+
+/// SH degree actually used: the highest band (1..=3) with a non-zero coefficient among
+/// `[N][n_rest]` channel-major `f_rest` values, else 0. Files that store zero `f_rest_*` (the
+/// 62-property layout of an SH-degree-0 scene) are degree 0; the zeros are kept for writing.
+pub fn effective_sh_degree(sh_rest: &[f32], n_rest: usize) -> u8 {
+    if n_rest == 0 {
+        return 0;
+    }
+    let k = n_rest / 3; // coefficients per channel beyond DC
+    let band = |j: usize| -> u8 {
+        match j {
+            0..=2 => 1,
+            3..=7 => 2,
+            _ => 3,
+        }
+    };
+    let mut degree = 0u8;
+    for row in sh_rest.chunks_exact(n_rest) {
+        for (idx, v) in row.iter().enumerate() {
+            if *v != 0.0 {
+                degree = degree.max(band(idx % k));
+            }
+        }
+        if degree == 3 {
+            break;
+        }
+    }
+    degree
 }
 
 /// Checks that every per-Gaussian field of `cloud` has the length `positions` implies.
@@ -424,9 +469,11 @@ pub fn property_names(cloud: &GaussianCloud) -> Vec<String> {
     names.extend(["f_dc_0", "f_dc_1", "f_dc_2"].iter().map(|s| s.to_string()));
     names.extend((0..cloud.sh_rest_len).map(|j| format!("f_rest_{j}")));
     names.extend(
-        ["opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3"]
-            .iter()
-            .map(|s| s.to_string()),
+        [
+            "opacity", "scale_0", "scale_1", "scale_2", "rot_0", "rot_1", "rot_2", "rot_3",
+        ]
+        .iter()
+        .map(|s| s.to_string()),
     );
     names.extend(cloud.extra.iter().map(|(n, _)| n.clone()));
     names

@@ -82,9 +82,7 @@ pub fn parse_splat(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, FormatErr
             }
         }
         cloud.positions.push([f[0], f[1], f[2]]);
-        cloud
-            .log_scales
-            .push([f[3].ln(), f[4].ln(), f[5].ln()]);
+        cloud.log_scales.push([f[3].ln(), f[4].ln(), f[5].ln()]);
         let c = |k: usize| ((f64::from(rec[24 + k]) / 255.0 - 0.5) / SH_C0) as f32;
         cloud.sh_dc.push([c(0), c(1), c(2)]);
         cloud

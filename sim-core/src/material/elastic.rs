@@ -28,7 +28,12 @@ impl ElasticParams {
         poisson_ratio: f64,
         density_kg_m3: f64,
     ) -> Result<Self, MaterialError> {
-        let bad = |parameter, value, range| MaterialError::OutOfRange { model, parameter, value, range };
+        let bad = |parameter, value, range| MaterialError::OutOfRange {
+            model,
+            parameter,
+            value,
+            range,
+        };
         if !(youngs_modulus_pa.is_finite() && youngs_modulus_pa > 0.0) {
             return Err(bad("youngs_modulus_pa", youngs_modulus_pa, "(0, inf)"));
         }

@@ -25,8 +25,19 @@ impl Foam {
     /// # Errors
     /// [`MaterialError::OutOfRange`] for η outside that range.
     pub fn new(params: ElasticParams, viscosity_pa_s: f64) -> Result<Self, MaterialError> {
-        let eta = check_range("foam", "viscosity_pa_s", viscosity_pa_s, 0.0, 1e12, "[0, 1e12]")?;
-        Ok(Self { yield_stress_pa: params.youngs_modulus_pa / 100.0, params, viscosity_pa_s: eta })
+        let eta = check_range(
+            "foam",
+            "viscosity_pa_s",
+            viscosity_pa_s,
+            0.0,
+            1e12,
+            "[0, 1e12]",
+        )?;
+        Ok(Self {
+            yield_stress_pa: params.youngs_modulus_pa / 100.0,
+            params,
+            viscosity_pa_s: eta,
+        })
     }
 }
 

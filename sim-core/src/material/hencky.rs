@@ -37,7 +37,12 @@ pub(crate) fn hencky_energy(f: Mat3A, mu: f32, lambda: f32) -> f32 {
 /// Von Mises return mapping in principal log-strain space: removes the part of the deviatoric
 /// strain beyond `yield_stress_pa / (2 mu)` (times `fraction` in (0, 1] for viscoplastic flow).
 /// Rebuilds F = U exp(ε) Vᵀ and returns the plastic strain increment |Δε_dev|.
-pub(crate) fn von_mises_project(f: &mut Mat3A, mu: f32, yield_stress_pa: f32, fraction: f32) -> f32 {
+pub(crate) fn von_mises_project(
+    f: &mut Mat3A,
+    mu: f32,
+    yield_stress_pa: f32,
+    fraction: f32,
+) -> f32 {
     let Svd3 { u, sigma, v } = svd3(*f);
     let eps = log_strain(sigma);
     let mean = (eps.x + eps.y + eps.z) / 3.0;

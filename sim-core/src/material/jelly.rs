@@ -28,7 +28,8 @@ impl Jelly {
 pub(crate) fn corotated_stress(f: Mat3A, mu: f32, lambda: f32) -> Mat3A {
     let r = polar(f).r;
     let j = f.determinant();
-    (f - r) * f.transpose() * (2.0 * mu) + Mat3A::from_diagonal(glam::Vec3::splat(lambda * (j - 1.0) * j))
+    (f - r) * f.transpose() * (2.0 * mu)
+        + Mat3A::from_diagonal(glam::Vec3::splat(lambda * (j - 1.0) * j))
 }
 
 /// Fixed-corotated energy density with explicit Lamé parameters (shared by snow).

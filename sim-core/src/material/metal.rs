@@ -24,8 +24,18 @@ impl Metal {
     /// # Errors
     /// [`MaterialError::OutOfRange`] for a yield stress <= 0 or non-finite.
     pub fn new(params: ElasticParams, yield_stress_pa: f64) -> Result<Self, MaterialError> {
-        let y = check_range("metal", "yield_stress_pa", yield_stress_pa, f64::MIN_POSITIVE, f64::MAX, "(0, inf)")?;
-        Ok(Self { params, yield_stress_pa: y })
+        let y = check_range(
+            "metal",
+            "yield_stress_pa",
+            yield_stress_pa,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+            "(0, inf)",
+        )?;
+        Ok(Self {
+            params,
+            yield_stress_pa: y,
+        })
     }
 }
 

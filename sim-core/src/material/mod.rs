@@ -50,8 +50,15 @@ pub enum MaterialError {
 }
 
 /// The model names accepted by [`Material::from_spec`].
-pub const MODEL_NAMES: [&str; 7] =
-    ["jelly", "neo-hookean", "snow", "sand", "metal", "plasticine", "foam"];
+pub const MODEL_NAMES: [&str; 7] = [
+    "jelly",
+    "neo-hookean",
+    "snow",
+    "sand",
+    "metal",
+    "plasticine",
+    "foam",
+];
 
 /// What every constitutive model provides.
 pub trait ConstitutiveModel {
@@ -172,18 +179,27 @@ impl Material {
             .iter()
             .find(|m| **m == spec.model)
             .ok_or_else(|| MaterialError::UnknownModel(spec.model.clone()))?;
-        let e = ElasticParams::new(model, spec.youngs_modulus_pa, spec.poisson_ratio, spec.density_kg_m3)?;
+        let e = ElasticParams::new(
+            model,
+            spec.youngs_modulus_pa,
+            spec.poisson_ratio,
+            spec.density_kg_m3,
+        )?;
         Ok(match model {
             "jelly" => Material::Jelly(Jelly::new(e)),
             "neo-hookean" => Material::NeoHookean(NeoHookean::new(e)),
             "snow" => Material::Snow(Snow::new(e, spec.hardening.unwrap_or(10.0))?),
             "sand" => Material::Sand(Sand::new(e, spec.friction_angle_deg.unwrap_or(30.0))?),
             "metal" => {
-                let y = spec.yield_stress_pa.unwrap_or(spec.youngs_modulus_pa / 100.0);
+                let y = spec
+                    .yield_stress_pa
+                    .unwrap_or(spec.youngs_modulus_pa / 100.0);
                 Material::Metal(Metal::new(e, y)?)
             }
             "plasticine" => {
-                let y = spec.yield_stress_pa.unwrap_or(spec.youngs_modulus_pa / 50.0);
+                let y = spec
+                    .yield_stress_pa
+                    .unwrap_or(spec.youngs_modulus_pa / 50.0);
                 Material::Plasticine(Plasticine::new(e, y, spec.softening.unwrap_or(2.0))?)
             }
             _ => Material::Foam(Foam::new(e, spec.viscosity_pa_s.unwrap_or(10.0))?),
@@ -194,7 +210,11 @@ impl Material {
     ///
     /// # Errors
     /// As [`Material::from_spec`].
-    pub fn jelly(youngs_modulus_pa: f64, poisson_ratio: f64, density_kg_m3: f64) -> Result<Self, MaterialError> {
+    pub fn jelly(
+        youngs_modulus_pa: f64,
+        poisson_ratio: f64,
+        density_kg_m3: f64,
+    ) -> Result<Self, MaterialError> {
         Self::from_spec(&MaterialSpec {
             model: "jelly".into(),
             youngs_modulus_pa,
@@ -222,6 +242,11 @@ pub(crate) fn check_range(
     if value.is_finite() && value >= lo && value <= hi {
         Ok(value as f32)
     } else {
-        Err(MaterialError::OutOfRange { model, parameter, value, range })
+        Err(MaterialError::OutOfRange {
+            model,
+            parameter,
+            value,
+            range,
+        })
     }
 }

@@ -33,12 +33,21 @@ impl ConstitutiveModel for NeoHookean {
     }
     #[inline]
     fn kirchhoff_stress(&self, f: Mat3A, _plastic: f32) -> Mat3A {
-        let ElasticParams { mu_pa: mu, lambda_pa: lambda, .. } = self.params;
+        let ElasticParams {
+            mu_pa: mu,
+            lambda_pa: lambda,
+            ..
+        } = self.params;
         let log_j = f.determinant().max(MIN_J).ln();
-        (f * f.transpose() - Mat3A::IDENTITY) * mu + Mat3A::from_diagonal(Vec3::splat(lambda * log_j))
+        (f * f.transpose() - Mat3A::IDENTITY) * mu
+            + Mat3A::from_diagonal(Vec3::splat(lambda * log_j))
     }
     fn energy_density(&self, f: Mat3A, _plastic: f32) -> f32 {
-        let ElasticParams { mu_pa: mu, lambda_pa: lambda, .. } = self.params;
+        let ElasticParams {
+            mu_pa: mu,
+            lambda_pa: lambda,
+            ..
+        } = self.params;
         let log_j = f.determinant().max(MIN_J).ln();
         let i1 = f.x_axis.length_squared() + f.y_axis.length_squared() + f.z_axis.length_squared();
         0.5 * mu * (i1 - 3.0) - mu * log_j + 0.5 * lambda * log_j * log_j

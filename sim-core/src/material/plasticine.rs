@@ -23,10 +23,32 @@ impl Plasticine {
     ///
     /// # Errors
     /// [`MaterialError::OutOfRange`] for a parameter outside its range.
-    pub fn new(params: ElasticParams, yield_stress_pa: f64, softening: f64) -> Result<Self, MaterialError> {
-        let y = check_range("plasticine", "yield_stress_pa", yield_stress_pa, f64::MIN_POSITIVE, f64::MAX, "(0, inf)")?;
-        let s = check_range("plasticine", "softening", softening, 0.0, 1000.0, "[0, 1000]")?;
-        Ok(Self { params, yield_stress_pa: y, softening: s })
+    pub fn new(
+        params: ElasticParams,
+        yield_stress_pa: f64,
+        softening: f64,
+    ) -> Result<Self, MaterialError> {
+        let y = check_range(
+            "plasticine",
+            "yield_stress_pa",
+            yield_stress_pa,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+            "(0, inf)",
+        )?;
+        let s = check_range(
+            "plasticine",
+            "softening",
+            softening,
+            0.0,
+            1000.0,
+            "[0, 1000]",
+        )?;
+        Ok(Self {
+            params,
+            yield_stress_pa: y,
+            softening: s,
+        })
     }
 }
 

@@ -30,10 +30,21 @@ impl Sand {
     /// # Errors
     /// [`MaterialError::OutOfRange`] for an angle outside [0, 60).
     pub fn new(params: ElasticParams, friction_angle_deg: f64) -> Result<Self, MaterialError> {
-        let phi = check_range("sand", "friction_angle_deg", friction_angle_deg, 0.0, 59.999, "[0, 60)")?;
+        let phi = check_range(
+            "sand",
+            "friction_angle_deg",
+            friction_angle_deg,
+            0.0,
+            59.999,
+            "[0, 60)",
+        )?;
         let s = phi.to_radians().sin();
         let alpha = (2.0f32 / 3.0).sqrt() * 2.0 * s / (3.0 - s);
-        Ok(Self { params, friction_angle_deg: phi, alpha })
+        Ok(Self {
+            params,
+            friction_angle_deg: phi,
+            alpha,
+        })
     }
 }
 
@@ -52,7 +63,11 @@ impl ConstitutiveModel for Sand {
         hencky_energy(f, self.params.mu_pa, self.params.lambda_pa)
     }
     fn project(&self, f: &mut Mat3A, plastic: &mut f32, _dt_s: f32) {
-        let ElasticParams { mu_pa: mu, lambda_pa: lambda, .. } = self.params;
+        let ElasticParams {
+            mu_pa: mu,
+            lambda_pa: lambda,
+            ..
+        } = self.params;
         let Svd3 { u, sigma, v } = svd3(*f);
         let eps = log_strain(sigma);
         let tr = eps.x + eps.y + eps.z;

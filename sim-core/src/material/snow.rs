@@ -40,7 +40,9 @@ impl Snow {
 
     #[inline]
     fn hardening_factor(&self, jp: f32) -> f32 {
-        (self.hardening * (1.0 - jp)).exp().clamp(HARDENING_RANGE.0, HARDENING_RANGE.1)
+        (self.hardening * (1.0 - jp))
+            .exp()
+            .clamp(HARDENING_RANGE.0, HARDENING_RANGE.1)
     }
 }
 

@@ -83,7 +83,11 @@ impl Binning {
                 }
                 current = k;
                 let key = block_key(x[p as usize], inv_dx).unwrap_or_default();
-                self.blocks.push(ParticleBlock { key, start: i as u32, end: i as u32 });
+                self.blocks.push(ParticleBlock {
+                    key,
+                    start: i as u32,
+                    end: i as u32,
+                });
             }
             self.order.push(p);
             self.block_of[p as usize] = (self.blocks.len() - 1) as u32;

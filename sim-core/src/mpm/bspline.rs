@@ -29,7 +29,11 @@ impl Stencil {
             Vec3A::splat(0.75) - (fx - Vec3A::ONE) * (fx - Vec3A::ONE),
             0.5 * (fx - Vec3A::splat(0.5)) * (fx - Vec3A::splat(0.5)),
         ];
-        Self { base: base_f.as_ivec3(), fx, w }
+        Self {
+            base: base_f.as_ivec3(),
+            fx,
+            w,
+        }
     }
 
     /// Weight of node offset (i, j, k), each in 0..3.

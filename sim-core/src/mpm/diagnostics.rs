@@ -51,7 +51,12 @@ impl Diagnostics {
     }
 
     /// Measures `particles` with their `materials`, gravity (m/s²) and cell size `dx_m`.
-    pub fn measure(particles: &Particles, materials: &[Material], gravity_m_s2: Vec3A, dx_m: f32) -> Self {
+    pub fn measure(
+        particles: &Particles,
+        materials: &[Material],
+        gravity_m_s2: Vec3A,
+        dx_m: f32,
+    ) -> Self {
         let n = particles.len();
         let d = (dx_m as f64) * (dx_m as f64) / 4.0;
         let g = DVec3::from(gravity_m_s2.as_dvec3());

@@ -21,7 +21,8 @@ pub struct GatherReport {
     pub first_non_finite: Option<usize>,
 }
 
-/// Gathers grid velocities into every particle and advances it by `dt_s`.
+/// Gathers grid velocities (relative to `v_ref`, m/s) into every particle and advances it by
+/// `dt_s`.
 pub fn gather(
     particles: &mut Particles,
     bins: &Binning,
@@ -29,10 +30,19 @@ pub fn gather(
     materials: &[Material],
     dx_m: f32,
     dt_s: f32,
+    v_ref: Vec3A,
 ) -> GatherReport {
     let inv_dx = 1.0 / dx_m;
     let d_inv = 4.0 * inv_dx * inv_dx;
-    let Particles { x, v, c, f, plastic, material, .. } = particles;
+    let Particles {
+        x,
+        v,
+        c,
+        f,
+        plastic,
+        material,
+        ..
+    } = particles;
     let (speed2, bad) = (x, v, c, f, plastic, &*material, &bins.block_of)
         .into_par_iter()
         .enumerate()
@@ -41,6 +51,7 @@ pub fn gather(
             let origin = bins.blocks[b as usize].key * BLOCK;
             let local = (s.base - origin).as_uvec3();
             let neighbours = &grid.pb_grid[b as usize];
+            let v_old = *v - v_ref;
             let mut new_v = Vec3A::ZERO;
             let mut new_c = Mat3A::ZERO;
             for k in 0..3usize {
@@ -49,18 +60,23 @@ pub fn gather(
                     let ry = local.y as usize + j;
                     for i in 0..3usize {
                         let rx = local.x as usize + i;
-                        let corner = (rx >= 4) as usize + 2 * (ry >= 4) as usize + 4 * (rz >= 4) as usize;
+                        let corner =
+                            (rx >= 4) as usize + 2 * (ry >= 4) as usize + 4 * (rz >= 4) as usize;
                         let gb = neighbours[corner] as usize;
                         let l = (rx & 3) + 4 * (ry & 3) + 16 * (rz & 3);
                         let vi = grid.velocity_m_s[gb * BLOCK_NODES + l];
                         let w = s.weight(i, j, k);
                         let dpos = Vec3A::new(i as f32, j as f32, k as f32) - s.fx;
                         new_v += vi * w;
-                        let wv = vi * w;
+                        // Σ w (xi - xp) = 0, so subtracting the particle's previous velocity
+                        // changes nothing in exact arithmetic but keeps a uniform translation
+                        // from leaking rounding noise into C (and F).
+                        let wv = (vi - v_old) * w;
                         new_c += Mat3A::from_cols(wv * dpos.x, wv * dpos.y, wv * dpos.z);
                     }
                 }
             }
+            let new_v = new_v + v_ref;
             // dpos above is in cells: (4/dx²) · dx = 4/dx.
             let new_c = new_c * (d_inv * dx_m);
             let mut new_f = (Mat3A::IDENTITY + new_c * dt_s) * *f;

@@ -1,6 +1,7 @@
 //! Grid update: sums each grid block's node momenta and masses from the (up to 8) particle-block
 //! regions that reach it, in a fixed corner order, turns momentum into velocity, adds gravity
-//! (v ← p / m + dt g) and applies the colliders in the order given.
+//! (v ← p / m + dt g) and applies the colliders in the order given. Node velocities are relative
+//! to the solver's reference velocity.
 
 use glam::{IVec3, Vec3A, Vec4};
 use rayon::prelude::*;
@@ -21,8 +22,15 @@ pub fn update(
     gravity_m_s2: Vec3A,
     colliders: &[Collider],
     time_s: f64,
+    v_ref: Vec3A,
 ) -> Option<usize> {
-    let SparseGrid { keys, contributors, mass_kg, velocity_m_s, .. } = grid;
+    let SparseGrid {
+        keys,
+        contributors,
+        mass_kg,
+        velocity_m_s,
+        ..
+    } = grid;
     let bad = mass_kg
         .par_chunks_mut(BLOCK_NODES)
         .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
@@ -50,10 +58,17 @@ pub fn update(
                         let l = lx + 4 * ly + 16 * lz;
                         mass[l] = sum.w;
                         vel[l] = if sum.w > 0.0 {
-                            let mut v = Vec3A::new(sum.x, sum.y, sum.z) / sum.w + gravity_m_s2 * dt_s;
-                            let node = (origin + IVec3::new(lx as i32, ly as i32, lz as i32)).as_vec3a() * dx_m;
+                            let mut v =
+                                Vec3A::new(sum.x, sum.y, sum.z) / sum.w + gravity_m_s2 * dt_s;
+                            let node = (origin + IVec3::new(lx as i32, ly as i32, lz as i32))
+                                .as_vec3a()
+                                * dx_m;
+                            // v is relative to v_ref; colliders see absolute velocity, and only the
+                            // nodes they touch take the round trip through it.
                             for collider in colliders {
-                                v = collider.apply(node, v, time_s);
+                                if collider.contact_normal(node, time_s).is_some() {
+                                    v = collider.apply(node, v + v_ref, time_s) - v_ref;
+                                }
                             }
                             finite &= v.is_finite();
                             v

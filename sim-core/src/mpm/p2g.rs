@@ -15,46 +15,55 @@ use crate::material::{ConstitutiveModel, Material};
 pub type Region = [Vec4; REGION_NODES];
 
 /// Scatters every particle block into its region of `scratch` (resized to the block count).
+/// Momentum is taken relative to `v_ref` (m/s), the frame the grid works in (see
+/// [`super::solver`]).
 pub fn scatter(
     particles: &Particles,
     bins: &Binning,
     materials: &[Material],
     dx_m: f32,
     dt_s: f32,
+    v_ref: glam::Vec3A,
     scratch: &mut Vec<Region>,
 ) {
     let inv_dx = 1.0 / dx_m;
     let d_inv = 4.0 * inv_dx * inv_dx;
     scratch.resize(bins.blocks.len(), [Vec4::ZERO; REGION_NODES]);
-    scratch.par_iter_mut().zip(bins.blocks.par_iter()).for_each(|(region, pb)| {
-        region.fill(Vec4::ZERO);
-        let origin = pb.key * BLOCK;
-        for &p in &bins.order[pb.start as usize..pb.end as usize] {
-            let p = p as usize;
-            let x = particles.x[p];
-            let m = particles.mass_kg[p];
-            let material = &materials[particles.material[p] as usize];
-            let tau = material.kirchhoff_stress(particles.f[p], particles.plastic[p]);
-            let affine: Mat3A = tau * (-dt_s * particles.volume0_m3[p] * d_inv) + particles.c[p] * m;
-            // Momentum at offset o: w (m v + affine (o - fx) dx) = w (q + A o) with A = affine dx.
-            let s = Stencil::new(x, inv_dx);
-            let a = affine * dx_m;
-            let q = particles.v[p] * m - a * s.fx;
-            let local = (s.base - origin).as_uvec3();
-            for k in 0..3 {
-                for j in 0..3 {
-                    let wjk = s.w[j].y * s.w[k].z;
-                    let qjk = q + a.y_axis * j as f32 + a.z_axis * k as f32;
-                    let row = (local.x as usize) + REGION * (local.y as usize + j) + REGION * REGION * (local.z as usize + k);
-                    for i in 0..3 {
-                        let w = s.w[i].x * wjk;
-                        let mom = (qjk + a.x_axis * i as f32) * w;
-                        region[row + i] += Vec4::new(mom.x, mom.y, mom.z, m * w);
+    scratch
+        .par_iter_mut()
+        .zip(bins.blocks.par_iter())
+        .for_each(|(region, pb)| {
+            region.fill(Vec4::ZERO);
+            let origin = pb.key * BLOCK;
+            for &p in &bins.order[pb.start as usize..pb.end as usize] {
+                let p = p as usize;
+                let x = particles.x[p];
+                let m = particles.mass_kg[p];
+                let material = &materials[particles.material[p] as usize];
+                let tau = material.kirchhoff_stress(particles.f[p], particles.plastic[p]);
+                let affine: Mat3A =
+                    tau * (-dt_s * particles.volume0_m3[p] * d_inv) + particles.c[p] * m;
+                // Momentum at offset o: w (m v + affine (o - fx) dx) = w (q + A o) with A = affine dx.
+                let s = Stencil::new(x, inv_dx);
+                let a = affine * dx_m;
+                let q = (particles.v[p] - v_ref) * m - a * s.fx;
+                let local = (s.base - origin).as_uvec3();
+                for k in 0..3 {
+                    for j in 0..3 {
+                        let wjk = s.w[j].y * s.w[k].z;
+                        let qjk = q + a.y_axis * j as f32 + a.z_axis * k as f32;
+                        let row = (local.x as usize)
+                            + REGION * (local.y as usize + j)
+                            + REGION * REGION * (local.z as usize + k);
+                        for i in 0..3 {
+                            let w = s.w[i].x * wjk;
+                            let mom = (qjk + a.x_axis * i as f32) * w;
+                            region[row + i] += Vec4::new(mom.x, mom.y, mom.z, m * w);
+                        }
                     }
                 }
             }
-        }
-    });
+        });
 }
 
 /// Region-local index of node (x, y, z), each in 0..REGION.
@@ -62,4 +71,3 @@ pub fn scatter(
 pub fn region_index(x: usize, y: usize, z: usize) -> usize {
     x + REGION * y + REGION * REGION * z
 }
-

@@ -75,7 +75,10 @@ impl Particles {
     /// The first particle index whose position, velocity, C or F is not finite.
     pub fn first_non_finite(&self) -> Option<usize> {
         (0..self.len()).find(|&i| {
-            !(self.x[i].is_finite() && self.v[i].is_finite() && self.c[i].is_finite() && self.f[i].is_finite())
+            !(self.x[i].is_finite()
+                && self.v[i].is_finite()
+                && self.c[i].is_finite()
+                && self.f[i].is_finite())
         })
     }
 }
@@ -91,7 +94,15 @@ impl Particles {
         material: u16,
         object: u32,
     ) -> Self {
-        Self::lattice(min_m, max_m, spacing_m, density_kg_m3, material, object, |_| true)
+        Self::lattice(
+            min_m,
+            max_m,
+            spacing_m,
+            density_kg_m3,
+            material,
+            object,
+            |_| true,
+        )
     }
 
     /// Particles on a lattice of `spacing_m` inside the sphere of `radius_m` about `center_m`.
@@ -104,9 +115,15 @@ impl Particles {
         object: u32,
     ) -> Self {
         let r = Vec3A::splat(radius_m);
-        Self::lattice(center_m - r, center_m + r, spacing_m, density_kg_m3, material, object, |x| {
-            (x - center_m).length_squared() <= radius_m * radius_m
-        })
+        Self::lattice(
+            center_m - r,
+            center_m + r,
+            spacing_m,
+            density_kg_m3,
+            material,
+            object,
+            |x| (x - center_m).length_squared() <= radius_m * radius_m,
+        )
     }
 
     fn lattice(
@@ -124,9 +141,18 @@ impl Particles {
         for i in 0..n.x {
             for j in 0..n.y {
                 for k in 0..n.z {
-                    let x = min_m + (glam::UVec3::new(i, j, k).as_vec3a() + Vec3A::splat(0.5)) * spacing_m;
+                    let x = min_m
+                        + (glam::UVec3::new(i, j, k).as_vec3a() + Vec3A::splat(0.5)) * spacing_m;
                     if keep(x) {
-                        out.push(x, Vec3A::ZERO, density_kg_m3 * volume, volume, material, object, 0.0);
+                        out.push(
+                            x,
+                            Vec3A::ZERO,
+                            density_kg_m3 * volume,
+                            volume,
+                            material,
+                            object,
+                            0.0,
+                        );
                     }
                 }
             }

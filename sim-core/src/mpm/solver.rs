@@ -1,6 +1,11 @@
 //! One MLS-MPM substep on one particle set with its own sparse grid: binning, P2G, grid update,
 //! G2P. The COM layer gives every deformable object its own solver; the shared-grid baseline uses
 //! one for all particles.
+//!
+//! The grid works in a frame moving with the particles' mass-weighted mean velocity v_ref (MPM is
+//! Galilean invariant; the transfers are unchanged in exact arithmetic). In f32 this keeps a fast
+//! object's uniform velocity from leaking rounding noise into C and F: a free-falling block's F
+//! stays the identity to 1e-6 instead of drifting by ~3e-5 over 0.5 s.
 
 use glam::Vec3A;
 
@@ -17,13 +22,17 @@ use crate::material::Material;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MpmError {
     /// A particle's update was not finite (left at its previous state).
-    #[error("particle {particle} became non-finite (NaN or inf) in G2P: the run is unstable (dt too large for the material?)")]
+    #[error(
+        "particle {particle} became non-finite (NaN or inf) in G2P: the run is unstable (dt too large for the material?)"
+    )]
     NonFiniteParticle {
         /// Particle index.
         particle: usize,
     },
     /// A grid node velocity was not finite before G2P (nothing was written to particles).
-    #[error("grid block {block} has a non-finite velocity after the grid update: the run is unstable")]
+    #[error(
+        "grid block {block} has a non-finite velocity after the grid update: the run is unstable"
+    )]
     NonFiniteGrid {
         /// Grid block index.
         block: usize,
@@ -85,7 +94,12 @@ pub struct MpmSolver {
 impl MpmSolver {
     /// A solver with grid cell size `dx_m` (m, > 0).
     pub fn new(dx_m: f32) -> Self {
-        Self { dx_m, bins: Binning::default(), grid: SparseGrid::default(), scratch: Vec::new() }
+        Self {
+            dx_m,
+            bins: Binning::default(),
+            grid: SparseGrid::default(),
+            scratch: Vec::new(),
+        }
     }
 
     /// The sparse grid as of the last substep (node masses and velocities).
@@ -98,11 +112,19 @@ impl MpmSolver {
     /// # Errors
     /// [`MpmError`] when the state would become non-finite or a particle leaves the grid; no NaN
     /// is written into `particles`.
-    pub fn substep(&mut self, particles: &mut Particles, input: &SubstepInput<'_>) -> Result<SubstepReport, MpmError> {
+    pub fn substep(
+        &mut self,
+        particles: &mut Particles,
+        input: &SubstepInput<'_>,
+    ) -> Result<SubstepReport, MpmError> {
         if particles.is_empty() {
             return Ok(SubstepReport::default());
         }
-        if let Some(p) = particles.material.iter().position(|&m| m as usize >= input.materials.len()) {
+        if let Some(p) = particles
+            .material
+            .iter()
+            .position(|&m| m as usize >= input.materials.len())
+        {
             return Err(MpmError::BadMaterial {
                 particle: p,
                 material: particles.material[p],
@@ -110,9 +132,20 @@ impl MpmSolver {
             });
         }
         let inv_dx = 1.0 / self.dx_m;
-        self.bins.rebuild(&particles.x, inv_dx).map_err(|particle| MpmError::OutOfGrid { particle })?;
+        self.bins
+            .rebuild(&particles.x, inv_dx)
+            .map_err(|particle| MpmError::OutOfGrid { particle })?;
         self.grid.rebuild(&self.bins);
-        p2g::scatter(particles, &self.bins, input.materials, self.dx_m, input.dt_s, &mut self.scratch);
+        let v_ref = mean_velocity(particles);
+        p2g::scatter(
+            particles,
+            &self.bins,
+            input.materials,
+            self.dx_m,
+            input.dt_s,
+            v_ref,
+            &mut self.scratch,
+        );
         if let Some(block) = grid_update::update(
             &mut self.grid,
             &self.scratch,
@@ -121,10 +154,19 @@ impl MpmSolver {
             input.gravity_m_s2,
             input.colliders,
             input.time_s,
+            v_ref,
         ) {
             return Err(MpmError::NonFiniteGrid { block });
         }
-        let r = g2p::gather(particles, &self.bins, &self.grid, input.materials, self.dx_m, input.dt_s);
+        let r = g2p::gather(
+            particles,
+            &self.bins,
+            &self.grid,
+            input.materials,
+            self.dx_m,
+            input.dt_s,
+            v_ref,
+        );
         if let Some(particle) = r.first_non_finite {
             return Err(MpmError::NonFiniteParticle { particle });
         }
@@ -142,3 +184,29 @@ impl MpmSolver {
     }
 }
 
+/// Mass-weighted mean velocity (m/s), summed in f64 over fixed chunks (thread-count independent).
+fn mean_velocity(p: &Particles) -> Vec3A {
+    use rayon::prelude::*;
+    const CHUNK: usize = 4096;
+    let n = p.len();
+    let parts: Vec<(glam::DVec3, f64)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut mv = glam::DVec3::ZERO;
+            let mut m = 0.0f64;
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                mv += p.v[i].as_dvec3() * p.mass_kg[i] as f64;
+                m += p.mass_kg[i] as f64;
+            }
+            (mv, m)
+        })
+        .collect();
+    let (mv, m) = parts
+        .iter()
+        .fold((glam::DVec3::ZERO, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    if m > 0.0 && mv.is_finite() {
+        (mv / m).as_vec3a()
+    } else {
+        Vec3A::ZERO
+    }
+}

@@ -102,8 +102,17 @@ impl MpmSystem {
     pub fn substep(&mut self, max_dt_s: f64) -> Result<f32, SimError> {
         let dt_s = self
             .policy
-            .next_dt_s(self.solver.dx_m, self.max_wave_speed_m_s(), self.max_speed_m_s, max_dt_s)
-            .map_err(|source| SimError::TimeStep { substep: self.substeps, time_s: self.time_s, source })?;
+            .next_dt_s(
+                self.solver.dx_m,
+                self.max_wave_speed_m_s(),
+                self.max_speed_m_s,
+                max_dt_s,
+            )
+            .map_err(|source| SimError::TimeStep {
+                substep: self.substeps,
+                time_s: self.time_s,
+                source,
+            })?;
         let input = SubstepInput {
             materials: &self.materials,
             colliders: &self.colliders,
@@ -114,7 +123,11 @@ impl MpmSystem {
         let report = self
             .solver
             .substep(&mut self.particles, &input)
-            .map_err(|source| SimError::Solver { substep: self.substeps, time_s: self.time_s, source })?;
+            .map_err(|source| SimError::Solver {
+                substep: self.substeps,
+                time_s: self.time_s,
+                source,
+            })?;
         self.max_speed_m_s = report.max_speed_m_s;
         self.last = report;
         self.time_s += dt_s as f64;
@@ -137,6 +150,11 @@ impl MpmSystem {
 
     /// Conservation diagnostics of the current state.
     pub fn diagnostics(&self) -> Diagnostics {
-        Diagnostics::measure(&self.particles, &self.materials, self.gravity_m_s2, self.solver.dx_m)
+        Diagnostics::measure(
+            &self.particles,
+            &self.materials,
+            self.gravity_m_s2,
+            self.solver.dx_m,
+        )
     }
 }

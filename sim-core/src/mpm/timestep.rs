@@ -62,7 +62,11 @@ pub enum TimeStepError {
 /// The CFL bound C dx / (c_p + |v|max) in s, capped at [`MAX_DT_S`].
 pub fn cfl_dt_s(cfl: f32, dx_m: f32, wave_speed_m_s: f32, max_speed_m_s: f32) -> f32 {
     let speed = wave_speed_m_s + max_speed_m_s;
-    if speed > 0.0 { (cfl * dx_m / speed).min(MAX_DT_S) } else { MAX_DT_S }
+    if speed > 0.0 {
+        (cfl * dx_m / speed).min(MAX_DT_S)
+    } else {
+        MAX_DT_S
+    }
 }
 
 impl TimeStepPolicy {
@@ -73,10 +77,16 @@ impl TimeStepPolicy {
     pub fn validate(&self) -> Result<(), TimeStepError> {
         match *self {
             Self::Cfl { number } if !(number.is_finite() && number > 0.0) => {
-                Err(TimeStepError::Invalid { what: "cfl", value: number })
+                Err(TimeStepError::Invalid {
+                    what: "cfl",
+                    value: number,
+                })
             }
             Self::Fixed { dt_s, .. } if !(dt_s.is_finite() && dt_s > 0.0) => {
-                Err(TimeStepError::Invalid { what: "dt_s", value: dt_s })
+                Err(TimeStepError::Invalid {
+                    what: "dt_s",
+                    value: dt_s,
+                })
             }
             _ => Ok(()),
         }
@@ -112,6 +122,10 @@ impl TimeStepPolicy {
         };
         // Land exactly on the frame boundary; avoid a sliver substep right before it.
         let remaining = remaining_s as f32;
-        Ok(if remaining <= dt * 1.0001 { remaining.max(f32::MIN_POSITIVE) } else { dt })
+        Ok(if remaining <= dt * 1.0001 {
+            remaining.max(f32::MIN_POSITIVE)
+        } else {
+            dt
+        })
     }
 }

@@ -7,10 +7,10 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
+use super::SceneError;
 use super::model::*;
 use super::schema::{MaterialToml, ObjectToml, SceneFile, SelectToml};
 use super::transform::{apply_similarity, concat, euler_xyz_deg, subset, voxel_subsample};
-use super::SceneError;
 use crate::formats::read_gaussians;
 use crate::gaussians::GaussianCloud;
 use crate::procedural::shape_gaussians;
@@ -35,8 +35,17 @@ impl Ctx<'_> {
             message: message.into(),
         }
     }
-    fn check(&self, ok: bool, key: impl Into<String>, msg: impl Into<String>) -> Result<(), SceneError> {
-        if ok { Ok(()) } else { Err(self.invalid(key, msg)) }
+    fn check(
+        &self,
+        ok: bool,
+        key: impl Into<String>,
+        msg: impl Into<String>,
+    ) -> Result<(), SceneError> {
+        if ok {
+            Ok(())
+        } else {
+            Err(self.invalid(key, msg))
+        }
     }
     fn finite3(&self, v: [f32; 3], key: String) -> Result<(), SceneError> {
         self.check(v.iter().all(|x| x.is_finite()), key, "must be finite")
@@ -55,15 +64,27 @@ fn material(ctx: &Ctx, m: &MaterialToml, key: &str) -> Result<MaterialSpec, Scen
     ctx.check(
         MATERIAL_MODELS.contains(&m.model.as_str()),
         format!("{key}.model"),
-        format!("unknown model {:?} (expected one of {})", m.model, MATERIAL_MODELS.join(", ")),
+        format!(
+            "unknown model {:?} (expected one of {})",
+            m.model,
+            MATERIAL_MODELS.join(", ")
+        ),
     )?;
-    ctx.check(m.youngs_modulus_pa.is_finite() && m.youngs_modulus_pa > 0.0, format!("{key}.youngs_modulus_pa"), "must be > 0")?;
+    ctx.check(
+        m.youngs_modulus_pa.is_finite() && m.youngs_modulus_pa > 0.0,
+        format!("{key}.youngs_modulus_pa"),
+        "must be > 0",
+    )?;
     ctx.check(
         m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5,
         format!("{key}.poisson_ratio"),
         "must be in (-1, 0.5)",
     )?;
-    ctx.check(m.density_kg_m3.is_finite() && m.density_kg_m3 > 0.0, format!("{key}.density_kg_m3"), "must be > 0")?;
+    ctx.check(
+        m.density_kg_m3.is_finite() && m.density_kg_m3 > 0.0,
+        format!("{key}.density_kg_m3"),
+        "must be > 0",
+    )?;
     let opts = [
         ("friction_angle_deg", m.friction_angle_deg),
         ("yield_stress_pa", m.yield_stress_pa),
@@ -75,7 +96,11 @@ fn material(ctx: &Ctx, m: &MaterialToml, key: &str) -> Result<MaterialSpec, Scen
     ];
     for (name, v) in opts {
         if let Some(v) = v {
-            ctx.check(v.is_finite() && v >= 0.0, format!("{key}.{name}"), "must be finite and >= 0")?;
+            ctx.check(
+                v.is_finite() && v >= 0.0,
+                format!("{key}.{name}"),
+                "must be finite and >= 0",
+            )?;
         }
     }
     Ok(MaterialSpec {
@@ -97,16 +122,32 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
     let s = &f.simulation;
     let pos = |v: f64| v.is_finite() && v > 0.0;
     ctx.check(pos(s.duration_s), "simulation.duration_s", "must be > 0")?;
-    ctx.check(pos(s.frame_rate_hz), "simulation.frame_rate_hz", "must be > 0")?;
+    ctx.check(
+        pos(s.frame_rate_hz),
+        "simulation.frame_rate_hz",
+        "must be > 0",
+    )?;
     ctx.check(pos(s.grid_dx_m), "simulation.grid_dx_m", "must be > 0")?;
-    ctx.check(pos(s.cfl) && s.cfl <= 1.0, "simulation.cfl", "must be in (0, 1]")?;
+    ctx.check(
+        pos(s.cfl) && s.cfl <= 1.0,
+        "simulation.cfl",
+        "must be in (0, 1]",
+    )?;
     if let Some(dt) = s.dt_s {
         ctx.check(pos(dt), "simulation.dt_s", "must be > 0")?;
     }
-    ctx.check(!s.force_dt || s.dt_s.is_some(), "simulation.force_dt", "needs simulation.dt_s")?;
+    ctx.check(
+        !s.force_dt || s.dt_s.is_some(),
+        "simulation.force_dt",
+        "needs simulation.dt_s",
+    )?;
     ctx.finite3(s.gravity_m_s2, "simulation.gravity_m_s2".into())?;
     if let Some([lo, hi]) = s.domain_m {
-        ctx.check((0..3).all(|k| lo[k] < hi[k]), "simulation.domain_m", "min must be below max on every axis")?;
+        ctx.check(
+            (0..3).all(|k| lo[k] < hi[k]),
+            "simulation.domain_m",
+            "min must be below max on every axis",
+        )?;
     }
     Ok(SimulationSettings {
         method: s.method,
@@ -127,12 +168,28 @@ fn place_sources(ctx: &Ctx, base: &Path, f: &SceneFile) -> Result<Vec<Placed>, S
     let mut out: Vec<Placed> = Vec::new();
     for (i, s) in f.source.iter().enumerate() {
         let key = format!("source[{i}]");
-        ctx.check(!s.name.is_empty(), format!("{key}.name"), "must not be empty")?;
-        ctx.check(!out.iter().any(|p| p.name == s.name), format!("{key}.name"), format!("duplicate source name {:?}", s.name))?;
-        ctx.check(s.scale.is_finite() && s.scale > 0.0, format!("{key}.scale"), "must be > 0")?;
+        ctx.check(
+            !s.name.is_empty(),
+            format!("{key}.name"),
+            "must not be empty",
+        )?;
+        ctx.check(
+            !out.iter().any(|p| p.name == s.name),
+            format!("{key}.name"),
+            format!("duplicate source name {:?}", s.name),
+        )?;
+        ctx.check(
+            s.scale.is_finite() && s.scale > 0.0,
+            format!("{key}.scale"),
+            "must be > 0",
+        )?;
         ctx.finite3(s.rotation_deg, format!("{key}.rotation_deg"))?;
         ctx.finite3(s.translation_m, format!("{key}.translation_m"))?;
-        ctx.check((0.0..=1.0).contains(&s.min_opacity), format!("{key}.min_opacity"), "must be in [0, 1]")?;
+        ctx.check(
+            (0.0..=1.0).contains(&s.min_opacity),
+            format!("{key}.min_opacity"),
+            "must be in [0, 1]",
+        )?;
         let path = base.join(&s.path);
         let raw = match cache.get(&path) {
             Some(c) => c.clone(),
@@ -147,16 +204,37 @@ fn place_sources(ctx: &Ctx, base: &Path, f: &SceneFile) -> Result<Vec<Placed>, S
             }
         };
         let all: Vec<usize> = (0..raw.len()).collect();
-        let kept = if s.min_opacity > 0.0 { geometric::opacity_at_least(&raw, &all, s.min_opacity) } else { all };
-        let mut cloud = if kept.len() == raw.len() { raw } else { subset(&raw, &kept) };
-        apply_similarity(&mut cloud, s.scale, euler_xyz_deg(s.rotation_deg), Vec3::from(s.translation_m));
+        let kept = if s.min_opacity > 0.0 {
+            geometric::opacity_at_least(&raw, &all, s.min_opacity)
+        } else {
+            all
+        };
+        let mut cloud = if kept.len() == raw.len() {
+            raw
+        } else {
+            subset(&raw, &kept)
+        };
+        apply_similarity(
+            &mut cloud,
+            s.scale,
+            euler_xyz_deg(s.rotation_deg),
+            Vec3::from(s.translation_m),
+        );
         if let Some(v) = s.voxel_m {
-            ctx.check(v.is_finite() && v > 0.0, format!("{key}.voxel_m"), "must be > 0")?;
+            ctx.check(
+                v.is_finite() && v > 0.0,
+                format!("{key}.voxel_m"),
+                "must be > 0",
+            )?;
             let idx: Vec<usize> = (0..cloud.len()).collect();
             cloud = subset(&cloud, &voxel_subsample(&cloud, &idx, v));
         }
         let n = cloud.len();
-        out.push(Placed { name: s.name.clone(), cloud, claimed: vec![false; n] });
+        out.push(Placed {
+            name: s.name.clone(),
+            cloud,
+            claimed: vec![false; n],
+        });
     }
     Ok(out)
 }
@@ -176,11 +254,23 @@ fn select(
         key_path: skey.clone(),
         source: Box::new(source),
     };
-    ctx.check(!(sel.auto.is_some() && sel.query.is_some()), &skey, "`auto` and `query` cannot be combined")?;
+    ctx.check(
+        !(sel.auto.is_some() && sel.query.is_some()),
+        &skey,
+        "`auto` and `query` cannot be combined",
+    )?;
     let which: Vec<usize> = match &sel.source {
-        Some(name) => vec![sources.iter().position(|p| &p.name == name).ok_or_else(|| {
-            ctx.invalid(format!("{skey}.source"), format!("no source named {name:?}"))
-        })?],
+        Some(name) => vec![
+            sources
+                .iter()
+                .position(|p| &p.name == name)
+                .ok_or_else(|| {
+                    ctx.invalid(
+                        format!("{skey}.source"),
+                        format!("no source named {name:?}"),
+                    )
+                })?,
+        ],
         None => (0..sources.len()).collect(),
     };
     ctx.check(!which.is_empty(), &skey, "no [[source]] to select from")?;
@@ -195,14 +285,24 @@ fn select(
             idx = geometric::in_sphere(&p.cloud, &idx, sp.center_m, sp.radius_m);
         }
         if let Some(o) = sel.min_opacity {
-            ctx.check((0.0..=1.0).contains(&o), format!("{skey}.min_opacity"), "must be in [0, 1]")?;
+            ctx.check(
+                (0.0..=1.0).contains(&o),
+                format!("{skey}.min_opacity"),
+                "must be in [0, 1]",
+            )?;
             idx = geometric::opacity_at_least(&p.cloud, &idx, o);
         }
         cand.push((s, idx));
     }
     // Flattened candidate points for the automatic and semantic steps.
-    let flat: Vec<(usize, usize)> = cand.iter().flat_map(|(s, v)| v.iter().map(move |&i| (*s, i))).collect();
-    let points: Vec<[f32; 3]> = flat.iter().map(|&(s, i)| sources[s].cloud.positions[i]).collect();
+    let flat: Vec<(usize, usize)> = cand
+        .iter()
+        .flat_map(|(s, v)| v.iter().map(move |&i| (*s, i)))
+        .collect();
+    let points: Vec<[f32; 3]> = flat
+        .iter()
+        .map(|&(s, i)| sources[s].cloud.positions[i])
+        .collect();
     let regroup = |chosen: &[usize]| -> Vec<(usize, Vec<usize>)> {
         let mut m: Vec<(usize, Vec<usize>)> = which.iter().map(|&s| (s, Vec::new())).collect();
         for &j in chosen {
@@ -226,7 +326,10 @@ fn select(
         let obj = found
             .objects
             .get(k)
-            .ok_or(SelectionError::NoSuchCluster { k, found: found.objects.len() })
+            .ok_or(SelectionError::NoSuchCluster {
+                k,
+                found: found.objects.len(),
+            })
             .map_err(sel_err)?;
         return Ok(regroup(obj));
     }
@@ -235,7 +338,8 @@ fn select(
             .embeddings
             .as_ref()
             .ok_or_else(|| ctx.invalid(format!("{skey}.embeddings"), "required with `query`"))?;
-        let q = QueryEmbeddings::load(&base.join(emb_path), query, sel.negatives.as_deref()).map_err(sel_err)?;
+        let q = QueryEmbeddings::load(&base.join(emb_path), query, sel.negatives.as_deref())
+            .map_err(sel_err)?;
         let (feats, dim) = features(base, sel, sources, &flat).map_err(sel_err)?;
         let d = SemanticParams::default();
         let params = SemanticParams {
@@ -245,7 +349,8 @@ fn select(
             min_samples: sel.min_samples.unwrap_or(d.min_samples),
             knn: sel.knn.unwrap_or(d.knn),
         };
-        let prob = semantic::positive_probability(&feats, dim, &q, params.temperature).map_err(sel_err)?;
+        let prob =
+            semantic::positive_probability(&feats, dim, &q, params.temperature).map_err(sel_err)?;
         let chosen = semantic::select(&points, &prob, &params).map_err(sel_err)?;
         return Ok(regroup(&chosen));
     }
@@ -267,10 +372,17 @@ fn features(
         let mut out = Vec::with_capacity(flat.len() * dim);
         for &(s, i) in flat {
             if sources.len() > 1 && sel.source.is_none() {
-                return Err(SelectionError::File { file: f.clone(), message: "a features file needs `source`".into() });
+                return Err(SelectionError::File {
+                    file: f.clone(),
+                    message: "a features file needs `source`".into(),
+                });
             }
             if i >= rows {
-                return Err(SelectionError::Shape { what: format!("{f} rows"), expected: sources[s].cloud.len(), found: rows });
+                return Err(SelectionError::Shape {
+                    what: format!("{f} rows"),
+                    expected: sources[s].cloud.len(),
+                    found: rows,
+                });
             }
             out.extend_from_slice(&all[i * dim..(i + 1) * dim]);
         }
@@ -279,10 +391,15 @@ fn features(
     let mut dim = usize::MAX;
     for &(s, _) in flat.iter().take(1) {
         let c = &sources[s].cloud;
-        dim = (0..).take_while(|d| c.extra.iter().any(|(n, _)| n == &format!("feat_{d}"))).count();
+        dim = (0..)
+            .take_while(|d| c.extra.iter().any(|(n, _)| n == &format!("feat_{d}")))
+            .count();
     }
     if dim == 0 || dim == usize::MAX {
-        return Err(SelectionError::File { file: "source".into(), message: "no `features` file and no feat_* properties".into() });
+        return Err(SelectionError::File {
+            file: "source".into(),
+            message: "no `features` file and no feat_* properties".into(),
+        });
     }
     let mut out = Vec::with_capacity(flat.len() * dim);
     for &(s, i) in flat {
@@ -304,21 +421,39 @@ fn object(
     seed: u64,
 ) -> Result<SceneObject, SceneError> {
     let key = format!("object[{i}]");
-    ctx.check(!o.name.is_empty(), format!("{key}.name"), "must not be empty")?;
+    ctx.check(
+        !o.name.is_empty(),
+        format!("{key}.name"),
+        "must not be empty",
+    )?;
     let mat = match &o.material {
         Some(m) => material(ctx, m, &format!("{key}.material"))?,
         None => default_material(),
     };
     let restitution = o.restitution.unwrap_or(0.5);
-    ctx.check((0.0..=1.0).contains(&restitution), format!("{key}.restitution"), "must be in [0, 1]")?;
+    ctx.check(
+        (0.0..=1.0).contains(&restitution),
+        format!("{key}.restitution"),
+        "must be in [0, 1]",
+    )?;
     let friction = o.friction.unwrap_or(0.3);
-    ctx.check(friction.is_finite() && friction >= 0.0, format!("{key}.friction"), "must be >= 0")?;
+    ctx.check(
+        friction.is_finite() && friction >= 0.0,
+        format!("{key}.friction"),
+        "must be >= 0",
+    )?;
     ctx.finite3(o.velocity_m_s, format!("{key}.velocity_m_s"))?;
     let gaussians = match (&o.select, &o.shape) {
-        (Some(_), Some(_)) => return Err(ctx.invalid(&key, "give either `select` or `shape`, not both")),
+        (Some(_), Some(_)) => {
+            return Err(ctx.invalid(&key, "give either `select` or `shape`, not both"));
+        }
         (None, None) => return Err(ctx.invalid(&key, "needs `select` or `shape`")),
         (Some(sel), None) => {
-            ctx.check(o.spacing_m.is_none() && o.color.is_none(), &key, "`spacing_m` and `color` only apply to `shape`")?;
+            ctx.check(
+                o.spacing_m.is_none() && o.color.is_none(),
+                &key,
+                "`spacing_m` and `color` only apply to `shape`",
+            )?;
             let picked = select(ctx, base, &key, sel, sources, seed)?;
             let mut cloud = GaussianCloud::default();
             for (s, idx) in &picked {
@@ -332,11 +467,17 @@ fn object(
         (None, Some(shape)) => {
             let spacing = o.spacing_m.unwrap_or(0.01);
             let color = o.color.unwrap_or([0.7, 0.7, 0.7]);
-            ctx.check(color.iter().all(|c| (0.0..=1.0).contains(c)), format!("{key}.color"), "each channel in [0, 1]")?;
-            shape_gaussians(shape, spacing, color, seed).map_err(|source| SceneError::Procedural {
-                file: ctx.file.to_path_buf(),
-                key_path: format!("{key}.shape"),
-                source,
+            ctx.check(
+                color.iter().all(|c| (0.0..=1.0).contains(c)),
+                format!("{key}.color"),
+                "each channel in [0, 1]",
+            )?;
+            shape_gaussians(shape, spacing, color, seed).map_err(|source| {
+                SceneError::Procedural {
+                    file: ctx.file.to_path_buf(),
+                    key_path: format!("{key}.shape"),
+                    source,
+                }
             })?
         }
     };
@@ -346,14 +487,25 @@ fn object(
     if let Some(fill) = &o.fill {
         let params = crate::fill::FillParams {
             spacing_m: fill.spacing_m,
-            density_threshold: fill.density_threshold.unwrap_or(crate::fill::FillParams::default().density_threshold),
-            max_particles: fill.max_particles.unwrap_or(crate::fill::FillParams::default().max_particles),
+            density_threshold: fill
+                .density_threshold
+                .unwrap_or(crate::fill::FillParams::default().density_threshold),
+            max_particles: fill
+                .max_particles
+                .unwrap_or(crate::fill::FillParams::default().max_particles),
             ..crate::fill::FillParams::default()
         };
-        ctx.check(params.spacing_m.is_finite() && params.spacing_m > 0.0, format!("{key}.fill.spacing_m"), "must be > 0")?;
+        ctx.check(
+            params.spacing_m.is_finite() && params.spacing_m > 0.0,
+            format!("{key}.fill.spacing_m"),
+            "must be > 0",
+        )?;
         let added = crate::fill::fill_interior(&gaussians, &params);
         let n_add = added.len();
-        gaussians = concat(&gaussians, &crate::procedural::isotropic_gaussians(added, 0.5 * params.spacing_m, [0.5; 3]));
+        gaussians = concat(
+            &gaussians,
+            &crate::procedural::isotropic_gaussians(added, 0.5 * params.spacing_m, [0.5; 3]),
+        );
         visible.extend(std::iter::repeat_n(false, n_add));
     }
     Ok(SceneObject {
@@ -376,19 +528,41 @@ fn colliders(ctx: &Ctx, f: &SceneFile) -> Result<Vec<ColliderSpec>, SceneError> 
             (Some(p), None) => {
                 ctx.finite3(p.point_m, format!("{key}.plane.point_m"))?;
                 let n = Vec3::from(p.normal);
-                ctx.check(n.is_finite() && n.length() > 1e-6, format!("{key}.plane.normal"), "must be a non-zero vector")?;
-                ColliderShape::Plane { point_m: p.point_m, normal: n.normalize().to_array() }
+                ctx.check(
+                    n.is_finite() && n.length() > 1e-6,
+                    format!("{key}.plane.normal"),
+                    "must be a non-zero vector",
+                )?;
+                ColliderShape::Plane {
+                    point_m: p.point_m,
+                    normal: n.normalize().to_array(),
+                }
             }
             (None, Some(b)) => {
-                ctx.check((0..3).all(|k| b.min_m[k] < b.max_m[k]), format!("{key}.box"), "min_m must be below max_m on every axis")?;
-                ColliderShape::Box { min_m: b.min_m, max_m: b.max_m }
+                ctx.check(
+                    (0..3).all(|k| b.min_m[k] < b.max_m[k]),
+                    format!("{key}.box"),
+                    "min_m must be below max_m on every axis",
+                )?;
+                ColliderShape::Box {
+                    min_m: b.min_m,
+                    max_m: b.max_m,
+                }
             }
             _ => return Err(ctx.invalid(&key, "give exactly one of `plane` or `box`")),
         };
-        ctx.check(c.friction.is_finite() && c.friction >= 0.0, format!("{key}.friction"), "must be >= 0")?;
+        ctx.check(
+            c.friction.is_finite() && c.friction >= 0.0,
+            format!("{key}.friction"),
+            "must be >= 0",
+        )?;
         ctx.finite3(c.velocity_m_s, format!("{key}.velocity_m_s"))?;
         if let Some([a, b]) = c.active_s {
-            ctx.check(a <= b, format!("{key}.active_s"), "start must not be after end")?;
+            ctx.check(
+                a <= b,
+                format!("{key}.active_s"),
+                "start must not be after end",
+            )?;
         }
         out.push(ColliderSpec {
             name: c.name.clone(),
@@ -406,20 +580,35 @@ fn events(ctx: &Ctx, f: &SceneFile, objects: &[SceneObject]) -> Result<Vec<Event
     let mut out = Vec::new();
     for (i, e) in f.event.iter().enumerate() {
         let key = format!("event[{i}]");
-        ctx.check(e.at_s.is_finite() && e.at_s >= 0.0, format!("{key}.at_s"), "must be >= 0")?;
+        ctx.check(
+            e.at_s.is_finite() && e.at_s >= 0.0,
+            format!("{key}.at_s"),
+            "must be >= 0",
+        )?;
         let known = |name: &str, k: &str| {
-            ctx.check(objects.iter().any(|o| o.name == name), format!("{key}.{k}.object"), format!("no object named {name:?}"))
+            ctx.check(
+                objects.iter().any(|o| o.name == name),
+                format!("{key}.{k}.object"),
+                format!("no object named {name:?}"),
+            )
         };
         let action = match (&e.impulse, &e.set_velocity, &e.set_material) {
             (Some(a), None, None) => {
                 known(&a.object, "impulse")?;
                 ctx.finite3(a.vector_n_s, format!("{key}.impulse.vector_n_s"))?;
-                EventAction::Impulse { object: a.object.clone(), vector_n_s: a.vector_n_s, point_m: a.point_m }
+                EventAction::Impulse {
+                    object: a.object.clone(),
+                    vector_n_s: a.vector_n_s,
+                    point_m: a.point_m,
+                }
             }
             (None, Some(v), None) => {
                 known(&v.object, "set_velocity")?;
                 ctx.finite3(v.velocity_m_s, format!("{key}.set_velocity.velocity_m_s"))?;
-                EventAction::SetVelocity { object: v.object.clone(), velocity_m_s: v.velocity_m_s }
+                EventAction::SetVelocity {
+                    object: v.object.clone(),
+                    velocity_m_s: v.velocity_m_s,
+                }
             }
             (None, None, Some(m)) => {
                 known(&m.object, "set_material")?;
@@ -428,11 +617,24 @@ fn events(ctx: &Ctx, f: &SceneFile, objects: &[SceneObject]) -> Result<Vec<Event
                     .as_ref()
                     .map(|mt| material(ctx, mt, &format!("{key}.set_material.material")))
                     .transpose()?;
-                EventAction::SetMaterial { object: m.object.clone(), material, restitution: m.restitution, friction: m.friction }
+                EventAction::SetMaterial {
+                    object: m.object.clone(),
+                    material,
+                    restitution: m.restitution,
+                    friction: m.friction,
+                }
             }
-            _ => return Err(ctx.invalid(&key, "give exactly one of `impulse`, `set_velocity`, `set_material`")),
+            _ => {
+                return Err(ctx.invalid(
+                    &key,
+                    "give exactly one of `impulse`, `set_velocity`, `set_material`",
+                ));
+            }
         };
-        out.push(EventSpec { at_s: e.at_s, action });
+        out.push(EventSpec {
+            at_s: e.at_s,
+            action,
+        });
     }
     out.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
     Ok(out)
@@ -448,7 +650,11 @@ pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene,
     let mut sources = place_sources(&ctx, base_dir, f)?;
     let mut objects: Vec<SceneObject> = Vec::new();
     for (i, o) in f.object.iter().enumerate() {
-        ctx.check(!objects.iter().any(|p| p.name == o.name), format!("object[{i}].name"), format!("duplicate object name {:?}", o.name))?;
+        ctx.check(
+            !objects.iter().any(|p| p.name == o.name),
+            format!("object[{i}].name"),
+            format!("duplicate object name {:?}", o.name),
+        )?;
         let seed = simulation.seed.wrapping_add(i as u64);
         objects.push(object(&ctx, base_dir, i, o, &mut sources, seed)?);
     }
@@ -463,8 +669,23 @@ pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene,
         let key = format!("camera[{i}]");
         ctx.finite3(c.position_m, format!("{key}.position_m"))?;
         ctx.finite3(c.look_at_m, format!("{key}.look_at_m"))?;
-        ctx.check(c.fov_y_deg > 0.0 && c.fov_y_deg < 180.0, format!("{key}.fov_y_deg"), "must be in (0, 180)")?;
-        ctx.check(c.width_px > 0 && c.height_px > 0, format!("{key}.width_px"), "image size must be > 0")?;
+        ctx.check(
+            c.fov_y_deg > 0.0 && c.fov_y_deg < 180.0,
+            format!("{key}.fov_y_deg"),
+            "must be in (0, 180)",
+        )?;
+        ctx.check(
+            c.width_px > 0 && c.height_px > 0,
+            format!("{key}.width_px"),
+            "image size must be > 0",
+        )?;
     }
-    Ok(Scene { simulation, objects, background, colliders, events, cameras: f.camera.clone() })
+    Ok(Scene {
+        simulation,
+        objects,
+        background,
+        colliders,
+        events,
+        cameras: f.camera.clone(),
+    })
 }

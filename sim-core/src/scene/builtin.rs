@@ -14,9 +14,30 @@ impl Scene {
             shape_gaussians(&shape, spacing, color, seed).unwrap_or_default()
         };
         let n_of = |c: &crate::gaussians::GaussianCloud| vec![true; c.len()];
-        let table = mk(Shape::Box { min_m: [-0.25, -0.25, 0.0], max_m: [0.25, 0.25, 0.06] }, [0.55, 0.38, 0.22], 1);
-        let jelly = mk(Shape::Sphere { center_m: [0.0, 0.0, 0.35], radius_m: 0.06 }, [0.9, 0.2, 0.3], 2);
-        let snow = mk(Shape::Box { min_m: [0.1, -0.15, 0.06], max_m: [0.2, -0.05, 0.16] }, [0.95, 0.95, 0.98], 3);
+        let table = mk(
+            Shape::Box {
+                min_m: [-0.25, -0.25, 0.0],
+                max_m: [0.25, 0.25, 0.06],
+            },
+            [0.55, 0.38, 0.22],
+            1,
+        );
+        let jelly = mk(
+            Shape::Sphere {
+                center_m: [0.0, 0.0, 0.35],
+                radius_m: 0.06,
+            },
+            [0.9, 0.2, 0.3],
+            2,
+        );
+        let snow = mk(
+            Shape::Box {
+                min_m: [0.1, -0.15, 0.06],
+                max_m: [0.2, -0.05, 0.16],
+            },
+            [0.95, 0.95, 0.98],
+            3,
+        );
         let objects = vec![
             SceneObject {
                 name: "table".into(),
@@ -66,7 +87,10 @@ impl Scene {
             background: Default::default(),
             colliders: vec![ColliderSpec {
                 name: "floor".into(),
-                shape: ColliderShape::Plane { point_m: [0.0, 0.0, 0.0], normal: [0.0, 0.0, 1.0] },
+                shape: ColliderShape::Plane {
+                    point_m: [0.0, 0.0, 0.0],
+                    normal: [0.0, 0.0, 1.0],
+                },
                 surface: Surface::Sticky,
                 friction: 0.0,
                 velocity_m_s: [0.0; 3],

@@ -24,8 +24,8 @@ use std::path::{Path, PathBuf};
 
 pub use build::build_scene;
 pub use model::{
-    CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MATERIAL_MODELS,
-    MaterialSpec, Method, ObjectKind, Scene, SceneObject, SimulationSettings, Surface,
+    CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MATERIAL_MODELS, MaterialSpec,
+    Method, ObjectKind, Scene, SceneObject, SimulationSettings, Surface,
 };
 
 use crate::formats::FormatError;
@@ -104,7 +104,12 @@ fn line_col(text: &str, at: usize) -> (usize, usize) {
     let at = at.min(text.len());
     let before = &text.as_bytes()[..at];
     let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
-    let col = at - before.iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1) + 1;
+    let col = at
+        - before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |p| p + 1)
+        + 1;
     (line, col)
 }
 

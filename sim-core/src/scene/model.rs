@@ -45,8 +45,15 @@ pub enum Surface {
 }
 
 /// Material model names accepted in `material.model`.
-pub const MATERIAL_MODELS: [&str; 7] =
-    ["jelly", "neo-hookean", "snow", "sand", "metal", "plasticine", "foam"];
+pub const MATERIAL_MODELS: [&str; 7] = [
+    "jelly",
+    "neo-hookean",
+    "snow",
+    "sand",
+    "metal",
+    "plasticine",
+    "foam",
+];
 
 /// A material as plain data; the simulation maps `model` to its constitutive model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -77,7 +84,12 @@ pub struct MaterialSpec {
 
 impl MaterialSpec {
     /// A material with only the three common parameters.
-    pub fn new(model: &str, youngs_modulus_pa: f32, poisson_ratio: f32, density_kg_m3: f32) -> Self {
+    pub fn new(
+        model: &str,
+        youngs_modulus_pa: f32,
+        poisson_ratio: f32,
+        density_kg_m3: f32,
+    ) -> Self {
         Self {
             model: model.to_string(),
             youngs_modulus_pa,

@@ -39,7 +39,10 @@ pub fn subset(cloud: &GaussianCloud, indices: &[usize]) -> GaussianCloud {
     let r = cloud.sh_rest_len;
     GaussianCloud {
         positions: indices.iter().map(|&i| cloud.positions[i]).collect(),
-        normals: cloud.normals.as_ref().map(|n| indices.iter().map(|&i| n[i]).collect()),
+        normals: cloud
+            .normals
+            .as_ref()
+            .map(|n| indices.iter().map(|&i| n[i]).collect()),
         sh_degree: cloud.sh_degree,
         sh_dc: indices.iter().map(|&i| cloud.sh_dc[i]).collect(),
         sh_rest: indices
@@ -79,14 +82,15 @@ pub fn concat(a: &GaussianCloud, b: &GaussianCloud) -> GaussianCloud {
         for i in 0..c.len() {
             for ch in 0..3 {
                 for j in 0..k_old {
-                    out[i * rest_len + ch * k_new + j] = c.sh_rest[i * c.sh_rest_len + ch * k_old + j];
+                    out[i * rest_len + ch * k_new + j] =
+                        c.sh_rest[i * c.sh_rest_len + ch * k_old + j];
                 }
             }
         }
         out
     };
-    let same_extra = a.extra.len() == b.extra.len()
-        && a.extra.iter().zip(&b.extra).all(|(x, y)| x.0 == y.0);
+    let same_extra =
+        a.extra.len() == b.extra.len() && a.extra.iter().zip(&b.extra).all(|(x, y)| x.0 == y.0);
     let cat = |x: &[[f32; 3]], y: &[[f32; 3]]| [x, y].concat();
     GaussianCloud {
         positions: cat(&a.positions, &b.positions),

@@ -5,6 +5,8 @@
 //! The plane's normal is oriented towards the side holding more off-plane points (objects stand
 //! on top of a support). Only points more than `plane_tolerance_m` above the plane are clustered.
 //! When no plane holds at least `min_plane_fraction` of the points, everything is clustered.
+//! The plane is then raised to the top of its inlier band (a support is a slab of Gaussians),
+//! and clusters thinner than the tolerance along the normal (leftover support layers) are dropped.
 
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
@@ -71,7 +73,12 @@ pub struct AutoResult {
 
 /// Best plane by inlier count over `iterations` random 3-point hypotheses; `None` for fewer than
 /// 3 points or only degenerate samples.
-pub fn ransac_plane(points: &[[f32; 3]], iterations: usize, tolerance_m: f32, seed: u64) -> Option<PlaneFit> {
+pub fn ransac_plane(
+    points: &[[f32; 3]],
+    iterations: usize,
+    tolerance_m: f32,
+    seed: u64,
+) -> Option<PlaneFit> {
     let n = points.len();
     if n < 3 {
         return None;
@@ -123,8 +130,22 @@ pub fn ransac_plane(points: &[[f32; 3]], iterations: usize, tolerance_m: f32, se
 
 /// Support plane and the objects standing on it (see the module docs).
 pub fn detect_objects(points: &[[f32; 3]], params: &AutoParams) -> AutoResult {
-    let plane = ransac_plane(points, params.ransac_iterations, params.plane_tolerance_m, params.seed)
-        .filter(|p| p.inliers.len() as f32 >= params.min_plane_fraction * points.len() as f32);
+    let mut plane = ransac_plane(
+        points,
+        params.ransac_iterations,
+        params.plane_tolerance_m,
+        params.seed,
+    )
+    .filter(|p| p.inliers.len() as f32 >= params.min_plane_fraction * points.len() as f32);
+    // A captured or sampled support is a slab, not a plane: move the plane to the top of its
+    // inlier band (98th percentile height) so the slab's upper layer is not mistaken for an object.
+    if let Some(pl) = plane.as_mut() {
+        let mut h: Vec<f32> = pl.inliers.iter().map(|&i| pl.height(points[i])).collect();
+        h.sort_unstable_by(f32::total_cmp);
+        if let Some(&top) = h.get((h.len().saturating_sub(1) as f32 * 0.98) as usize) {
+            pl.offset_m += top.max(0.0);
+        }
+    }
     let candidates: Vec<usize> = match &plane {
         Some(pl) => (0..points.len())
             .filter(|&i| pl.height(points[i]) > params.plane_tolerance_m)
@@ -134,7 +155,19 @@ pub fn detect_objects(points: &[[f32; 3]], params: &AutoParams) -> AutoResult {
     let sub: Vec<[f32; 3]> = candidates.iter().map(|&i| points[i]).collect();
     let objects = euclidean_clusters(&sub, params.cluster_eps_m, params.min_cluster)
         .into_iter()
-        .map(|c| c.into_iter().map(|j| candidates[j]).collect())
+        .map(|c| c.into_iter().map(|j| candidates[j]).collect::<Vec<usize>>())
+        .filter(|c| match &plane {
+            Some(pl) => {
+                let (lo, hi) = c
+                    .iter()
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &i| {
+                        let h = pl.height(points[i]);
+                        (lo.min(h), hi.max(h))
+                    });
+                hi - lo > params.plane_tolerance_m
+            }
+            None => true,
+        })
         .collect();
     AutoResult { plane, objects }
 }

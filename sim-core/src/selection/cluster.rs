@@ -62,7 +62,10 @@ pub fn dbscan(points: &[[f32; 3]], eps_m: f32, min_samples: usize) -> Vec<i32> {
             visited[j] = true;
             let nbj = neighbours(j);
             if nbj.len() >= min_samples.max(1) {
-                stack.extend(nbj.into_iter().filter(|&k| !visited[k] || labels[k] == NOISE));
+                stack.extend(
+                    nbj.into_iter()
+                        .filter(|&k| !visited[k] || labels[k] == NOISE),
+                );
             }
         }
     }
@@ -77,7 +80,11 @@ pub fn euclidean_clusters(points: &[[f32; 3]], eps_m: f32, min_size: usize) -> V
 
 /// Groups labels into index lists, largest first, dropping noise and groups below `min_size`.
 pub fn clusters_from_labels(labels: &[i32], min_size: usize) -> Vec<Vec<usize>> {
-    let count = labels.iter().copied().max().map_or(0, |m| (m + 1).max(0) as usize);
+    let count = labels
+        .iter()
+        .copied()
+        .max()
+        .map_or(0, |m| (m + 1).max(0) as usize);
     let mut groups = vec![Vec::new(); count];
     for (i, &l) in labels.iter().enumerate() {
         if l >= 0 {

@@ -6,7 +6,12 @@ use glam::Vec3;
 use crate::gaussians::GaussianCloud;
 
 /// Indices (ascending) of `indices` whose centre lies in the box `[min, max]` (m, inclusive).
-pub fn in_box(cloud: &GaussianCloud, indices: &[usize], min: [f32; 3], max: [f32; 3]) -> Vec<usize> {
+pub fn in_box(
+    cloud: &GaussianCloud,
+    indices: &[usize],
+    min: [f32; 3],
+    max: [f32; 3],
+) -> Vec<usize> {
     let (lo, hi) = (Vec3::from(min), Vec3::from(max));
     indices
         .iter()
@@ -19,7 +24,12 @@ pub fn in_box(cloud: &GaussianCloud, indices: &[usize], min: [f32; 3], max: [f32
 }
 
 /// Indices of `indices` whose centre lies within `radius` (m) of `center`.
-pub fn in_sphere(cloud: &GaussianCloud, indices: &[usize], center: [f32; 3], radius: f32) -> Vec<usize> {
+pub fn in_sphere(
+    cloud: &GaussianCloud,
+    indices: &[usize],
+    center: [f32; 3],
+    radius: f32,
+) -> Vec<usize> {
     let c = Vec3::from(center);
     indices
         .iter()

@@ -36,7 +36,13 @@ pub struct SemanticParams {
 
 impl Default for SemanticParams {
     fn default() -> Self {
-        Self { temperature: 0.05, threshold: 0.6, eps_m: 0.02, min_samples: 5, knn: 8 }
+        Self {
+            temperature: 0.05,
+            threshold: 0.6,
+            eps_m: 0.02,
+            min_samples: 5,
+            knn: 8,
+        }
     }
 }
 
@@ -64,14 +70,19 @@ impl QueryEmbeddings {
         negatives: Option<&[String]>,
     ) -> Result<Self, SelectionError> {
         let get = |p: &str| {
-            map.get(p).cloned().ok_or_else(|| SelectionError::MissingPhrase {
-                file: file.to_string(),
-                phrase: p.to_string(),
-                available: map.keys().cloned().collect(),
-            })
+            map.get(p)
+                .cloned()
+                .ok_or_else(|| SelectionError::MissingPhrase {
+                    file: file.to_string(),
+                    phrase: p.to_string(),
+                    available: map.keys().cloned().collect(),
+                })
         };
         let positive = get(query)?;
-        let canonical = CANONICAL.iter().map(|c| get(c)).collect::<Result<Vec<_>, _>>()?;
+        let canonical = CANONICAL
+            .iter()
+            .map(|c| get(c))
+            .collect::<Result<Vec<_>, _>>()?;
         let negatives = match negatives {
             Some(list) => list.iter().map(|p| get(p)).collect::<Result<Vec<_>, _>>()?,
             None => map
@@ -80,7 +91,11 @@ impl QueryEmbeddings {
                 .map(|(_, v)| v.clone())
                 .collect(),
         };
-        Ok(Self { positive, canonical, negatives })
+        Ok(Self {
+            positive,
+            canonical,
+            negatives,
+        })
     }
 
     /// Reads embeddings from JSON (`{phrase: [floats]}`) or `.npy` (`[P][D]`, rows: positive,
@@ -88,13 +103,23 @@ impl QueryEmbeddings {
     ///
     /// # Errors
     /// [`SelectionError::File`] for unreadable files, [`SelectionError::MissingPhrase`].
-    pub fn load(path: &Path, query: &str, negatives: Option<&[String]>) -> Result<Self, SelectionError> {
+    pub fn load(
+        path: &Path,
+        query: &str,
+        negatives: Option<&[String]>,
+    ) -> Result<Self, SelectionError> {
         let file = path.display().to_string();
-        let ferr = |message: String| SelectionError::File { file: file.clone(), message };
+        let ferr = |message: String| SelectionError::File {
+            file: file.clone(),
+            message,
+        };
         if path.extension().is_some_and(|e| e == "npy") {
             let (rows, dim) = read_npy_matrix(path)?;
             if rows.len() < 3 * dim || dim == 0 {
-                return Err(ferr(format!("need at least 3 rows (positive, object, things), got {}", rows.len() / dim.max(1))));
+                return Err(ferr(format!(
+                    "need at least 3 rows (positive, object, things), got {}",
+                    rows.len() / dim.max(1)
+                )));
             }
             let row = |r: usize| rows[r * dim..(r + 1) * dim].to_vec();
             let n = rows.len() / dim;
@@ -105,7 +130,8 @@ impl QueryEmbeddings {
             });
         }
         let text = std::fs::read_to_string(path).map_err(|e| ferr(e.to_string()))?;
-        let map: BTreeMap<String, Vec<f32>> = serde_json::from_str(&text).map_err(|e| ferr(e.to_string()))?;
+        let map: BTreeMap<String, Vec<f32>> =
+            serde_json::from_str(&text).map_err(|e| ferr(e.to_string()))?;
         Self::from_map(&file, &map, query, negatives)
     }
 }
@@ -116,12 +142,17 @@ impl QueryEmbeddings {
 /// [`SelectionError::File`] for unreadable files, other dtypes or shapes.
 pub fn read_npy_matrix(path: &Path) -> Result<(Vec<f32>, usize), SelectionError> {
     let file = path.display().to_string();
-    let ferr = |message: String| SelectionError::File { file: file.clone(), message };
+    let ferr = |message: String| SelectionError::File {
+        file: file.clone(),
+        message,
+    };
     let bytes = std::fs::read(path).map_err(|e| ferr(e.to_string()))?;
     let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| ferr(e.to_string()))?;
     let shape = npy.shape().to_vec();
     if shape.len() != 2 || npy.order() != npyz::Order::C {
-        return Err(ferr(format!("expected a C-order 2-D array, shape {shape:?}")));
+        return Err(ferr(format!(
+            "expected a C-order 2-D array, shape {shape:?}"
+        )));
     }
     let dim = shape[1] as usize;
     let dtype = npy.dtype();
@@ -133,7 +164,11 @@ pub fn read_npy_matrix(path: &Path) -> Result<(Vec<f32>, usize), SelectionError>
             .into_iter()
             .map(f32::from)
             .collect(),
-        other => return Err(ferr(format!("dtype {other} not supported (float32 or float16)"))),
+        other => {
+            return Err(ferr(format!(
+                "dtype {other} not supported (float32 or float16)"
+            )));
+        }
     };
     Ok((values, dim))
 }
@@ -159,11 +194,22 @@ pub fn positive_probability(
     q: &QueryEmbeddings,
     temperature: f32,
 ) -> Result<Vec<f32>, SelectionError> {
-    let shape = |what: &str, expected, found| SelectionError::Shape { what: what.to_string(), expected, found };
+    let shape = |what: &str, expected, found| SelectionError::Shape {
+        what: what.to_string(),
+        expected,
+        found,
+    };
     if dim == 0 || !features.len().is_multiple_of(dim) {
-        return Err(shape("features length (multiple of D)", dim, features.len()));
+        return Err(shape(
+            "features length (multiple of D)",
+            dim,
+            features.len(),
+        ));
     }
-    for e in std::iter::once(&q.positive).chain(&q.canonical).chain(&q.negatives) {
+    for e in std::iter::once(&q.positive)
+        .chain(&q.canonical)
+        .chain(&q.negatives)
+    {
         if e.len() != dim {
             return Err(shape("embedding dimension", dim, e.len()));
         }
@@ -173,7 +219,12 @@ pub fn positive_probability(
         .chunks_exact(dim)
         .map(|f| {
             let pos = cosine(f, &q.positive) / t;
-            let others: Vec<f32> = q.canonical.iter().chain(&q.negatives).map(|e| cosine(f, e) / t).collect();
+            let others: Vec<f32> = q
+                .canonical
+                .iter()
+                .chain(&q.negatives)
+                .map(|e| cosine(f, e) / t)
+                .collect();
             let m = others.iter().copied().fold(pos, f32::max);
             let num = (pos - m).exp();
             num / (num + others.iter().map(|o| (o - m).exp()).sum::<f32>())
@@ -186,15 +237,25 @@ pub fn positive_probability(
 ///
 /// # Errors
 /// [`SelectionError::Empty`] when nothing passes the threshold or no cluster forms.
-pub fn select(points: &[[f32; 3]], prob: &[f32], params: &SemanticParams) -> Result<Vec<usize>, SelectionError> {
-    let passed: Vec<usize> = (0..points.len()).filter(|&i| prob.get(i).is_some_and(|&p| p > params.threshold)).collect();
+pub fn select(
+    points: &[[f32; 3]],
+    prob: &[f32],
+    params: &SemanticParams,
+) -> Result<Vec<usize>, SelectionError> {
+    let passed: Vec<usize> = (0..points.len())
+        .filter(|&i| prob.get(i).is_some_and(|&p| p > params.threshold))
+        .collect();
     if passed.is_empty() {
-        return Err(SelectionError::Empty { why: format!("no Gaussian above probability {}", params.threshold) });
+        return Err(SelectionError::Empty {
+            why: format!("no Gaussian above probability {}", params.threshold),
+        });
     }
     let sub: Vec<[f32; 3]> = passed.iter().map(|&i| points[i]).collect();
     let clusters = clusters_from_labels(&dbscan(&sub, params.eps_m, params.min_samples), 1);
     let Some(largest) = clusters.first() else {
-        return Err(SelectionError::Empty { why: "no DBSCAN cluster among the Gaussians above threshold".into() });
+        return Err(SelectionError::Empty {
+            why: "no DBSCAN cluster among the Gaussians above threshold".into(),
+        });
     };
     let mut selected = vec![false; points.len()];
     for &j in largest {
@@ -207,11 +268,14 @@ pub fn select(points: &[[f32; 3]], prob: &[f32], params: &SemanticParams) -> Res
             if base[i] {
                 continue;
             }
-            let nn = tree.nearest_n::<SquaredEuclidean>(&points[i], NonZero::new(k.get() + 1).unwrap_or(k));
+            let nn = tree
+                .nearest_n::<SquaredEuclidean>(&points[i], NonZero::new(k.get() + 1).unwrap_or(k));
             let (hits, total) = nn
                 .iter()
                 .filter(|n| n.item as usize != i)
-                .fold((0, 0), |(h, t), n| (h + usize::from(base[n.item as usize]), t + 1));
+                .fold((0, 0), |(h, t), n| {
+                    (h + usize::from(base[n.item as usize]), t + 1)
+                });
             if total > 0 && 2 * hits > total {
                 selected[i] = true;
             }

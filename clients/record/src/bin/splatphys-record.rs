@@ -79,7 +79,8 @@ fn main() -> Result<()> {
             if lz4 {
                 opts.writer.compression = ChunkCompression::Lz4;
             }
-            let (end, counts) = record(&out, &opts).with_context(|| format!("recording {prefix}"))?;
+            let (end, counts) =
+                record(&out, &opts).with_context(|| format!("recording {prefix}"))?;
             eprintln!(
                 "splatphys-record: {} frames, {} objects, {} scenes, {} commands, {} status -> {} ({end:?})",
                 counts.frames,
@@ -94,8 +95,12 @@ fn main() -> Result<()> {
             }
         }
         Cmd::Replay { file, prefix, fast } => {
-            let c = replay(&file, &prefix, !fast).with_context(|| format!("replaying {}", file.display()))?;
-            eprintln!("splatphys-record replay: {} frames, {} scenes under {prefix}", c.frames, c.scenes);
+            let c = replay(&file, &prefix, !fast)
+                .with_context(|| format!("replaying {}", file.display()))?;
+            eprintln!(
+                "splatphys-record replay: {} frames, {} scenes under {prefix}",
+                c.frames, c.scenes
+            );
         }
         Cmd::ExportObjects { file, out } => {
             let bytes = read_file(&file)?;
@@ -103,7 +108,8 @@ fn main() -> Result<()> {
             let rows = match out {
                 Some(p) => {
                     let mut f = std::io::BufWriter::new(
-                        std::fs::File::create(&p).with_context(|| format!("creating {}", p.display()))?,
+                        std::fs::File::create(&p)
+                            .with_context(|| format!("creating {}", p.display()))?,
                     );
                     objects_csv(&msgs, &file, &mut f)?
                 }
