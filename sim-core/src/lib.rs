@@ -15,3 +15,5 @@ pub mod mpm;
 pub mod procedural;
 pub mod scene;
 pub mod selection;
+pub mod kinematics;
+pub mod world;

@@ -5,7 +5,7 @@
 //! view, so the cube fills most of the frame), standard deviations log-uniform in 2-20 mm per
 //! axis, random orientation, opacities uniform in [0.05, 1], SH degree 0.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, criterion_main};
 use glam::{Mat3, Quat, Vec3};
 use splatphys_render::{Camera, RenderSettings, Splats, render};
 
@@ -56,13 +56,25 @@ fn random_scene(n: usize) -> Splats {
 fn bench_raster(c: &mut Criterion) {
     let splats = random_scene(100_000);
     let view = splats.view().expect("consistent arrays");
-    let camera = Camera::new(Vec3::new(3.0, 0.0, 0.0), Vec3::ZERO, Vec3::Z, 50.0, 640, 480)
-        .expect("valid camera");
+    let camera = Camera::new(
+        Vec3::new(3.0, 0.0, 0.0),
+        Vec3::ZERO,
+        Vec3::Z,
+        50.0,
+        640,
+        480,
+    )
+    .expect("valid camera");
     let settings = RenderSettings::default();
     c.bench_function("raster_100k_640x480", |b| {
         b.iter(|| render(&view, &camera, &settings).expect("render"))
     });
 }
 
-criterion_group!(benches, bench_raster);
-criterion_main!(benches);
+// criterion's macro defines an undocumented `pub fn benches`.
+#[allow(missing_docs)]
+mod group {
+    use super::bench_raster;
+    criterion::criterion_group!(benches, bench_raster);
+}
+criterion_main!(group::benches);

@@ -27,7 +27,9 @@ pub enum CameraError {
     },
     /// Position, look-at point or up vector not finite, look-at equal to the position, or up
     /// parallel to the viewing direction.
-    #[error("camera at {position:?} looking at {look_at:?} with up {up:?} has no defined orientation")]
+    #[error(
+        "camera at {position:?} looking at {look_at:?} with up {up:?} has no defined orientation"
+    )]
     Degenerate {
         /// Camera position, m.
         position: [f32; 3],

@@ -75,7 +75,13 @@ impl Bounds {
 
     /// Distance from the centre at which a camera with `fov_y_deg` and aspect `width_px /
     /// height_px` sees the whole bounding sphere, times `margin` (1.0 = touching the edges).
-    pub fn framing_distance(&self, fov_y_deg: f32, width_px: u32, height_px: u32, margin: f32) -> f32 {
+    pub fn framing_distance(
+        &self,
+        fov_y_deg: f32,
+        width_px: u32,
+        height_px: u32,
+        margin: f32,
+    ) -> f32 {
         let tan_y = (fov_y_deg.to_radians() * 0.5).tan();
         let tan_x = tan_y * width_px.max(1) as f32 / height_px.max(1) as f32;
         let half = tan_y.min(tan_x).atan();

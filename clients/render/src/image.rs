@@ -37,11 +37,7 @@ impl ImageF32 {
 
     /// Quantises to 8 bits: `round(clamp(v, 0, 1) · 255)` (NaN becomes 0).
     pub fn to_rgb8(&self) -> ImageRgb8 {
-        let data = self
-            .pixels
-            .iter()
-            .flat_map(|p| p.map(quantise))
-            .collect();
+        let data = self.pixels.iter().flat_map(|p| p.map(quantise)).collect();
         ImageRgb8 {
             width: self.width,
             height: self.height,

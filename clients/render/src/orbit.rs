@@ -31,7 +31,13 @@ pub struct OrbitPath {
 impl OrbitPath {
     /// An orbit around `bounds` at the distance where the whole box stays in view
     /// ([`Bounds::framing_distance`] with a 5 % margin), 20° elevation, first camera at azimuth 0.
-    pub fn around(bounds: &Bounds, up: Vec3, fov_y_deg: f32, width_px: u32, height_px: u32) -> Self {
+    pub fn around(
+        bounds: &Bounds,
+        up: Vec3,
+        fov_y_deg: f32,
+        width_px: u32,
+        height_px: u32,
+    ) -> Self {
         Self {
             centre: bounds.centre(),
             distance_m: bounds.framing_distance(fov_y_deg, width_px, height_px, 1.05),

@@ -32,7 +32,9 @@ pub enum OutputError {
         source: image::ImageError,
     },
     /// An image with no pixels, or whose buffer does not match its size.
-    #[error("{path}: frame {index} is {width}x{height} px with {bytes} bytes; need a non-empty RGB8 image")]
+    #[error(
+        "{path}: frame {index} is {width}x{height} px with {bytes} bytes; need a non-empty RGB8 image"
+    )]
     BadFrame {
         /// The file.
         path: PathBuf,
@@ -163,10 +165,32 @@ pub fn write_mp4(path: &Path, frames: &[ImageRgb8], fps: f32) -> Result<bool, Ou
     }
     let (w, h) = (frames[0].width, frames[0].height);
     let mut child = Command::new("ffmpeg")
-        .args(["-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24"])
-        .args(["-s", &format!("{w}x{h}"), "-r", &format!("{fps}"), "-i", "-"])
+        .args([
+            "-y",
+            "-loglevel",
+            "error",
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            "rgb24",
+        ])
+        .args([
+            "-s",
+            &format!("{w}x{h}"),
+            "-r",
+            &format!("{fps}"),
+            "-i",
+            "-",
+        ])
         .args(["-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2"])
-        .args(["-c:v", "libx264", "-pix_fmt", "yuv420p", "-movflags", "+faststart"])
+        .args([
+            "-c:v",
+            "libx264",
+            "-pix_fmt",
+            "yuv420p",
+            "-movflags",
+            "+faststart",
+        ])
         .arg(path)
         .stdin(Stdio::piped())
         .stdout(Stdio::null())
@@ -186,7 +210,14 @@ pub fn write_mp4(path: &Path, frames: &[ImageRgb8], fps: f32) -> Result<bool, Ou
         .map_err(|source| io_error(path, source))?;
     if !output.status.success() {
         let stderr = String::from_utf8_lossy(&output.stderr);
-        let tail: String = stderr.chars().rev().take(2000).collect::<Vec<_>>().into_iter().rev().collect();
+        let tail: String = stderr
+            .chars()
+            .rev()
+            .take(2000)
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
         return Err(OutputError::Ffmpeg {
             path: path.to_path_buf(),
             status: output.status,

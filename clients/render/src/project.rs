@@ -61,13 +61,13 @@ pub fn project_one(
     let hidden = Splat2D::default();
     let p = Vec3::from(splats.positions[i]);
     let opacity = splats.opacities[i];
-    if !p.is_finite() || !(opacity >= ALPHA_MIN) {
+    if !p.is_finite() || opacity.is_nan() || opacity < ALPHA_MIN {
         return hidden;
     }
     let opacity = opacity.min(1.0);
     let t = view.to_view(p);
     // `in_frustum`: the reference culls p_view.z <= 0.2.
-    if !(t.z > near_m) {
+    if t.z.is_nan() || t.z <= near_m {
         return hidden;
     }
 
@@ -186,7 +186,8 @@ pub fn project_one(
 pub fn tile_rect(mean_px: [f32; 2], radius_px: f32, grid: [u32; 2]) -> [u32; 4] {
     let tile = TILE_PX as f32;
     let lo = |p: f32, g: u32| (((p - radius_px) / tile) as i64).clamp(0, g as i64) as u32;
-    let hi = |p: f32, g: u32| (((p + radius_px + tile - 1.0) / tile) as i64).clamp(0, g as i64) as u32;
+    let hi =
+        |p: f32, g: u32| (((p + radius_px + tile - 1.0) / tile) as i64).clamp(0, g as i64) as u32;
     [
         lo(mean_px[0], grid[0]),
         lo(mean_px[1], grid[1]),

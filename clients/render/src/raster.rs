@@ -6,9 +6,12 @@
 //! α < 1/255; a pixel stops, without blending the Gaussian that would take it there, as soon as
 //! T would drop below 1e-4. The background is added with the remaining T.
 //!
-//! The loops run Gaussian-outer, pixel-inner over the part of the tile where α can reach 1/255
-//! ([`Splat2D::alpha_box_px`]); each pixel still sees exactly the reference's sequence of
-//! operations, so the result is the same as the reference's pixel-outer loop.
+//! The loops run Gaussian-outer, pixel-inner, and per tile row only over the chord of the ellipse
+//! where α can reach 1/255 (plus a pixel of slack), narrowed to the pixels still blending; each
+//! pixel still sees the reference's sequence of operations, so the result is the reference's
+//! pixel-outer loop. The blending runs 4 lanes at a time (`wide::f32x4`, branch-free selects), and
+//! exp is a portable polynomial ([`exp_neg`], within about 2e-7 relative of libm), so every
+//! platform gives the same bits.
 
 use wide::{f32x4, i32x4};
 
@@ -91,7 +94,7 @@ pub fn render_tile(
         for py in py0..py1 {
             let dy = my - py as f32;
             let disc = cb * cb * dy * dy - ca * (cc * dy * dy - chord);
-            if !(disc >= 0.0) {
+            if disc.is_nan() || disc < 0.0 {
                 continue;
             }
             let root = disc.sqrt();
@@ -193,7 +196,9 @@ fn blend_row(
         // Same expression as the reference: −½(a dx² + c dy²) − b dx dy.
         let power = f32x4::splat(-0.5) * (ca * dx * dx + cc_dy2) - cb_dy * dx;
         let g = o * exp_neg_x4(power);
-        let alpha = g.simd_lt(f32x4::splat(ALPHA_MAX)).select(g, f32x4::splat(ALPHA_MAX));
+        let alpha = g
+            .simd_lt(f32x4::splat(ALPHA_MAX))
+            .select(g, f32x4::splat(ALPHA_MAX));
         let t = load(&transmittance[range.clone()]);
         let l = load(&live[range.clone()]);
         let test_t = t * (f32x4::ONE - alpha);
@@ -236,13 +241,15 @@ fn exp_neg_x4(x: f32x4) -> f32x4 {
     let round = f32x4::splat(EXP_ROUND);
     let shifted = x * f32x4::splat(std::f32::consts::LOG2_E) + round;
     let n = shifted - round;
-    let n_int: i32x4 = bytemuck::cast::<f32x4, i32x4>(shifted) - i32x4::splat(EXP_ROUND.to_bits() as i32);
+    let n_int: i32x4 =
+        bytemuck::cast::<f32x4, i32x4>(shifted) - i32x4::splat(EXP_ROUND.to_bits() as i32);
     let r = (x - n * f32x4::splat(EXP_LN2_HI)) - n * f32x4::splat(EXP_LN2_LO);
     let c = |v: f32| f32x4::splat(v);
     let p = c(1.0)
         + r * (c(1.0)
             + r * (c(0.5)
-                + r * (c(1.0 / 6.0) + r * (c(1.0 / 24.0) + r * (c(1.0 / 120.0) + r * c(1.0 / 720.0))))));
+                + r * (c(1.0 / 6.0)
+                    + r * (c(1.0 / 24.0) + r * (c(1.0 / 120.0) + r * c(1.0 / 720.0))))));
     let scale: f32x4 = bytemuck::cast((n_int + i32x4::splat(127)) << 23);
     p * scale
 }

@@ -112,18 +112,29 @@ pub fn render(
     #[cfg(feature = "parallel")]
     let projected: Vec<Splat2D> = {
         use rayon::prelude::*;
-        (0..n).into_par_iter().with_min_len(1024).map(project).collect()
+        (0..n)
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(project)
+            .collect()
     };
     #[cfg(not(feature = "parallel"))]
     let projected: Vec<Splat2D> = (0..n).map(project).collect();
 
-    let t_proj = std::time::Instant::now();
     let bins = bin(&projected, grid_w, num_tiles);
-    let t_bin = std::time::Instant::now();
     let background = settings.background;
     let tile = |keys: &mut Vec<u64>, t: usize| -> Box<TilePixels> {
         let (tx, ty) = (t as u32 % grid_w, t as u32 / grid_w);
-        render_tile(tx, ty, width, height, bins.tile(t), &projected, background, keys)
+        render_tile(
+            tx,
+            ty,
+            width,
+            height,
+            bins.tile(t),
+            &projected,
+            background,
+            keys,
+        )
     };
     #[cfg(feature = "parallel")]
     let tiles: Vec<Box<TilePixels>> = {
@@ -139,8 +150,6 @@ pub fn render(
         (0..num_tiles).map(|t| tile(&mut keys, t)).collect()
     };
 
-    let t_tiles = std::time::Instant::now();
-    if std::env::var_os("SPLAT_TIMING").is_some() { eprintln!("bin {:?} tiles {:?} entries {}", t_bin - t_proj, t_tiles - t_bin, bins.entries.len()); }
     let mut pixels = vec![[0.0f32; 3]; width as usize * height as usize];
     for (t, tile_pixels) in tiles.iter().enumerate() {
         let (tx, ty) = (t as u32 % grid_w, t as u32 / grid_w);

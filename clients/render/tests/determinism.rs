@@ -107,7 +107,10 @@ fn mismatched_arrays_are_refused() {
         &[],
     )
     .unwrap_err();
-    assert!(matches!(err, InputError::LengthMismatch { field: "sh", .. }));
+    assert!(matches!(
+        err,
+        InputError::LengthMismatch { field: "sh", .. }
+    ));
     assert!(matches!(
         SplatView::new(&[], &[], &[], &[], 4, &[]),
         Err(InputError::ShDegree { degree: 4 })
@@ -130,7 +133,13 @@ fn non_finite_and_degenerate_gaussians_are_skipped() {
     push(&mut dirty, Vec3::ZERO, cov, 0.9, &[[f32::NAN; 3]]);
     // Negative-definite and all-zero covariances: not a Gaussian; the low-pass keeps the zero one
     // as a 0.3 px² dot, the negative one has det <= 0 and is dropped.
-    push(&mut dirty, Vec3::splat(5.0), [-1.0, 0.0, 0.0, -1.0, 0.0, -1.0], 0.9, &dc);
+    push(
+        &mut dirty,
+        Vec3::splat(5.0),
+        [-1.0, 0.0, 0.0, -1.0, 0.0, -1.0],
+        0.9,
+        &dc,
+    );
     // Behind the camera and exactly at it.
     push(&mut dirty, Vec3::new(10.0, -5.0, 4.0), cov, 0.9, &dc);
     push(&mut dirty, cam.position, cov, 0.9, &dc);

@@ -15,7 +15,15 @@ const DIST_M: f32 = 2.0;
 /// Camera on +x looking at the origin, z up: image x runs along world +y, image y along −z, and
 /// the origin lands exactly on pixel (32, 24) (pixel centres at integers).
 fn camera() -> Camera {
-    Camera::new(Vec3::new(DIST_M, 0.0, 0.0), Vec3::ZERO, Vec3::Z, FOV_Y_DEG, W, H).unwrap()
+    Camera::new(
+        Vec3::new(DIST_M, 0.0, 0.0),
+        Vec3::ZERO,
+        Vec3::Z,
+        FOV_Y_DEG,
+        W,
+        H,
+    )
+    .unwrap()
 }
 
 fn focal_px() -> f32 {
@@ -78,7 +86,10 @@ fn single_gaussian_matches_analytic_footprint() {
             }
         }
     }
-    assert!(compared > 100, "only {compared} pixels inside the footprint");
+    assert!(
+        compared > 100,
+        "only {compared} pixels inside the footprint"
+    );
 
     // σ in pixels from the profiles through the centre along each image axis. Along u at v = 0
     // the fall-off is exp(-½ u² (Σ⁻¹)_uu), i.e. a Gaussian of variance det / Σ_vv (and likewise
@@ -87,7 +98,11 @@ fn single_gaussian_matches_analytic_footprint() {
     let sigma_v_cond = (det / suu).sqrt();
     for (axis, sigma) in [(0, sigma_u_cond), (1, sigma_v_cond)] {
         for step in [2u32, 3, 4] {
-            let (x, y) = if axis == 0 { (32 + step, 24) } else { (32, 24 + step) };
+            let (x, y) = if axis == 0 {
+                (32 + step, 24)
+            } else {
+                (32, 24 + step)
+            };
             let ratio = img.get(x, y).unwrap()[0] / peak[0];
             let fitted = step as f32 / (2.0 * (1.0 / ratio).ln()).sqrt();
             assert!(
@@ -123,13 +138,23 @@ fn front_gaussian_dominates_regardless_of_input_order() {
     assert!((c[2] - 0.05 * 0.95).abs() < 1e-3, "blue {}", c[2]);
 
     // Seen from the other side, blue is in front.
-    let behind = Camera::new(Vec3::new(-DIST_M, 0.0, 0.0), Vec3::ZERO, Vec3::Z, FOV_Y_DEG, W, H)
-        .unwrap();
+    let behind = Camera::new(
+        Vec3::new(-DIST_M, 0.0, 0.0),
+        Vec3::ZERO,
+        Vec3::Z,
+        FOV_Y_DEG,
+        W,
+        H,
+    )
+    .unwrap();
     let c = render(&red_blue(true).view().unwrap(), &behind, &settings)
         .unwrap()
         .get(32, 24)
         .unwrap();
-    assert!((c[2] - 0.95).abs() < 1e-3 && (c[0] - 0.05 * 0.95).abs() < 1e-3, "{c:?}");
+    assert!(
+        (c[2] - 0.95).abs() < 1e-3 && (c[0] - 0.05 * 0.95).abs() < 1e-3,
+        "{c:?}"
+    );
 }
 
 #[test]
@@ -153,4 +178,25 @@ fn pixel_stops_before_transmittance_drops_below_1e4() {
         .unwrap();
     let expected = 0.95 * (1.0 + 0.05 + 0.0025) + 1.25e-4 * 0.5;
     assert!((c[0] - expected).abs() < 1e-5, "{} vs {expected}", c[0]);
+}
+
+#[test]
+fn portable_exp_matches_libm_over_the_blending_range() {
+    // The blending only needs e^x for x in [ln(1/255) - 1e-3, 0] (α >= 1/255); check a wider
+    // range. 5e-7 relative is a few f32 ulps, far below the 1/255 quantisation of the output.
+    let mut worst = 0.0f64;
+    for i in 0..=200_000 {
+        let x = -20.0 * i as f32 / 200_000.0;
+        let got = f64::from(splatphys_render::raster::exp_neg(x));
+        let want = f64::from(x).exp();
+        worst = worst.max((got - want).abs() / want);
+    }
+    assert!(worst < 5e-7, "worst relative error {worst}");
+    assert_eq!(splatphys_render::raster::exp_neg(0.0), 1.0);
+    assert_eq!(
+        splatphys_render::raster::exp_neg(3.0),
+        1.0,
+        "positive input clamps to 0"
+    );
+    assert!(splatphys_render::raster::exp_neg(-200.0) < 1e-37);
 }

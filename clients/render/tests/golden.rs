@@ -53,7 +53,13 @@ fn scene() -> Splats {
             let cov = covariance(rng.unit_quat(), scales);
             // Degree-1 term along x for the third blob: bluish from +x, reddish from -x.
             let sh3 = [view_dep, 0.0, -view_dep];
-            push(&mut s, centre + offset, cov, rng.range(0.5, 1.0), &[dc_for(colour), zero, zero, sh3]);
+            push(
+                &mut s,
+                centre + offset,
+                cov,
+                rng.range(0.5, 1.0),
+                &[dc_for(colour), zero, zero, sh3],
+            );
         }
     }
     s
@@ -87,7 +93,12 @@ fn procedural_scene_matches_golden_image() {
         return;
     }
     let golden = image::open(&path)
-        .unwrap_or_else(|e| panic!("{}: {e}; run with UPDATE_GOLDEN=1 to create it", path.display()))
+        .unwrap_or_else(|e| {
+            panic!(
+                "{}: {e}; run with UPDATE_GOLDEN=1 to create it",
+                path.display()
+            )
+        })
         .to_rgb8();
     let golden = ImageRgb8 {
         width: golden.width(),
@@ -107,12 +118,19 @@ fn procedural_scene_matches_golden_image() {
     let over_1 = diffs.iter().filter(|&&d| d > 1).count();
     let max = diffs.iter().copied().max().unwrap_or(0);
     assert!(max <= 8, "max channel difference {max}");
-    assert!(over_1 <= diffs.len() / 500, "{over_1} channel values differ by more than 1");
+    assert!(
+        over_1 <= diffs.len() / 500,
+        "{over_1} channel values differ by more than 1"
+    );
     // The scene is not blank: the floor, the blobs and the background are all there.
     let distinct: std::collections::BTreeSet<[u8; 3]> = img
         .data
         .chunks_exact(3)
         .map(|p| [p[0] / 32, p[1] / 32, p[2] / 32])
         .collect();
-    assert!(distinct.len() >= 8, "only {} colour classes", distinct.len());
+    assert!(
+        distinct.len() >= 8,
+        "only {} colour classes",
+        distinct.len()
+    );
 }

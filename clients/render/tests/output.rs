@@ -5,7 +5,9 @@ mod common;
 
 use glam::Vec3;
 use splatphys_render::output::ffmpeg_available;
-use splatphys_render::{Bounds, ImageRgb8, OrbitPath, OutputError, write_gif, write_mp4, write_png};
+use splatphys_render::{
+    Bounds, ImageRgb8, OrbitPath, OutputError, write_gif, write_mp4, write_png,
+};
 
 fn gradient(w: u32, h: u32, shift: u8) -> ImageRgb8 {
     let mut data = Vec::new();
@@ -51,7 +53,10 @@ fn gif_has_every_frame_at_the_right_size() {
         assert_eq!(buf.dimensions(), (16, 12));
         // Palette quantisation: colours close to the original (blue channel identifies frames).
         let px = buf.get_pixel(5, 5).0;
-        assert!((i32::from(px[2]) - i32::from(original.data[2])).abs() <= 12, "{px:?}");
+        assert!(
+            (i32::from(px[2]) - i32::from(original.data[2])).abs() <= 12,
+            "{px:?}"
+        );
     }
 }
 
@@ -59,9 +64,15 @@ fn gif_has_every_frame_at_the_right_size() {
 fn animations_refuse_bad_sequences() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("a.gif");
-    assert!(matches!(write_gif(&path, &[], 10.0), Err(OutputError::NoFrames { .. })));
+    assert!(matches!(
+        write_gif(&path, &[], 10.0),
+        Err(OutputError::NoFrames { .. })
+    ));
     let frames = [gradient(8, 8, 0), gradient(9, 8, 0)];
-    assert!(matches!(write_gif(&path, &frames, 10.0), Err(OutputError::FrameSize { .. })));
+    assert!(matches!(
+        write_gif(&path, &frames, 10.0),
+        Err(OutputError::FrameSize { .. })
+    ));
     assert!(matches!(
         write_gif(&path, &frames[..1], 0.0),
         Err(OutputError::FrameRate { .. })
@@ -71,7 +82,10 @@ fn animations_refuse_bad_sequences() {
         height: 0,
         data: Vec::new(),
     };
-    assert!(matches!(write_png(&path, &empty), Err(OutputError::BadFrame { .. })));
+    assert!(matches!(
+        write_png(&path, &empty),
+        Err(OutputError::BadFrame { .. })
+    ));
 }
 
 #[test]
@@ -95,14 +109,32 @@ fn framing_keeps_every_corner_in_view() {
         let view = cam.view_params().unwrap();
         for i in 0..8 {
             let corner = Vec3::new(
-                if i & 1 == 0 { bounds.min.x } else { bounds.max.x },
-                if i & 2 == 0 { bounds.min.y } else { bounds.max.y },
-                if i & 4 == 0 { bounds.min.z } else { bounds.max.z },
+                if i & 1 == 0 {
+                    bounds.min.x
+                } else {
+                    bounds.max.x
+                },
+                if i & 2 == 0 {
+                    bounds.min.y
+                } else {
+                    bounds.max.y
+                },
+                if i & 4 == 0 {
+                    bounds.min.z
+                } else {
+                    bounds.max.z
+                },
             );
             let t = view.to_view(corner);
-            assert!(t.z > bounds.suggested_near_m(&cam), "corner {corner} behind the near plane");
+            assert!(
+                t.z > bounds.suggested_near_m(&cam),
+                "corner {corner} behind the near plane"
+            );
             let [u, v] = view.to_pixel(t);
-            assert!((0.0..320.0).contains(&u) && (0.0..180.0).contains(&v), "{u} {v}");
+            assert!(
+                (0.0..320.0).contains(&u) && (0.0..180.0).contains(&v),
+                "{u} {v}"
+            );
         }
     }
 }
@@ -124,7 +156,10 @@ fn orbit_cameras_circle_the_centre_at_constant_distance() {
         let azimuth = offset.y.atan2(offset.x);
         let expected = std::f32::consts::TAU * i as f32 / 12.0;
         let wrapped = (azimuth - expected).rem_euclid(std::f32::consts::TAU);
-        assert!(wrapped < 1e-4 || wrapped > std::f32::consts::TAU - 1e-4, "camera {i}");
+        assert!(
+            !(1e-4..=std::f32::consts::TAU - 1e-4).contains(&wrapped),
+            "camera {i}"
+        );
         assert_eq!(cam.look_at, orbit.centre);
     }
 }

@@ -21,7 +21,13 @@ fn gradient_gaussian() -> Splats {
         ..Splats::default()
     };
     let sh = [[0.0; 3], [0.0, -0.8, 0.0], [0.0; 3], [-0.6, 0.0, 0.6]];
-    push(&mut s, Vec3::ZERO, covariance(Quat::IDENTITY, Vec3::splat(0.05)), 0.5, &sh);
+    push(
+        &mut s,
+        Vec3::ZERO,
+        covariance(Quat::IDENTITY, Vec3::splat(0.05)),
+        0.5,
+        &sh,
+    );
     s
 }
 
@@ -44,7 +50,8 @@ fn sh_degree_1_colour_follows_view_direction() {
     let settings = RenderSettings::default();
     let o = 0.5; // α at the centre, black background: C = o · colour
     // From +x the direction is (−1, 0, 0): colour = 0.5 + C1 sh₃; from −x, 0.5 − C1 sh₃.
-    let from_px = centre(&render(&s.view().unwrap(), &camera_at(3.0 * Vec3::X), &settings).unwrap());
+    let from_px =
+        centre(&render(&s.view().unwrap(), &camera_at(3.0 * Vec3::X), &settings).unwrap());
     let c = [0.5 - 0.6 * SH_C1, 0.5, 0.5 + 0.6 * SH_C1];
     assert_rgb(from_px, c.map(|v| o * v), "from +x");
     let from_nx =
@@ -52,8 +59,13 @@ fn sh_degree_1_colour_follows_view_direction() {
     let c = [0.5 + 0.6 * SH_C1, 0.5, 0.5 - 0.6 * SH_C1];
     assert_rgb(from_nx, c.map(|v| o * v), "from -x");
     // From +y the direction is (0, −1, 0): colour = 0.5 − C1·(−1)·sh₁ = 0.5 + C1 sh₁.
-    let from_py = centre(&render(&s.view().unwrap(), &camera_at(3.0 * Vec3::Y), &settings).unwrap());
-    assert_rgb(from_py, [0.5, 0.5 - 0.8 * SH_C1, 0.5].map(|v| o * v), "from +y");
+    let from_py =
+        centre(&render(&s.view().unwrap(), &camera_at(3.0 * Vec3::Y), &settings).unwrap());
+    assert_rgb(
+        from_py,
+        [0.5, 0.5 - 0.8 * SH_C1, 0.5].map(|v| o * v),
+        "from +y",
+    );
     // Degree capped at 0: the view dependence disappears.
     let flat = RenderSettings {
         max_sh_degree: 0,
@@ -70,7 +82,8 @@ fn sh_rotation_turns_view_direction_into_gaussian_frame() {
     let q = Quat::from_rotation_z(std::f32::consts::PI);
     s.rotations = vec![[q.w, q.x, q.y, q.z]];
     let settings = RenderSettings::default();
-    let rotated = centre(&render(&s.view().unwrap(), &camera_at(3.0 * Vec3::X), &settings).unwrap());
+    let rotated =
+        centre(&render(&s.view().unwrap(), &camera_at(3.0 * Vec3::X), &settings).unwrap());
     let c = [0.5 + 0.6 * SH_C1, 0.5, 0.5 - 0.6 * SH_C1];
     assert_rgb(rotated, c.map(|v| 0.5 * v), "rotated, from +x");
 }
@@ -116,7 +129,12 @@ fn rotating_input_matches_rotating_camera_the_opposite_way() {
         background: [0.2, 0.3, 0.4],
         ..RenderSettings::default()
     };
-    let moved = render(&rotate_scene(&scene, f, true).view().unwrap(), &camera, &settings).unwrap();
+    let moved = render(
+        &rotate_scene(&scene, f, true).view().unwrap(),
+        &camera,
+        &settings,
+    )
+    .unwrap();
     let back = camera.rotated_about(Vec3::ZERO, Mat3::from_quat(f.inverse()));
     let reference = render(&scene.view().unwrap(), &back, &settings).unwrap();
     // Same maths in different float order: differences come from rounding (~1e-6 relative)
@@ -135,6 +153,11 @@ fn rotating_input_matches_rotating_camera_the_opposite_way() {
 
     // Without R the SH are evaluated in the wrong frame: the images must differ clearly, or the
     // check above would not be testing the rotation of view directions.
-    let no_r = render(&rotate_scene(&scene, f, false).view().unwrap(), &camera, &settings).unwrap();
+    let no_r = render(
+        &rotate_scene(&scene, f, false).view().unwrap(),
+        &camera,
+        &settings,
+    )
+    .unwrap();
     assert!(max_abs_diff(&no_r, &reference) > 0.1);
 }

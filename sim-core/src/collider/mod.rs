@@ -90,6 +90,30 @@ impl Collider {
         }
     }
 
+    /// Outward normal and penetration depth (m) if point `x` is inside the collider at `t_s`.
+    pub fn penetration(&self, x: Vec3A, t_s: f64) -> Option<(Vec3A, f32)> {
+        if !self.is_active(t_s) {
+            return None;
+        }
+        let x = x - self.offset(t_s);
+        match &self.shape {
+            Shape::Plane(p) => {
+                let d = p.signed_distance(x);
+                (d <= 0.0).then_some((p.normal, -d))
+            }
+            Shape::Box(b) => {
+                let n = b.contact_normal(x)?;
+                let depth = (x - b.min_m).min(b.max_m - x).min_element();
+                Some((n, depth))
+            }
+            Shape::DomainBound(b) => {
+                let n = b.outside_normal(x)?;
+                let depth = (b.min_m - x).max(x - b.max_m).max_element();
+                Some((n, depth))
+            }
+        }
+    }
+
     /// Applies the boundary condition to grid velocity `v` (m/s) at node position `x` (m).
     #[inline]
     pub fn apply(&self, x: Vec3A, v: Vec3A, t_s: f64) -> Vec3A {

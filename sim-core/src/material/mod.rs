@@ -16,7 +16,7 @@ mod metal;
 mod neo_hookean;
 mod plasticine;
 mod sand;
-mod snow;
+pub mod snow;
 
 pub use elastic::ElasticParams;
 pub use foam::Foam;
@@ -106,6 +106,29 @@ pub struct MaterialSpec {
     pub viscosity_pa_s: Option<f64>,
     /// Snow: hardening coefficient ξ (default 10).
     pub hardening: Option<f64>,
+    /// Snow: critical compression θc (default 2.5e-2).
+    pub critical_compression: Option<f64>,
+    /// Snow: critical stretch θs (default 4.5e-3).
+    pub critical_stretch: Option<f64>,
+}
+
+impl From<&crate::scene::MaterialSpec> for MaterialSpec {
+    fn from(s: &crate::scene::MaterialSpec) -> Self {
+        let f = |v: Option<f32>| v.map(f64::from);
+        Self {
+            model: s.model.clone(),
+            youngs_modulus_pa: s.youngs_modulus_pa as f64,
+            poisson_ratio: s.poisson_ratio as f64,
+            density_kg_m3: s.density_kg_m3 as f64,
+            friction_angle_deg: f(s.friction_angle_deg),
+            yield_stress_pa: f(s.yield_stress_pa),
+            softening: f(s.softening),
+            viscosity_pa_s: f(s.viscosity_pa_s),
+            hardening: f(s.hardening),
+            critical_compression: f(s.critical_compression),
+            critical_stretch: f(s.critical_stretch),
+        }
+    }
 }
 
 /// A material, dispatched by enum (no virtual call per particle).
@@ -188,7 +211,10 @@ impl Material {
         Ok(match model {
             "jelly" => Material::Jelly(Jelly::new(e)),
             "neo-hookean" => Material::NeoHookean(NeoHookean::new(e)),
-            "snow" => Material::Snow(Snow::new(e, spec.hardening.unwrap_or(10.0))?),
+            "snow" => Material::Snow(Snow::new(e, spec.hardening.unwrap_or(10.0))?.with_thresholds(
+                spec.critical_compression.unwrap_or(snow::THETA_C as f64),
+                spec.critical_stretch.unwrap_or(snow::THETA_S as f64),
+            )?),
             "sand" => Material::Sand(Sand::new(e, spec.friction_angle_deg.unwrap_or(30.0))?),
             "metal" => {
                 let y = spec

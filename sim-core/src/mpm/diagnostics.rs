@@ -37,7 +37,8 @@ impl Diagnostics {
         self.kinetic_j + self.elastic_j + self.potential_j
     }
 
-    fn add(mut self, o: &Self) -> Self {
+    /// Sums two sets of totals (max for the speed).
+    pub fn add(mut self, o: &Self) -> Self {
         self.mass_kg += o.mass_kg;
         for k in 0..3 {
             self.momentum_kg_m_s[k] += o.momentum_kg_m_s[k];
@@ -59,7 +60,7 @@ impl Diagnostics {
     ) -> Self {
         let n = particles.len();
         let d = (dx_m as f64) * (dx_m as f64) / 4.0;
-        let g = DVec3::from(gravity_m_s2.as_dvec3());
+        let g = gravity_m_s2.as_dvec3();
         let chunks: Vec<Diagnostics> = (0..n.div_ceil(CHUNK))
             .into_par_iter()
             .map(|c| {

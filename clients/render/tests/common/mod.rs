@@ -39,7 +39,9 @@ impl SplitMix {
 
 /// Upper triangle `xx, xy, xz, yy, yz, zz` of a symmetric matrix.
 pub fn sym6(c: Mat3) -> [f32; 6] {
-    [c.x_axis.x, c.y_axis.x, c.z_axis.x, c.y_axis.y, c.z_axis.y, c.z_axis.z]
+    [
+        c.x_axis.x, c.y_axis.x, c.z_axis.x, c.y_axis.y, c.z_axis.y, c.z_axis.z,
+    ]
 }
 
 /// Symmetric matrix from its upper triangle.

@@ -23,7 +23,11 @@ use splatphys_render::{
 };
 
 #[derive(Parser)]
-#[command(name = "splatphys-render", version, about = "Render 3D Gaussian Splatting scenes on the CPU")]
+#[command(
+    name = "splatphys-render",
+    version,
+    about = "Render 3D Gaussian Splatting scenes on the CPU"
+)]
 struct Cli {
     /// Worker threads (default: all cores).
     #[arg(long, global = true)]
@@ -234,7 +238,14 @@ fn image(scene: &Path, out: &Path, view: &ViewArgs, repeat: usize) -> Result<()>
     Ok(())
 }
 
-fn orbit(scene: &Path, out_dir: &Path, n: usize, fps: f32, mp4: bool, view: &ViewArgs) -> Result<()> {
+fn orbit(
+    scene: &Path,
+    out_dir: &Path,
+    n: usize,
+    fps: f32,
+    mp4: bool,
+    view: &ViewArgs,
+) -> Result<()> {
     if n == 0 {
         bail!("--frames must be at least 1");
     }

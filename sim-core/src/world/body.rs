@@ -1,0 +1,226 @@
+//! One object of the world: its particles (one per Gaussian, fill particles included), its
+//! material, its own MPM grid, its rest state for the Gaussian kinematics, and its object-level
+//! state (the paper's eq. 2: mass-weighted means).
+//!
+//! Effective radius (the paper's eq. 3 bounding sphere): the largest distance of a particle from
+//! the COM, plus half a grid cell so that spheres touch when particles share cells.
+
+use glam::{DMat3, DVec3, Mat3A, Quat, Vec3A};
+
+use crate::material::Material;
+use crate::mpm::{MpmSolver, Particles};
+use crate::scene::ObjectKind;
+
+/// Object-level state, measured from the particles in f64 in index order.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct BodyState {
+    /// Total mass (kg).
+    pub mass_kg: f64,
+    /// Centre of mass (m).
+    pub com_m: DVec3,
+    /// COM velocity (m/s).
+    pub velocity_m_s: DVec3,
+    /// Angular momentum about the COM (kg m²/s), APIC spin term included.
+    pub angular_momentum: DVec3,
+    /// Inertia tensor about the COM (kg m²).
+    pub inertia: DMat3,
+    /// Effective radius (m): max particle distance from the COM + dx/2.
+    pub radius_m: f64,
+    /// Axis-aligned bounds (m).
+    pub aabb_m: (DVec3, DVec3),
+}
+
+impl BodyState {
+    /// Angular velocity ω = I⁻¹ L (rad/s); zero for a degenerate inertia.
+    pub fn angular_velocity(&self) -> DVec3 {
+        inverse_or_zero(self.inertia) * self.angular_momentum
+    }
+}
+
+/// I⁻¹, or zero when I is singular (a single particle, a line of particles).
+pub fn inverse_or_zero(i: DMat3) -> DMat3 {
+    let d = i.determinant();
+    let scale = i.x_axis.length() + i.y_axis.length() + i.z_axis.length();
+    if d.abs() > 1e-12 * scale.powi(3) && d.is_finite() { i.inverse() } else { DMat3::ZERO }
+}
+
+/// Measures mass, COM, velocity, angular momentum and inertia of `p` (cell size `dx_m` for the
+/// APIC spin term and the radius margin).
+pub fn measure(p: &Particles, dx_m: f32) -> BodyState {
+    let mut m = 0.0f64;
+    let mut mx = DVec3::ZERO;
+    let mut mv = DVec3::ZERO;
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for i in 0..p.len() {
+        let mi = p.mass_kg[i] as f64;
+        let x = p.x[i].as_dvec3();
+        m += mi;
+        mx += x * mi;
+        mv += p.v[i].as_dvec3() * mi;
+        lo = lo.min(x);
+        hi = hi.max(x);
+    }
+    if m <= 0.0 {
+        return BodyState::default();
+    }
+    let com = mx / m;
+    let vel = mv / m;
+    let d = (dx_m as f64).powi(2) / 4.0;
+    let mut l = DVec3::ZERO;
+    let mut inertia = DMat3::ZERO;
+    let mut r2max = 0.0f64;
+    for i in 0..p.len() {
+        let mi = p.mass_kg[i] as f64;
+        let r = p.x[i].as_dvec3() - com;
+        let v = p.v[i].as_dvec3() - vel;
+        let c = p.c[i];
+        let spin = DVec3::new(
+            (c.y_axis.z - c.z_axis.y) as f64,
+            (c.z_axis.x - c.x_axis.z) as f64,
+            (c.x_axis.y - c.y_axis.x) as f64,
+        );
+        l += r.cross(v) * mi + spin * (mi * d);
+        let r2 = r.length_squared();
+        r2max = r2max.max(r2);
+        // I = Σ m (|r|² 1 - r rᵀ), plus each particle's own spread m d (2 on the diagonal).
+        inertia += (DMat3::from_diagonal(DVec3::splat(r2 + 2.0 * d)) - outer(r, r)) * mi;
+    }
+    BodyState {
+        mass_kg: m,
+        com_m: com,
+        velocity_m_s: vel,
+        angular_momentum: l,
+        inertia,
+        radius_m: r2max.sqrt() + dx_m as f64 / 2.0,
+        aabb_m: (lo, hi),
+    }
+}
+
+/// a bᵀ.
+pub fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
+/// Rigid-body state of a rigid object (its particles follow x = com + R r0, F = R).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigidState {
+    /// Orientation R relative to the rest pose.
+    pub orientation: Quat,
+    /// COM position (m).
+    pub com_m: DVec3,
+    /// COM velocity (m/s).
+    pub velocity_m_s: DVec3,
+    /// Angular velocity (rad/s).
+    pub omega_rad_s: DVec3,
+    /// Inertia about the COM in the rest pose (kg m²).
+    pub inertia_rest: DMat3,
+    /// Mass (kg).
+    pub mass_kg: f64,
+}
+
+/// A simulated or static object.
+#[derive(Debug, Clone)]
+pub struct Body {
+    /// Name from the scene.
+    pub name: String,
+    /// Deformable, rigid or static.
+    pub kind: ObjectKind,
+    /// Coefficient of restitution e in [0, 1].
+    pub restitution: f32,
+    /// Coulomb friction coefficient.
+    pub friction: f32,
+    /// Particles (world frame); `material` indexes `materials`.
+    pub particles: Particles,
+    /// The object's material table (one entry).
+    pub materials: Vec<Material>,
+    /// Its own MPM grid.
+    pub solver: MpmSolver,
+    /// The object's Gaussians (world frame at t = 0): SH, opacity, scales for publishing.
+    pub gaussians: crate::gaussians::GaussianCloud,
+    /// `[N]` rest covariance Σ0 of each particle's Gaussian (m², world frame at t = 0).
+    pub sigma0: Vec<Mat3A>,
+    /// `[N]` particle offsets from the COM in the rest pose (m), for rigid motion.
+    pub rest_offsets: Vec<Vec3A>,
+    /// `[N]` whether each particle is a published Gaussian (false for fill particles).
+    pub visible: Vec<bool>,
+    /// Rigid state (kept for every body; used when `kind` is rigid).
+    pub rigid: RigidState,
+    /// Asleep: skips all work until woken.
+    pub sleeping: bool,
+    /// Simulated time the body has been still (s).
+    pub still_s: f64,
+    /// Substeps skipped while asleep or static.
+    pub substeps_skipped: u64,
+    /// Contacts with other objects in the last published frame.
+    pub contacts: u32,
+    /// Largest particle speed after the last substep (m/s).
+    pub max_speed_m_s: f32,
+    /// Contact impulses received, summed over the run (N s).
+    pub impulse_total_n_s: f64,
+}
+
+impl Body {
+    /// Whether the body moves at all this substep.
+    pub fn is_active(&self) -> bool {
+        !self.sleeping && self.kind != ObjectKind::Static
+    }
+
+    /// Inverse mass (1/kg): zero for static objects.
+    pub fn inverse_mass(&self, state: &BodyState) -> f64 {
+        if self.kind == ObjectKind::Static || state.mass_kg <= 0.0 { 0.0 } else { 1.0 / state.mass_kg }
+    }
+
+    /// Inverse inertia about the COM (1/(kg m²)): zero for static objects.
+    pub fn inverse_inertia(&self, state: &BodyState) -> DMat3 {
+        if self.kind == ObjectKind::Static { DMat3::ZERO } else { inverse_or_zero(state.inertia) }
+    }
+
+    /// Re-derives the rigid state from the particles (on creation or when the kind changes).
+    pub fn capture_rigid_pose(&mut self) {
+        let s = measure(&self.particles, self.solver.dx_m);
+        let com = s.com_m.as_vec3a();
+        self.rest_offsets = self.particles.x.iter().map(|x| *x - com).collect();
+        self.rigid = RigidState {
+            orientation: Quat::IDENTITY,
+            com_m: s.com_m,
+            velocity_m_s: s.velocity_m_s,
+            omega_rad_s: s.angular_velocity(),
+            inertia_rest: s.inertia,
+            mass_kg: s.mass_kg,
+        };
+        // The rigid pose restarts from the current shape: its deformation becomes the rest shape.
+        for (f, s0) in self.particles.f.iter_mut().zip(self.sigma0.iter_mut()) {
+            *s0 = *f * *s0 * f.transpose();
+            *f = Mat3A::IDENTITY;
+        }
+        self.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
+    }
+
+    /// Writes the rigid pose into the particles: x = com + R r0, v = v + ω × R r0, F = R, C = [ω]×.
+    pub fn sync_rigid_particles(&mut self) {
+        let r = Mat3A::from_quat(self.rigid.orientation);
+        let com = self.rigid.com_m.as_vec3a();
+        let v = self.rigid.velocity_m_s.as_vec3a();
+        let w = self.rigid.omega_rad_s.as_vec3a();
+        let skew = Mat3A::from_cols(
+            Vec3A::new(0.0, w.z, -w.y),
+            Vec3A::new(-w.z, 0.0, w.x),
+            Vec3A::new(w.y, -w.x, 0.0),
+        );
+        let p = &mut self.particles;
+        for i in 0..p.len() {
+            let off = r * self.rest_offsets[i];
+            p.x[i] = com + off;
+            p.v[i] = v + w.cross(off);
+            p.f[i] = r;
+            p.c[i] = skew;
+        }
+    }
+
+    /// World inertia of the rigid state, R I0 Rᵀ.
+    pub fn rigid_world_inertia(&self) -> DMat3 {
+        let r = DMat3::from_quat(self.rigid.orientation.as_dquat());
+        r * self.rigid.inertia_rest * r.transpose()
+    }
+}

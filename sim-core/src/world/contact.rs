@@ -1,0 +1,157 @@
+//! Object-object contact at the COM level (the paper's stage 2, eqs. 3-6, written as the standard
+//! impulse law; docs/com-layer.md maps one to the other).
+//!
+//! Broad phase: bounding spheres (eq. 3: |c_i - c_j| <= r_i + r_j) and boxes. Narrow phase: the
+//! overlap of the two objects' occupied grid cells, so a donut and a vase collide where their
+//! particles meet. The contact zone of each object is its particles in cells the other occupies;
+//! the normal n points from A's zone centroid to B's, the contact point is their midpoint.
+//!
+//! Response, for approaching pairs only (v_rel·n < 0, v_rel = v_B - v_A at the contact point):
+//! j_n = -(1 + e) v_rel·n / (1/m_A + 1/m_B + n·[(I_A⁻¹ (r_A × n)) × r_A + (I_B⁻¹ (r_B × n)) × r_B]),
+//! Coulomb friction j_t <= μ j_n against the tangential velocity, impulse J = j_n n + j_t t on B and
+//! -J on A, at the contact point, so linear and angular momentum are both conserved.
+
+use std::collections::HashSet;
+
+use glam::{DMat3, DVec3, IVec3};
+
+use super::body::{Body, BodyState};
+
+/// A detected contact between bodies `a` and `b`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    /// Unit normal from A to B.
+    pub normal: DVec3,
+    /// Contact point (m).
+    pub point_m: DVec3,
+    /// A's particles in cells B occupies.
+    pub zone_a: Vec<u32>,
+    /// B's particles in cells A occupies.
+    pub zone_b: Vec<u32>,
+}
+
+#[inline]
+fn cell(x: glam::Vec3A, inv_h: f32) -> IVec3 {
+    (x * inv_h).floor().as_ivec3()
+}
+
+/// Broad phase: bounding spheres and boxes (expanded by `margin_m`) overlap.
+pub fn broad_phase(a: &BodyState, b: &BodyState, margin_m: f64) -> bool {
+    let d = (a.com_m - b.com_m).length();
+    if d > a.radius_m + b.radius_m + margin_m {
+        return false;
+    }
+    let m = DVec3::splat(margin_m);
+    (a.aabb_m.0 - m).cmple(b.aabb_m.1).all() && (b.aabb_m.0 - m).cmple(a.aabb_m.1).all()
+}
+
+/// Narrow phase on occupied cells of size `cell_m`; `None` when no cell is shared.
+pub fn narrow_phase(a: &Body, sa: &BodyState, b: &Body, sb: &BodyState, cell_m: f32) -> Option<Contact> {
+    let inv_h = 1.0 / cell_m;
+    // Only particles inside the boxes' overlap (grown by a cell) can share a cell.
+    let lo = sa.aabb_m.0.max(sb.aabb_m.0) - DVec3::splat(cell_m as f64);
+    let hi = sa.aabb_m.1.min(sb.aabb_m.1) + DVec3::splat(cell_m as f64);
+    let inside = |x: glam::Vec3A| {
+        let x = x.as_dvec3();
+        x.cmpge(lo).all() && x.cmple(hi).all()
+    };
+    let cells_of = |body: &Body| -> HashSet<IVec3> {
+        body.particles.x.iter().filter(|x| inside(**x)).map(|x| cell(*x, inv_h)).collect()
+    };
+    let cells_b = cells_of(b);
+    if cells_b.is_empty() {
+        return None;
+    }
+    let zone = |body: &Body, other: &HashSet<IVec3>| -> Vec<u32> {
+        (0..body.particles.len())
+            .filter(|&i| inside(body.particles.x[i]) && other.contains(&cell(body.particles.x[i], inv_h)))
+            .map(|i| i as u32)
+            .collect()
+    };
+    let zone_a = zone(a, &cells_b);
+    if zone_a.is_empty() {
+        return None;
+    }
+    let cells_a = cells_of(a);
+    let zone_b = zone(b, &cells_a);
+    if zone_b.is_empty() {
+        return None;
+    }
+    let centroid = |body: &Body, z: &[u32]| {
+        let mut m = 0.0;
+        let mut mx = DVec3::ZERO;
+        for &i in z {
+            let mi = body.particles.mass_kg[i as usize] as f64;
+            m += mi;
+            mx += body.particles.x[i as usize].as_dvec3() * mi;
+        }
+        mx / m.max(f64::MIN_POSITIVE)
+    };
+    let ca = centroid(a, &zone_a);
+    let cb = centroid(b, &zone_b);
+    let normal = (cb - ca).try_normalize().or_else(|| (sb.com_m - sa.com_m).try_normalize()).unwrap_or(DVec3::Z);
+    Some(Contact { normal, point_m: (ca + cb) * 0.5, zone_a, zone_b })
+}
+
+/// Per-body quantities the impulse law needs.
+#[derive(Debug, Clone, Copy)]
+pub struct Dynamics {
+    /// COM (m).
+    pub com_m: DVec3,
+    /// COM velocity (m/s).
+    pub velocity_m_s: DVec3,
+    /// Angular velocity (rad/s).
+    pub omega_rad_s: DVec3,
+    /// 1/m (zero: immovable).
+    pub inverse_mass: f64,
+    /// I⁻¹ about the COM (zero: immovable).
+    pub inverse_inertia: DMat3,
+}
+
+impl Dynamics {
+    fn point_velocity(&self, p: DVec3) -> DVec3 {
+        self.velocity_m_s + self.omega_rad_s.cross(p - self.com_m)
+    }
+
+    fn effective(&self, p: DVec3, dir: DVec3) -> f64 {
+        let r = p - self.com_m;
+        self.inverse_mass + dir.dot((self.inverse_inertia * r.cross(dir)).cross(r))
+    }
+}
+
+/// The impulse on B (−it on A) for a contact at `point` with normal `n` (A to B), restitution
+/// `e` and friction `mu`; `None` when the bodies are not approaching there. Approach speeds
+/// below `resting_speed_m_s` are treated as resting contact (e = 0), so gravity's per-substep
+/// velocity does not make resting objects bounce.
+pub fn impulse(
+    a: &Dynamics,
+    b: &Dynamics,
+    point: DVec3,
+    n: DVec3,
+    e: f64,
+    mu: f64,
+    resting_speed_m_s: f64,
+) -> Option<DVec3> {
+    let v_rel = b.point_velocity(point) - a.point_velocity(point);
+    let vn = v_rel.dot(n);
+    if vn >= 0.0 {
+        return None;
+    }
+    let k_n = a.effective(point, n) + b.effective(point, n);
+    if k_n <= 0.0 || !k_n.is_finite() {
+        return None;
+    }
+    let e = if -vn < resting_speed_m_s { 0.0 } else { e };
+    let jn = -(1.0 + e) * vn / k_n;
+    let vt = v_rel - n * vn;
+    let mut j = n * jn;
+    if let Some(t) = vt.try_normalize() {
+        let k_t = a.effective(point, t) + b.effective(point, t);
+        if k_t > 0.0 {
+            // Sticking needs |vt| / k_t; Coulomb caps it at mu j_n.
+            let jt = (vt.length() / k_t).min(mu * jn);
+            j -= t * jt;
+        }
+    }
+    j.is_finite().then_some(j)
+}
