@@ -17,6 +17,7 @@ pub mod services;
 pub mod simulation;
 pub mod validate;
 pub mod wire;
+pub mod world_sim;
 
 pub use error::IpcError;
 pub use simulation::{Advance, Simulation, SimulationError};

@@ -56,6 +56,12 @@ pub struct ServerConfig {
     pub start_paused: bool,
     /// Set to stop the server from another thread.
     pub stop: Arc<AtomicBool>,
+    /// Hold stepping until this many frame subscribers are connected (0 = do not wait), then
+    /// publish the initial frame again so they all get it. The main job uses it so the recorder
+    /// and the renderer see every step.
+    pub wait_for_subscribers: usize,
+    /// Longest wait for those subscribers; the run then starts anyway. Default 10 s.
+    pub wait_timeout: Duration,
 }
 
 impl Default for ServerConfig {
@@ -70,6 +76,8 @@ impl Default for ServerConfig {
             exit_when_finished: true,
             start_paused: false,
             stop: Arc::default(),
+            wait_for_subscribers: 0,
+            wait_timeout: Duration::from_secs(10),
         }
     }
 }
@@ -344,6 +352,8 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
     report.frames_published = 1;
 
     let mut paused = cfg.start_paused;
+    let mut waiting = cfg.wait_for_subscribers > 0;
+    let wait_started = Instant::now();
     let mut pending_steps = 0u64;
     let mut pace_origin = (Instant::now(), sim.time_s());
     let mut last_status = Instant::now();
@@ -451,6 +461,19 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
         }
         if cfg.max_frames.is_some_and(|m| report.frames_published > m) {
             break StopReason::MaxFrames;
+        }
+        if waiting {
+            ports.refresh_subscribers(false);
+            let have = ports.subscriber_counts.0;
+            if have >= cfg.wait_for_subscribers || wait_started.elapsed() >= cfg.wait_timeout {
+                waiting = false;
+                publish_frame(sim, &ports, report.frames_published)?;
+                report.frames_published += 1;
+                pace_origin = (Instant::now(), sim.time_s());
+            } else {
+                std::thread::sleep(Duration::from_millis(2));
+                continue;
+            }
         }
         let stepping = !finished && (!paused || pending_steps > 0);
         if stepping {

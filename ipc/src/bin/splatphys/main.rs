@@ -3,11 +3,23 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
+mod bench;
+mod inspect;
+mod run;
+mod scene_arg;
 mod serve;
 
 /// splatphys: captured 3D Gaussian Splatting scenes made physical.
+///
+/// Loads a 3DGS scene, simulates its objects with MPM and a centre-of-mass object layer, and
+/// serves every step over iceoryx2 shared memory to renderer, recorder and controller processes.
 #[derive(Parser, Debug)]
-#[command(version, about, long_about = None)]
+#[command(version, about, long_about, after_help = "Examples:
+  splatphys run --out out/default                         # built-in scene: server + recorder + renderer
+  splatphys run scenes/donut_drop.toml --out out/donut    # a captured donut on a table
+  splatphys serve scenes/donut_drop.toml                  # the server alone
+  splatphys inspect ../shared/data/v3dg_donut.ply
+  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -15,13 +27,23 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// The main job: server, recorder and renderer processes on a scene.
+    Run(run::RunArgs),
     /// Serve a scene over iceoryx2 shared memory; clients attach and detach freely.
     Serve(serve::ServeArgs),
+    /// Describe a 3DGS file.
+    Inspect(inspect::InspectArgs),
+    /// Benchmarks (JSON lines).
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
 }
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
+        Command::Run(args) => run::run(&args),
         Command::Serve(args) => serve::run(&args),
+        Command::Inspect(args) => inspect::run(&args),
+        Command::Bench(cmd) => bench::run(&cmd),
     }
 }

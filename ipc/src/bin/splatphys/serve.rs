@@ -3,11 +3,12 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
 use splatphys_ipc::validate::Limits;
+use splatphys_ipc::world_sim::WorldSim;
 
 /// Arguments of `splatphys serve`.
 #[derive(Args, Debug)]
@@ -32,6 +33,18 @@ pub struct ServeArgs {
     /// Start paused (send `resume` or `step N`).
     #[arg(long)]
     pub paused: bool,
+    /// Override the scene's duration, seconds.
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+    /// Hold stepping until this many frame subscribers are connected (the main job uses 2).
+    #[arg(long, default_value_t = 0)]
+    pub wait_for_subscribers: usize,
+    /// Write a JSON report (counts, wall time, diagnostics) here when the server stops.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Print `progress <frame> <total> <time_s>` lines on stdout (for the main job).
+    #[arg(long, hide = true)]
+    pub progress: bool,
     /// Serve the built-in free-fall stand-in instead of the scene (testing the IPC layer).
     #[arg(long, hide = true)]
     pub fake: bool,
@@ -58,12 +71,11 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         },
         max_frames: args.frames,
         start_paused: args.paused,
+        wait_for_subscribers: args.wait_for_subscribers,
         ..ServerConfig::default()
     };
     if !args.fake {
-        bail!(
-            "serving a scene file needs the sim-core world, which is not wired in yet; use --fake to serve the free-fall stand-in"
-        );
+        return serve_scene(args, &cfg);
     }
     let name = args
         .scene
@@ -87,6 +99,57 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         report.commands_rejected,
         report.frames_dropped,
         report.recorder_frames_lost
+    );
+    Ok(())
+}
+
+/// Serves the scene file (or the built-in default scene) with the real simulation.
+fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
+    let (name, scene) = crate::scene_arg::load(args.scene.as_deref(), args.duration_s)?;
+    let mut sim = WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
+    sim.progress = args.progress;
+    eprintln!(
+        "splatphys serve: scene {name:?}: {} objects, {} particles, {} Gaussians published, {} frames",
+        sim.world.bodies.len(),
+        sim.world.particle_count(),
+        sim.world.published_count(),
+        sim.world.total_frames()
+    );
+    let started = std::time::Instant::now();
+    let result = serve(&mut sim, cfg);
+    let wall_s = started.elapsed().as_secs_f64();
+    let report = result.context("server failed")?;
+    let w = &sim.world;
+    let json = serde_json::json!({
+        "scene": name,
+        "method": format!("{:?}", w.settings.method).to_lowercase(),
+        "stopped": format!("{:?}", report.reason),
+        "particles": w.particle_count(),
+        "gaussians": w.published_count(),
+        "objects": w.bodies.len(),
+        "frames_published": report.frames_published,
+        "last_step": report.step,
+        "simulated_s": w.time_s,
+        "substeps": w.stats.substeps,
+        "wall_s": wall_s,
+        "step_wall_s": report.step_wall_s,
+        "publish_wall_s": report.publish_wall_s,
+        "mpm_particle_substeps": w.stats.mpm_particle_substeps,
+        "particle_substeps_per_s": w.stats.mpm_particle_substeps as f64 / report.step_wall_s.max(1e-9),
+        "frames_dropped_by_clients": report.frames_dropped,
+        "frames_lost_by_recorder": report.recorder_frames_lost,
+        "commands_received": report.commands_received,
+        "commands_rejected": report.commands_rejected,
+        "stats": w.stats,
+        "diagnostics": w.diagnostics(),
+    });
+    if let Some(path) = &args.report {
+        std::fs::write(path, serde_json::to_string_pretty(&json)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    eprintln!(
+        "splatphys serve: stopped ({:?}) at step {}, {} frames published, {} lost by recorders",
+        report.reason, report.step, report.frames_published, report.recorder_frames_lost
     );
     Ok(())
 }

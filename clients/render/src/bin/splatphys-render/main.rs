@@ -1,32 +1,34 @@
-//! `splatphys-render`: renders 3DGS scenes with the splatphys CPU rasterizer (3DGS EWA splatting,
-//! Kerbl et al. 2023).
+//! `splatphys-render`: renders 3DGS scenes and splatphys runs with the splatphys CPU rasterizer
+//! (3DGS EWA splatting, Kerbl et al. 2023).
 //!
 //! ```text
 //! splatphys-render image SCENE.ply --out frame.png [camera flags] [--repeat 20]
 //! splatphys-render orbit SCENE.ply --out-dir DIR --frames 36 [--fps 12] [--mp4]
+//! splatphys-render live --prefix P --out-dir DIR [sequence flags] [--timeout-s 10]
+//! splatphys-render mcap RUN.mcap --out-dir DIR [sequence flags]
 //! ```
 //!
-//! The camera is framed automatically on the scene's bounds (trimmed of the outermost 1 % of
-//! Gaussians per axis, so floaters do not shrink the object), seen from `--azimuth-deg` and
-//! `--elevation-deg` about `--up`; or given explicitly with `--eye` (and `--look-at`).
-//! Subscribing to a running server and rendering MCAP recordings come later (issue 6 sec. 2).
+//! `image` and `orbit` ([`files`]) read a 3DGS file. `live` ([`live`]) subscribes to a running
+//! `splatphys serve` and renders the newest frame each time; `mcap` ([`mcap`]) renders every
+//! frame of a recording. Both write `DIR/frame_{step:05}.png`, an animated GIF (and an MP4 when
+//! ffmpeg is installed) and print one JSON line on stdout:
+//! `{"frames_rendered":N,"frames_dropped":M,"last_step":S,"seconds":T}` ([`sequence`]).
 
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+mod files;
+mod live;
+mod mcap;
+mod sequence;
 
-use anyhow::{Context, Result, bail};
-use clap::{Args, Parser, Subcommand};
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
 use glam::Vec3;
-use splatphys_render::{
-    Bounds, Camera, ImageRgb8, OrbitPath, RenderSettings, Splats, render_rgb8, write_gif,
-    write_mp4, write_png,
-};
+use std::path::PathBuf;
 
 #[derive(Parser)]
 #[command(
     name = "splatphys-render",
     version,
-    about = "Render 3D Gaussian Splatting scenes on the CPU"
+    about = "Render 3D Gaussian Splatting scenes and splatphys runs on the CPU"
 )]
 struct Cli {
     /// Worker threads (default: all cores).
@@ -46,7 +48,7 @@ enum Command {
         #[arg(long, short)]
         out: PathBuf,
         #[command(flatten)]
-        view: ViewArgs,
+        view: files::ViewArgs,
         /// Render this many times and report the median frame time.
         #[arg(long, default_value_t = 1)]
         repeat: usize,
@@ -68,53 +70,15 @@ enum Command {
         #[arg(long)]
         mp4: bool,
         #[command(flatten)]
-        view: ViewArgs,
+        view: files::ViewArgs,
     },
+    /// Subscribe to a running server and render the newest frame each time (PNGs, GIF, MP4).
+    Live(live::LiveArgs),
+    /// Render every frame of an MCAP recording (PNGs, GIF, MP4).
+    Mcap(mcap::McapArgs),
 }
 
-#[derive(Args)]
-struct ViewArgs {
-    /// Image width, px.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Image height, px.
-    #[arg(long, default_value_t = 480)]
-    height: u32,
-    /// Vertical field of view, degrees.
-    #[arg(long, default_value_t = 50.0)]
-    fov_deg: f32,
-    /// Up direction `x,y,z` (z up in the world; PlayCanvas captures are y-down: use 0,-1,0).
-    #[arg(long, default_value = "0,0,1", value_parser = parse_vec3)]
-    up: Vec3,
-    /// Camera azimuth about `--up` for automatic framing, degrees (first orbit frame).
-    #[arg(long, default_value_t = 30.0)]
-    azimuth_deg: f32,
-    /// Camera elevation above the plane normal to `--up` for automatic framing, degrees.
-    #[arg(long, default_value_t = 20.0)]
-    elevation_deg: f32,
-    /// Camera distance from the look-at point, m (default: the whole scene in view).
-    #[arg(long)]
-    distance_m: Option<f32>,
-    /// Explicit camera position `x,y,z`, m (overrides automatic framing in `image`).
-    #[arg(long, value_parser = parse_vec3)]
-    eye: Option<Vec3>,
-    /// Look-at point `x,y,z`, m (default: the centre of the trimmed bounds).
-    #[arg(long, value_parser = parse_vec3)]
-    look_at: Option<Vec3>,
-    /// Fraction of Gaussians ignored at each end of each axis when framing (0 to 0.49).
-    #[arg(long, default_value_t = 0.01)]
-    trim: f32,
-    /// Near plane, m (default: 0.2 m, less when the camera is closer to the scene).
-    #[arg(long)]
-    near_m: Option<f32>,
-    /// Background colour `r,g,b` in [0, 1].
-    #[arg(long, default_value = "0,0,0", value_parser = parse_vec3)]
-    background: Vec3,
-    /// Highest SH degree evaluated.
-    #[arg(long, default_value_t = 3)]
-    sh_degree: u8,
-}
-
+/// Parses `x,y,z` into a finite vector.
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
     let parts: Vec<f32> = s
         .split(',')
@@ -141,7 +105,7 @@ fn main() -> Result<()> {
             out,
             view,
             repeat,
-        } => image(&scene, &out, &view, repeat),
+        } => files::image(&scene, &out, &view, repeat),
         Command::Orbit {
             scene,
             out_dir,
@@ -149,147 +113,8 @@ fn main() -> Result<()> {
             fps,
             mp4,
             view,
-        } => orbit(&scene, &out_dir, frames, fps, mp4, &view),
+        } => files::orbit(&scene, &out_dir, frames, fps, mp4, &view),
+        Command::Live(args) => live::live(&args),
+        Command::Mcap(args) => mcap::mcap(&args),
     }
-}
-
-/// Loads a 3DGS file into renderer input, capped at `sh_degree`, and its trimmed bounds.
-fn load(path: &Path, view: &ViewArgs) -> Result<(Splats, Bounds)> {
-    let start = Instant::now();
-    let cloud = splatphys_core::formats::read_gaussians(path)
-        .with_context(|| format!("reading {}", path.display()))?;
-    let mut splats = Splats::from_cloud(&cloud);
-    splats.truncate_sh(view.sh_degree.min(3));
-    let Some(bounds) = Bounds::of_points_trimmed(&splats.positions, view.trim) else {
-        bail!("{}: no Gaussians with finite positions", path.display());
-    };
-    eprintln!(
-        "{}: {} Gaussians, SH degree {} (rendered up to {}), loaded in {:.0} ms; bounds {:.3?} .. {:.3?} (trim {})",
-        path.display(),
-        splats.positions.len(),
-        cloud.sh_degree,
-        splats.sh_degree,
-        start.elapsed().as_secs_f64() * 1e3,
-        bounds.min.to_array(),
-        bounds.max.to_array(),
-        view.trim,
-    );
-    Ok((splats, bounds))
-}
-
-fn orbit_path(bounds: &Bounds, view: &ViewArgs) -> OrbitPath {
-    let mut path = OrbitPath::around(bounds, view.up, view.fov_deg, view.width, view.height);
-    path.elevation_deg = view.elevation_deg;
-    path.start_azimuth_deg = view.azimuth_deg;
-    if let Some(d) = view.distance_m {
-        path.distance_m = d;
-    }
-    if let Some(c) = view.look_at {
-        path.centre = c;
-    }
-    path
-}
-
-fn settings(bounds: &Bounds, camera: &Camera, view: &ViewArgs) -> RenderSettings {
-    RenderSettings {
-        background: view.background.to_array(),
-        near_m: view
-            .near_m
-            .unwrap_or_else(|| bounds.suggested_near_m(camera)),
-        max_sh_degree: view.sh_degree,
-    }
-}
-
-fn image(scene: &Path, out: &Path, view: &ViewArgs, repeat: usize) -> Result<()> {
-    let (splats, bounds) = load(scene, view)?;
-    let camera = match view.eye {
-        Some(eye) => Camera::new(
-            eye,
-            view.look_at.unwrap_or_else(|| bounds.centre()),
-            view.up,
-            view.fov_deg,
-            view.width,
-            view.height,
-        )?,
-        None => orbit_path(&bounds, view)
-            .cameras(1)?
-            .pop()
-            .context("no camera")?,
-    };
-    let settings = settings(&bounds, &camera, view);
-    let input = splats.view()?;
-    let mut times = Vec::with_capacity(repeat.max(1));
-    let mut frame = None;
-    for _ in 0..repeat.max(1) {
-        let start = Instant::now();
-        frame = Some(render_rgb8(&input, &camera, &settings)?);
-        times.push(start.elapsed().as_secs_f64());
-    }
-    let frame = frame.context("no frame rendered")?;
-    write_png(out, &frame)?;
-    report_speed(&splats, &camera, &mut times);
-    eprintln!(
-        "camera at {:.3?} looking at {:.3?}, near {:.3} m -> {}",
-        camera.position.to_array(),
-        camera.look_at.to_array(),
-        settings.near_m,
-        out.display()
-    );
-    Ok(())
-}
-
-fn orbit(
-    scene: &Path,
-    out_dir: &Path,
-    n: usize,
-    fps: f32,
-    mp4: bool,
-    view: &ViewArgs,
-) -> Result<()> {
-    if n == 0 {
-        bail!("--frames must be at least 1");
-    }
-    let (splats, bounds) = load(scene, view)?;
-    let cameras = orbit_path(&bounds, view).cameras(n)?;
-    std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
-    let input = splats.view()?;
-    let mut frames: Vec<ImageRgb8> = Vec::with_capacity(n);
-    let mut times = Vec::with_capacity(n);
-    for (i, camera) in cameras.iter().enumerate() {
-        let settings = settings(&bounds, camera, view);
-        let start = Instant::now();
-        let frame = render_rgb8(&input, camera, &settings)?;
-        times.push(start.elapsed().as_secs_f64());
-        write_png(&out_dir.join(format!("frame_{i:04}.png")), &frame)?;
-        frames.push(frame);
-    }
-    report_speed(&splats, &cameras[0], &mut times);
-    let gif = out_dir.join("orbit.gif");
-    write_gif(&gif, &frames, fps)?;
-    eprintln!("wrote {n} PNGs and {}", gif.display());
-    if mp4 {
-        let path = out_dir.join("orbit.mp4");
-        if write_mp4(&path, &frames, fps)? {
-            eprintln!("wrote {}", path.display());
-        } else {
-            eprintln!("ffmpeg not found on PATH: skipped {}", path.display());
-        }
-    }
-    Ok(())
-}
-
-/// Prints the median frame time and frames/s to stdout.
-fn report_speed(splats: &Splats, camera: &Camera, times: &mut [f64]) {
-    times.sort_by(f64::total_cmp);
-    let median = times[times.len() / 2];
-    println!(
-        "{} Gaussians at {}x{}: median {:.1} ms/frame over {} frames = {:.1} frames/s ({} threads)",
-        splats.positions.len(),
-        camera.width_px,
-        camera.height_px,
-        median * 1e3,
-        times.len(),
-        1.0 / median,
-        rayon::current_num_threads(),
-    );
 }

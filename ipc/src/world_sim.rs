@@ -1,0 +1,208 @@
+//! The real simulation behind the server: sim-core's [`World`] as a [`Simulation`].
+//!
+//! Frames are written straight into the loaned shared-memory slice: sim-core's
+//! `GaussianState` has the exact layout of [`FrameGaussian`] (asserted below), so the slice is
+//! reinterpreted in place with bytemuck and filled in parallel. Background Gaussians (claimed by
+//! no object) carry `object_id = u32::MAX`.
+
+use splatphys_core::kinematics::GaussianState;
+use splatphys_core::material::{ConstitutiveModel, MaterialSpec};
+use splatphys_core::scene::{ObjectKind as CoreKind, Scene};
+use splatphys_core::world::{World, WorldError};
+
+use crate::command::{Command, MaterialModel, ObjectKind};
+use crate::simulation::{Advance, Simulation, SimulationError};
+use crate::wire::{FrameGaussian, ObjectState, SceneGaussian};
+
+const _: () = assert!(size_of::<GaussianState>() == size_of::<FrameGaussian>());
+const _: () = assert!(align_of::<GaussianState>() == align_of::<FrameGaussian>());
+
+/// Object id of background Gaussians in [`SceneGaussian::object_id`].
+pub const BACKGROUND_OBJECT: u32 = u32::MAX;
+
+/// A [`World`] served over iceoryx2.
+#[derive(Debug)]
+pub struct WorldSim {
+    /// The simulated world.
+    pub world: World,
+    name: String,
+    sh_degree: u32,
+    substeps: u64,
+    /// Print `progress <frame> <total frames> <time_s>` on stdout after every frame (the main
+    /// job reads it for its progress bar).
+    pub progress: bool,
+}
+
+impl WorldSim {
+    /// Builds the world of `scene` under `name`.
+    ///
+    /// # Errors
+    /// [`WorldError`] as [`World::from_scene`].
+    pub fn new(name: &str, scene: &Scene) -> Result<Self, WorldError> {
+        let world = World::from_scene(scene)?;
+        let sh_degree = world
+            .bodies
+            .iter()
+            .map(|b| b.gaussians.sh_degree)
+            .chain(std::iter::once(world.background.sh_degree))
+            .max()
+            .unwrap_or(0) as u32;
+        Ok(Self { world, name: name.to_string(), sh_degree, substeps: 0, progress: false })
+    }
+}
+
+fn model_name(m: MaterialModel) -> &'static str {
+    match m {
+        MaterialModel::FixedCorotated => "jelly",
+        MaterialModel::NeoHookean => "neo-hookean",
+        MaterialModel::Snow => "snow",
+        MaterialModel::Sand => "sand",
+        MaterialModel::Metal => "metal",
+        MaterialModel::Plasticine => "plasticine",
+        MaterialModel::Foam => "foam",
+    }
+}
+
+impl Simulation for WorldSim {
+    fn scene_name(&self) -> &str {
+        &self.name
+    }
+    fn scene_generation(&self) -> u32 {
+        self.world.generation
+    }
+    fn gaussian_count(&self) -> usize {
+        self.world.published_count()
+    }
+    fn object_count(&self) -> usize {
+        self.world.bodies.len()
+    }
+    fn object_name(&self, id: u32) -> Option<&str> {
+        self.world.bodies.get(id as usize).map(|b| b.name.as_str())
+    }
+    fn sh_degree(&self) -> u32 {
+        self.sh_degree
+    }
+    fn frame_dt_s(&self) -> f64 {
+        self.world.frame_dt_s()
+    }
+    fn step(&self) -> u64 {
+        self.world.frame
+    }
+    fn time_s(&self) -> f64 {
+        self.world.time_s
+    }
+    fn substeps(&self) -> u64 {
+        self.substeps
+    }
+
+    fn write_scene(&self, out: &mut [SceneGaussian]) {
+        let mut k = 0;
+        self.world.for_each_published(|object, cloud, i| {
+            let Some(g) = out.get_mut(k) else { return };
+            k += 1;
+            let mut sh = [0.0f32; 48];
+            for (c, rgb) in cloud.sh_coefficients(i).iter().take(16).enumerate() {
+                sh[3 * c..3 * c + 3].copy_from_slice(rgb);
+            }
+            let q = cloud.rotation(i);
+            *g = SceneGaussian {
+                sh,
+                opacity: cloud.opacity(i),
+                scale_m: cloud.scale(i).to_array(),
+                rotation_wxyz: [q.w, q.x, q.y, q.z],
+                object_id: object.unwrap_or(BACKGROUND_OBJECT),
+            };
+        });
+    }
+
+    fn advance(&mut self) -> Result<Advance, SimulationError> {
+        let n = self
+            .world
+            .advance_frame()
+            .map_err(|e| SimulationError { step: self.world.frame, reason: e.to_string() })?;
+        self.substeps += n;
+        if self.progress {
+            use std::io::Write;
+            let mut out = std::io::stdout().lock();
+            let _ = writeln!(out, "progress {} {} {:.6}", self.world.frame, self.world.total_frames(), self.world.time_s);
+            let _ = out.flush();
+        }
+        Ok(Advance { steps: 1, substeps: n, time_s: self.world.time_s })
+    }
+
+    fn write_frame(&self, out: &mut [FrameGaussian]) {
+        let states: &mut [GaussianState] = bytemuck::cast_slice_mut(out);
+        self.world.write_gaussians(states);
+    }
+
+    fn write_objects(&self, out: &mut [ObjectState]) {
+        for (o, s) in out.iter_mut().zip(self.world.objects()) {
+            *o = ObjectState {
+                id: s.id,
+                contact_count: s.contacts,
+                position_m: s.com_m.map(|v| v as f32),
+                velocity_m_s: s.velocity_m_s.map(|v| v as f32),
+                orientation_wxyz: s.orientation_wxyz,
+                angular_velocity_rad_s: s.angular_velocity_rad_s.map(|v| v as f32),
+                mass_kg: s.mass_kg as f32,
+            };
+        }
+    }
+
+    fn apply(&mut self, command: &Command) -> Result<u64, String> {
+        let at = self.world.frame + 1;
+        let w = &mut self.world;
+        let r = match *command {
+            Command::Impulse { object, impulse_n_s, point_m } => w.apply_impulse(
+                object as usize,
+                glam::DVec3::from(impulse_n_s).as_vec3a(),
+                point_m.map(|p| glam::DVec3::from(p).as_vec3a()),
+            ),
+            Command::SetVelocity { object, velocity_m_s } => {
+                w.set_velocity(object as usize, glam::DVec3::from(velocity_m_s).as_vec3a())
+            }
+            Command::EditMaterial { object, edit } => {
+                let Some(b) = w.bodies.get(object as usize) else {
+                    return Err(format!("unknown object {object}"));
+                };
+                let cur = b.materials[0].elastic();
+                let material_changed = edit.model.is_some()
+                    || edit.youngs_modulus_pa.is_some()
+                    || edit.poisson_ratio.is_some()
+                    || edit.density_kg_m3.is_some();
+                let spec = MaterialSpec {
+                    model: edit.model.map_or_else(|| b.materials[0].name().to_string(), |m| model_name(m).into()),
+                    youngs_modulus_pa: edit.youngs_modulus_pa.unwrap_or(cur.youngs_modulus_pa as f64),
+                    poisson_ratio: edit.poisson_ratio.unwrap_or(cur.poisson_ratio as f64),
+                    density_kg_m3: edit.density_kg_m3.unwrap_or(cur.density_kg_m3 as f64),
+                    ..Default::default()
+                };
+                w.set_material(
+                    object as usize,
+                    material_changed.then_some(&spec),
+                    edit.restitution.map(|v| v as f32),
+                    edit.friction.map(|v| v as f32),
+                )
+            }
+            Command::SetKind { object, kind } => w.set_kind(
+                object as usize,
+                match kind {
+                    ObjectKind::Deformable => CoreKind::Deformable,
+                    ObjectKind::Rigid => CoreKind::Rigid,
+                    ObjectKind::Static => CoreKind::Static,
+                },
+            ),
+            Command::Reset => {
+                w.reset();
+                self.substeps = 0;
+                Ok(())
+            }
+            Command::Pause | Command::Resume | Command::Step { .. } | Command::Shutdown => Ok(()),
+        };
+        r.map(|()| at).map_err(|e| e.to_string())
+    }
+
+    fn is_finished(&self) -> bool {
+        self.world.is_finished()
+    }
+}
