@@ -24,7 +24,9 @@ const _: () = assert!(std::mem::size_of::<GaussianState>() == 52);
 
 /// Packs a symmetric matrix's upper triangle (xx, xy, xz, yy, yz, zz).
 pub fn pack_symmetric(m: Mat3A) -> [f32; 6] {
-    [m.x_axis.x, m.y_axis.x, m.z_axis.x, m.y_axis.y, m.z_axis.y, m.z_axis.z]
+    [
+        m.x_axis.x, m.y_axis.x, m.z_axis.x, m.y_axis.y, m.z_axis.y, m.z_axis.z,
+    ]
 }
 
 /// The published state of a Gaussian at `x_m` with deformation gradient `f` and rest covariance
@@ -67,12 +69,27 @@ mod tests {
         let r = Mat3A::from_quat(Quat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 2.0));
         let g = gaussian_state(Vec3A::ZERO, r, sigma0);
         let cov = unpack(g.covariance_m2);
-        assert!((cov - r * sigma0 * r.transpose()).to_cols_array().iter().all(|d| d.abs() < 1e-12));
+        assert!(
+            (cov - r * sigma0 * r.transpose())
+                .to_cols_array()
+                .iter()
+                .all(|d| d.abs() < 1e-12)
+        );
         let e = eigenvalues(cov);
         assert!((e - Vec3A::new(4e-6, 1e-6, 0.25e-6)).abs().max_element() < 1e-11);
         // The reported rotation is R itself.
-        let q = Quat::from_xyzw(g.rotation_wxyz[1], g.rotation_wxyz[2], g.rotation_wxyz[3], g.rotation_wxyz[0]);
-        assert!((Mat3A::from_quat(q) - r).to_cols_array().iter().all(|d| d.abs() < 1e-5));
+        let q = Quat::from_xyzw(
+            g.rotation_wxyz[1],
+            g.rotation_wxyz[2],
+            g.rotation_wxyz[3],
+            g.rotation_wxyz[0],
+        );
+        assert!(
+            (Mat3A::from_quat(q) - r)
+                .to_cols_array()
+                .iter()
+                .all(|d| d.abs() < 1e-5)
+        );
     }
 
     #[test]
@@ -85,7 +102,16 @@ mod tests {
 
     #[test]
     fn non_finite_f_never_publishes_nan() {
-        let g = gaussian_state(Vec3A::ONE, Mat3A::from_diagonal(Vec3::splat(f32::NAN)), Mat3A::IDENTITY);
-        assert!(g.covariance_m2.iter().chain(&g.rotation_wxyz).all(|v| v.is_finite()));
+        let g = gaussian_state(
+            Vec3A::ONE,
+            Mat3A::from_diagonal(Vec3::splat(f32::NAN)),
+            Mat3A::IDENTITY,
+        );
+        assert!(
+            g.covariance_m2
+                .iter()
+                .chain(&g.rotation_wxyz)
+                .all(|v| v.is_finite())
+        );
     }
 }

@@ -383,7 +383,7 @@ mod tests {
     #[test]
     fn events_parse_and_sort_by_time_keeping_file_order() {
         let t = parse_timeline(
-            r#"
+            r##"
             [[event]]
             at_s = 1.0
             command = "edit-material"
@@ -405,7 +405,7 @@ mod tests {
             at_s = 2.0
             command = "step"
             count = 3
-            "#,
+            "##,
             "t.toml",
         )
         .unwrap();

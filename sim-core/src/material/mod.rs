@@ -211,10 +211,12 @@ impl Material {
         Ok(match model {
             "jelly" => Material::Jelly(Jelly::new(e)),
             "neo-hookean" => Material::NeoHookean(NeoHookean::new(e)),
-            "snow" => Material::Snow(Snow::new(e, spec.hardening.unwrap_or(10.0))?.with_thresholds(
-                spec.critical_compression.unwrap_or(snow::THETA_C as f64),
-                spec.critical_stretch.unwrap_or(snow::THETA_S as f64),
-            )?),
+            "snow" => Material::Snow(
+                Snow::new(e, spec.hardening.unwrap_or(10.0))?.with_thresholds(
+                    spec.critical_compression.unwrap_or(snow::THETA_C as f64),
+                    spec.critical_stretch.unwrap_or(snow::THETA_S as f64),
+                )?,
+            ),
             "sand" => Material::Sand(Sand::new(e, spec.friction_angle_deg.unwrap_or(30.0))?),
             "metal" => {
                 let y = spec

@@ -39,7 +39,12 @@ impl Snow {
     /// [`MaterialError::OutOfRange`] for ξ outside [0, 100].
     pub fn new(params: ElasticParams, hardening: f64) -> Result<Self, MaterialError> {
         let hardening = check_range("snow", "hardening", hardening, 0.0, 100.0, "[0, 100]")?;
-        Ok(Self { params, hardening, theta_c: THETA_C, theta_s: THETA_S })
+        Ok(Self {
+            params,
+            hardening,
+            theta_c: THETA_C,
+            theta_s: THETA_S,
+        })
     }
 
     /// Overrides the critical compression θc and stretch θs, each in (0, 0.5].
@@ -47,7 +52,14 @@ impl Snow {
     /// # Errors
     /// [`MaterialError::OutOfRange`] for a value outside (0, 0.5].
     pub fn with_thresholds(mut self, theta_c: f64, theta_s: f64) -> Result<Self, MaterialError> {
-        self.theta_c = check_range("snow", "critical_compression", theta_c, 1e-9, 0.5, "(0, 0.5]")?;
+        self.theta_c = check_range(
+            "snow",
+            "critical_compression",
+            theta_c,
+            1e-9,
+            0.5,
+            "(0, 0.5]",
+        )?;
         self.theta_s = check_range("snow", "critical_stretch", theta_s, 1e-9, 0.5, "(0, 0.5]")?;
         Ok(self)
     }
@@ -78,7 +90,10 @@ impl ConstitutiveModel for Snow {
     }
     fn project(&self, f: &mut Mat3A, jp: &mut f32, _dt_s: f32) {
         let Svd3 { u, sigma, v } = svd3(*f);
-        let clamped = sigma.clamp(Vec3A::splat(1.0 - self.theta_c), Vec3A::splat(1.0 + self.theta_s));
+        let clamped = sigma.clamp(
+            Vec3A::splat(1.0 - self.theta_c),
+            Vec3A::splat(1.0 + self.theta_s),
+        );
         let old_j = sigma.x * sigma.y * sigma.z;
         let new_j = clamped.x * clamped.y * clamped.z;
         *jp *= old_j / new_j;

@@ -39,22 +39,31 @@ pub fn update(
         .map(|(gb, ((mass, vel), (key, contrib)))| {
             let origin = *key * BLOCK;
             let mut finite = true;
+            // Sum the regions corner by corner (a fixed order per node): corner d covers local
+            // nodes 0..4 on axes where d = 0 and 0..2 on axes where d = 1 (region index l + 4d).
+            let mut acc = [Vec4::ZERO; BLOCK_NODES];
+            for (c, d) in CORNERS.iter().enumerate() {
+                let pb = contrib[c];
+                if pb == NONE {
+                    continue;
+                }
+                let region = &scratch[pb as usize];
+                let span = |k: i32| if k == 0 { 4 } else { REGION - 4 };
+                let (d, sx, sy, sz) = (d.as_uvec3(), span(d.x), span(d.y), span(d.z));
+                for lz in 0..sz {
+                    for ly in 0..sy {
+                        let row = region_index(4 * d.x as usize, ly + 4 * d.y as usize, lz + 4 * d.z as usize);
+                        let out = 4 * ly + 16 * lz;
+                        for lx in 0..sx {
+                            acc[out + lx] += region[row + lx];
+                        }
+                    }
+                }
+            }
             for lz in 0..BLOCK as usize {
                 for ly in 0..BLOCK as usize {
                     for lx in 0..BLOCK as usize {
-                        let mut sum = Vec4::ZERO;
-                        for (c, d) in CORNERS.iter().enumerate() {
-                            let pb = contrib[c];
-                            if pb == NONE {
-                                continue;
-                            }
-                            let rx = lx + 4 * d.x as usize;
-                            let ry = ly + 4 * d.y as usize;
-                            let rz = lz + 4 * d.z as usize;
-                            if rx < REGION && ry < REGION && rz < REGION {
-                                sum += scratch[pb as usize][region_index(rx, ry, rz)];
-                            }
-                        }
+                        let sum = acc[lx + 4 * ly + 16 * lz];
                         let l = lx + 4 * ly + 16 * lz;
                         mass[l] = sum.w;
                         vel[l] = if sum.w > 0.0 {

@@ -41,7 +41,11 @@ impl BodyState {
 pub fn inverse_or_zero(i: DMat3) -> DMat3 {
     let d = i.determinant();
     let scale = i.x_axis.length() + i.y_axis.length() + i.z_axis.length();
-    if d.abs() > 1e-12 * scale.powi(3) && d.is_finite() { i.inverse() } else { DMat3::ZERO }
+    if d.abs() > 1e-12 * scale.powi(3) && d.is_finite() {
+        i.inverse()
+    } else {
+        DMat3::ZERO
+    }
 }
 
 /// Measures mass, COM, velocity, angular momentum and inertia of `p` (cell size `dx_m` for the
@@ -168,12 +172,20 @@ impl Body {
 
     /// Inverse mass (1/kg): zero for static objects.
     pub fn inverse_mass(&self, state: &BodyState) -> f64 {
-        if self.kind == ObjectKind::Static || state.mass_kg <= 0.0 { 0.0 } else { 1.0 / state.mass_kg }
+        if self.kind == ObjectKind::Static || state.mass_kg <= 0.0 {
+            0.0
+        } else {
+            1.0 / state.mass_kg
+        }
     }
 
     /// Inverse inertia about the COM (1/(kg m²)): zero for static objects.
     pub fn inverse_inertia(&self, state: &BodyState) -> DMat3 {
-        if self.kind == ObjectKind::Static { DMat3::ZERO } else { inverse_or_zero(state.inertia) }
+        if self.kind == ObjectKind::Static {
+            DMat3::ZERO
+        } else {
+            inverse_or_zero(state.inertia)
+        }
     }
 
     /// Re-derives the rigid state from the particles (on creation or when the kind changes).

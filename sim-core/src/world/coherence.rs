@@ -24,7 +24,10 @@ pub fn apply_impulse(body: &mut Body, j: DVec3, point: DVec3, zone: &[u32]) {
     }
     let target_p = before.velocity_m_s * before.mass_kg + j;
     let target_l = before.angular_momentum + (point - before.com_m).cross(j);
-    let zone_mass: f64 = zone.iter().map(|&i| body.particles.mass_kg[i as usize] as f64).sum();
+    let zone_mass: f64 = zone
+        .iter()
+        .map(|&i| body.particles.mass_kg[i as usize] as f64)
+        .sum();
     if zone_mass > 0.0 {
         let mut dv = j * ZONE_SHARE / zone_mass;
         let cap = 2.0 * j.length() / before.mass_kg;

@@ -46,7 +46,13 @@ pub fn broad_phase(a: &BodyState, b: &BodyState, margin_m: f64) -> bool {
 }
 
 /// Narrow phase on occupied cells of size `cell_m`; `None` when no cell is shared.
-pub fn narrow_phase(a: &Body, sa: &BodyState, b: &Body, sb: &BodyState, cell_m: f32) -> Option<Contact> {
+pub fn narrow_phase(
+    a: &Body,
+    sa: &BodyState,
+    b: &Body,
+    sb: &BodyState,
+    cell_m: f32,
+) -> Option<Contact> {
     let inv_h = 1.0 / cell_m;
     // Only particles inside the boxes' overlap (grown by a cell) can share a cell.
     let lo = sa.aabb_m.0.max(sb.aabb_m.0) - DVec3::splat(cell_m as f64);
@@ -56,7 +62,12 @@ pub fn narrow_phase(a: &Body, sa: &BodyState, b: &Body, sb: &BodyState, cell_m: 
         x.cmpge(lo).all() && x.cmple(hi).all()
     };
     let cells_of = |body: &Body| -> HashSet<IVec3> {
-        body.particles.x.iter().filter(|x| inside(**x)).map(|x| cell(*x, inv_h)).collect()
+        body.particles
+            .x
+            .iter()
+            .filter(|x| inside(**x))
+            .map(|x| cell(*x, inv_h))
+            .collect()
     };
     let cells_b = cells_of(b);
     if cells_b.is_empty() {
@@ -64,7 +75,9 @@ pub fn narrow_phase(a: &Body, sa: &BodyState, b: &Body, sb: &BodyState, cell_m: 
     }
     let zone = |body: &Body, other: &HashSet<IVec3>| -> Vec<u32> {
         (0..body.particles.len())
-            .filter(|&i| inside(body.particles.x[i]) && other.contains(&cell(body.particles.x[i], inv_h)))
+            .filter(|&i| {
+                inside(body.particles.x[i]) && other.contains(&cell(body.particles.x[i], inv_h))
+            })
             .map(|i| i as u32)
             .collect()
     };
@@ -89,8 +102,16 @@ pub fn narrow_phase(a: &Body, sa: &BodyState, b: &Body, sb: &BodyState, cell_m: 
     };
     let ca = centroid(a, &zone_a);
     let cb = centroid(b, &zone_b);
-    let normal = (cb - ca).try_normalize().or_else(|| (sb.com_m - sa.com_m).try_normalize()).unwrap_or(DVec3::Z);
-    Some(Contact { normal, point_m: (ca + cb) * 0.5, zone_a, zone_b })
+    let normal = (cb - ca)
+        .try_normalize()
+        .or_else(|| (sb.com_m - sa.com_m).try_normalize())
+        .unwrap_or(DVec3::Z);
+    Some(Contact {
+        normal,
+        point_m: (ca + cb) * 0.5,
+        zone_a,
+        zone_b,
+    })
 }
 
 /// Per-body quantities the impulse law needs.

@@ -30,7 +30,9 @@ use crate::gaussians::GaussianCloud;
 use crate::kinematics::{GaussianState, gaussian_state, pack_symmetric};
 use crate::material::{ConstitutiveModel, Material, MaterialError};
 use crate::math::polar;
-use crate::mpm::{Diagnostics, MpmError, MpmSolver, Particles, SubstepInput, TimeStepError, TimeStepPolicy};
+use crate::mpm::{
+    Diagnostics, MpmError, MpmSolver, Particles, SubstepInput, TimeStepError, TimeStepPolicy,
+};
 use crate::scene::{self, EventAction, EventSpec, Method, ObjectKind, Scene};
 
 /// Speed below which an object counts as still (m/s).
@@ -171,13 +173,18 @@ pub struct World {
 }
 
 fn collider_from_spec(c: &scene::ColliderSpec) -> Result<Collider, WorldError> {
-    let bad = |reason| WorldError::Collider { collider: c.name.clone(), reason };
+    let bad = |reason| WorldError::Collider {
+        collider: c.name.clone(),
+        reason,
+    };
     let shape = match c.shape {
         scene::ColliderShape::Plane { point_m, normal } => Shape::Plane(
-            Plane::new(Vec3A::from(point_m), Vec3A::from(normal)).ok_or_else(|| bad("plane normal is zero or not finite"))?,
+            Plane::new(Vec3A::from(point_m), Vec3A::from(normal))
+                .ok_or_else(|| bad("plane normal is zero or not finite"))?,
         ),
         scene::ColliderShape::Box { min_m, max_m } => Shape::Box(
-            BoxShape::new(Vec3A::from(min_m), Vec3A::from(max_m)).ok_or_else(|| bad("box needs min < max on every axis"))?,
+            BoxShape::new(Vec3A::from(min_m), Vec3A::from(max_m))
+                .ok_or_else(|| bad("box needs min < max on every axis"))?,
         ),
     };
     let surface = match c.surface {
@@ -191,7 +198,13 @@ fn collider_from_spec(c: &scene::ColliderSpec) -> Result<Collider, WorldError> {
         None if velocity != Vec3A::ZERO => Some((0.0, f64::INFINITY)),
         None => None,
     };
-    Ok(Collider { shape, surface, friction: c.friction.max(0.0), velocity_m_s: velocity, active_s })
+    Ok(Collider {
+        shape,
+        surface,
+        friction: c.friction.max(0.0),
+        velocity_m_s: velocity,
+        active_s,
+    })
 }
 
 /// Particle volumes (m³): each occupied cell of size `dx_m` split evenly among its particles, so a
@@ -219,26 +232,52 @@ impl World {
         }
         let dx = s.grid_dx_m as f32;
         if !(dx.is_finite() && dx > 0.0) {
-            return Err(WorldError::Settings(format!("grid_dx_m = {} must be positive", s.grid_dx_m)));
+            return Err(WorldError::Settings(format!(
+                "grid_dx_m = {} must be positive",
+                s.grid_dx_m
+            )));
         }
         if !(s.frame_rate_hz.is_finite() && s.frame_rate_hz > 0.0) {
-            return Err(WorldError::Settings(format!("frame_rate_hz = {} must be positive", s.frame_rate_hz)));
+            return Err(WorldError::Settings(format!(
+                "frame_rate_hz = {} must be positive",
+                s.frame_rate_hz
+            )));
         }
         let policy = match s.dt_s {
-            Some(dt) => TimeStepPolicy::Fixed { dt_s: dt as f32, force: s.force_dt },
-            None => TimeStepPolicy::Cfl { number: s.cfl as f32 },
+            Some(dt) => TimeStepPolicy::Fixed {
+                dt_s: dt as f32,
+                force: s.force_dt,
+            },
+            None => TimeStepPolicy::Cfl {
+                number: s.cfl as f32,
+            },
         };
-        policy.validate().map_err(|e| WorldError::Settings(e.to_string()))?;
-        let mut colliders = scene.colliders.iter().map(collider_from_spec).collect::<Result<Vec<_>, _>>()?;
+        policy
+            .validate()
+            .map_err(|e| WorldError::Settings(e.to_string()))?;
+        let mut colliders = scene
+            .colliders
+            .iter()
+            .map(collider_from_spec)
+            .collect::<Result<Vec<_>, _>>()?;
         if let Some([lo, hi]) = s.domain_m {
-            let b = BoxShape::new(Vec3A::from(lo), Vec3A::from(hi))
-                .ok_or_else(|| WorldError::Settings("domain_m needs min < max on every axis".into()))?;
-            colliders.push(Collider::fixed(Shape::DomainBound(b), Surface::Separate, 0.0));
+            let b = BoxShape::new(Vec3A::from(lo), Vec3A::from(hi)).ok_or_else(|| {
+                WorldError::Settings("domain_m needs min < max on every axis".into())
+            })?;
+            colliders.push(Collider::fixed(
+                Shape::DomainBound(b),
+                Surface::Separate,
+                0.0,
+            ));
         }
         let mut bodies = Vec::with_capacity(scene.objects.len());
         for (k, o) in scene.objects.iter().enumerate() {
-            let material = Material::from_spec(&(&o.material).into())
-                .map_err(|source| WorldError::Material { object: o.name.clone(), source })?;
+            let material = Material::from_spec(&(&o.material).into()).map_err(|source| {
+                WorldError::Material {
+                    object: o.name.clone(),
+                    source,
+                }
+            })?;
             let g = &o.gaussians;
             let x: Vec<Vec3A> = g.positions.iter().map(|p| Vec3A::from(*p)).collect();
             let volumes = particle_volumes(&x, dx);
@@ -246,7 +285,15 @@ impl World {
             let mut particles = Particles::default();
             let v0 = Vec3A::from(o.velocity_m_s);
             for (xi, vol) in x.iter().zip(&volumes) {
-                particles.push(*xi, v0, rho * vol, *vol, 0, k as u32, material.initial_plastic_state());
+                particles.push(
+                    *xi,
+                    v0,
+                    rho * vol,
+                    *vol,
+                    0,
+                    k as u32,
+                    material.initial_plastic_state(),
+                );
             }
             let sigma0 = (0..g.len()).map(|i| Mat3A::from(g.covariance(i))).collect();
             let mut body = Body {
@@ -260,7 +307,11 @@ impl World {
                 gaussians: g.clone(),
                 sigma0,
                 rest_offsets: Vec::new(),
-                visible: if o.visible.len() == g.len() { o.visible.clone() } else { vec![true; g.len()] },
+                visible: if o.visible.len() == g.len() {
+                    o.visible.clone()
+                } else {
+                    vec![true; g.len()]
+                },
                 rigid: RigidState {
                     orientation: Quat::IDENTITY,
                     com_m: DVec3::ZERO,
@@ -307,7 +358,10 @@ impl World {
             frame: 0,
             generation: 0,
             shared: MpmSolver::new(dx),
-            stats: WorldStats { dt_min_s: f64::INFINITY, ..Default::default() },
+            stats: WorldStats {
+                dt_min_s: f64::INFINITY,
+                ..Default::default()
+            },
         })
     }
 
@@ -323,7 +377,9 @@ impl World {
 
     /// Frames in the whole run (duration × frame rate, rounded).
     pub fn total_frames(&self) -> u64 {
-        (self.settings.duration_s * self.settings.frame_rate_hz).round().max(0.0) as u64
+        (self.settings.duration_s * self.settings.frame_rate_hz)
+            .round()
+            .max(0.0) as u64
     }
 
     /// Whether the scene's duration has been simulated.
@@ -362,20 +418,40 @@ impl World {
     }
 
     fn apply_due_events(&mut self) -> Result<(), WorldError> {
-        while self.next_event < self.events.len() && self.events[self.next_event].at_s <= self.time_s + 1e-12 {
+        while self.next_event < self.events.len()
+            && self.events[self.next_event].at_s <= self.time_s + 1e-12
+        {
             let ev = self.events[self.next_event].clone();
             self.next_event += 1;
             match ev.action {
-                EventAction::Impulse { object, vector_n_s, point_m } => {
-                    let id = self.object_index(&object).ok_or(WorldError::UnknownObject(object))?;
+                EventAction::Impulse {
+                    object,
+                    vector_n_s,
+                    point_m,
+                } => {
+                    let id = self
+                        .object_index(&object)
+                        .ok_or(WorldError::UnknownObject(object))?;
                     self.apply_impulse(id, Vec3A::from(vector_n_s), point_m.map(Vec3A::from))?;
                 }
-                EventAction::SetVelocity { object, velocity_m_s } => {
-                    let id = self.object_index(&object).ok_or(WorldError::UnknownObject(object))?;
+                EventAction::SetVelocity {
+                    object,
+                    velocity_m_s,
+                } => {
+                    let id = self
+                        .object_index(&object)
+                        .ok_or(WorldError::UnknownObject(object))?;
                     self.set_velocity(id, Vec3A::from(velocity_m_s))?;
                 }
-                EventAction::SetMaterial { object, material, restitution, friction } => {
-                    let id = self.object_index(&object).ok_or(WorldError::UnknownObject(object))?;
+                EventAction::SetMaterial {
+                    object,
+                    material,
+                    restitution,
+                    friction,
+                } => {
+                    let id = self
+                        .object_index(&object)
+                        .ok_or(WorldError::UnknownObject(object))?;
                     let spec = material.as_ref().map(crate::material::MaterialSpec::from);
                     self.set_material(id, spec.as_ref(), restitution, friction)?;
                 }
@@ -400,7 +476,11 @@ impl World {
         let dt = self
             .policy
             .next_dt_s(self.dx_m(), wave, vmax, max_dt_s)
-            .map_err(|source| WorldError::TimeStep { frame: self.frame, time_s: self.time_s, source })?;
+            .map_err(|source| WorldError::TimeStep {
+                frame: self.frame,
+                time_s: self.time_s,
+                source,
+            })?;
         let t0 = Instant::now();
         match self.settings.method {
             Method::Mpm => self.mpm_shared_substep(dt)?,
@@ -421,7 +501,12 @@ impl World {
     }
 
     fn solver_error(&self, object: &str, source: MpmError) -> WorldError {
-        WorldError::Solver { object: object.to_string(), substep: self.stats.substeps, time_s: self.time_s, source }
+        WorldError::Solver {
+            object: object.to_string(),
+            substep: self.stats.substeps,
+            time_s: self.time_s,
+            source,
+        }
     }
 
     fn mpm_per_object_substep(&mut self, dt: f32) -> Result<(), WorldError> {
@@ -455,7 +540,9 @@ impl World {
     /// The baseline: every awake deformable object on one shared grid.
     fn mpm_shared_substep(&mut self, dt: f32) -> Result<(), WorldError> {
         let ids: Vec<usize> = (0..self.bodies.len())
-            .filter(|&k| self.bodies[k].is_active() && self.bodies[k].kind == ObjectKind::Deformable)
+            .filter(|&k| {
+                self.bodies[k].is_active() && self.bodies[k].kind == ObjectKind::Deformable
+            })
             .collect();
         let mut all = Particles::default();
         let mut materials = Vec::new();
@@ -463,7 +550,9 @@ impl World {
             let b = &self.bodies[k];
             let start = all.len();
             all.extend_from(&b.particles);
-            all.material[start..].iter_mut().for_each(|m| *m = materials.len() as u16);
+            all.material[start..]
+                .iter_mut()
+                .for_each(|m| *m = materials.len() as u16);
             materials.push(b.materials[0].clone());
         }
         let input = SubstepInput {
@@ -473,7 +562,10 @@ impl World {
             dt_s: dt,
             time_s: self.time_s,
         };
-        let r = self.shared.substep(&mut all, &input).map_err(|e| self.solver_error("shared grid", e))?;
+        let r = self
+            .shared
+            .substep(&mut all, &input)
+            .map_err(|e| self.solver_error("shared grid", e))?;
         self.stats.mpm_particle_substeps += all.len() as u64;
         let mut start = 0;
         for &k in &ids {
@@ -484,7 +576,9 @@ impl World {
             b.particles.v.copy_from_slice(&all.v[start..end]);
             b.particles.c.copy_from_slice(&all.c[start..end]);
             b.particles.f.copy_from_slice(&all.f[start..end]);
-            b.particles.plastic.copy_from_slice(&all.plastic[start..end]);
+            b.particles
+                .plastic
+                .copy_from_slice(&all.plastic[start..end]);
             b.max_speed_m_s = r.max_speed_m_s;
             start = end;
         }
@@ -497,7 +591,11 @@ impl World {
             if b.kind == ObjectKind::Rigid && !b.sleeping {
                 rigid::step(b, g, dt, &self.colliders, self.time_s);
                 let rs = &b.rigid;
-                let arm = b.rest_offsets.iter().map(|r| r.length()).fold(0.0f32, f32::max) as f64;
+                let arm = b
+                    .rest_offsets
+                    .iter()
+                    .map(|r| r.length())
+                    .fold(0.0f32, f32::max) as f64;
                 b.max_speed_m_s = (rs.velocity_m_s.length() + rs.omega_rad_s.length() * arm) as f32;
             }
         }
@@ -517,8 +615,16 @@ impl World {
         } else {
             contact::Dynamics {
                 com_m: s.com_m,
-                velocity_m_s: if b.kind == ObjectKind::Static { DVec3::ZERO } else { s.velocity_m_s },
-                omega_rad_s: if b.kind == ObjectKind::Static { DVec3::ZERO } else { s.angular_velocity() },
+                velocity_m_s: if b.kind == ObjectKind::Static {
+                    DVec3::ZERO
+                } else {
+                    s.velocity_m_s
+                },
+                omega_rad_s: if b.kind == ObjectKind::Static {
+                    DVec3::ZERO
+                } else {
+                    s.angular_velocity()
+                },
                 inverse_mass: b.inverse_mass(s),
                 inverse_inertia: b.inverse_inertia(s),
             }
@@ -531,7 +637,11 @@ impl World {
             return;
         }
         let dx = self.dx_m();
-        let states: Vec<BodyState> = self.bodies.par_iter().map(|b| measure(&b.particles, dx)).collect();
+        let states: Vec<BodyState> = self
+            .bodies
+            .par_iter()
+            .map(|b| measure(&b.particles, dx))
+            .collect();
         let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
         for i in 0..n {
             for j in i + 1..n {
@@ -548,7 +658,9 @@ impl World {
                 if !contact::broad_phase(&states[i], &states[j], dx as f64) {
                     continue;
                 }
-                let Some(c) = contact::narrow_phase(bi, &states[i], bj, &states[j], dx) else { continue };
+                let Some(c) = contact::narrow_phase(bi, &states[i], bj, &states[j], dx) else {
+                    continue;
+                };
                 self.bodies[i].contacts += 1;
                 self.bodies[j].contacts += 1;
                 for k in [i, j] {
@@ -560,7 +672,10 @@ impl World {
                 let (da, db) = (self.dynamics(i, &states[i]), self.dynamics(j, &states[j]));
                 let e = self.bodies[i].restitution.min(self.bodies[j].restitution) as f64;
                 let mu = ((self.bodies[i].friction * self.bodies[j].friction) as f64).sqrt();
-                let Some(jv) = contact::impulse(&da, &db, c.point_m, c.normal, e, mu, resting) else { continue };
+                let Some(jv) = contact::impulse(&da, &db, c.point_m, c.normal, e, mu, resting)
+                else {
+                    continue;
+                };
                 self.stats.contact_impulses += 1;
                 self.give_impulse(i, -jv, c.point_m, &c.zone_a);
                 self.give_impulse(j, jv, c.point_m, &c.zone_b);
@@ -610,9 +725,15 @@ impl World {
     }
 
     fn movable(&self, id: usize) -> Result<(), WorldError> {
-        let b = self.bodies.get(id).ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
+        let b = self
+            .bodies
+            .get(id)
+            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
         if b.kind == ObjectKind::Static {
-            return Err(WorldError::Refused { object: b.name.clone(), reason: "static objects do not move".into() });
+            return Err(WorldError::Refused {
+                object: b.name.clone(),
+                reason: "static objects do not move".into(),
+            });
         }
         Ok(())
     }
@@ -621,10 +742,18 @@ impl World {
     ///
     /// # Errors
     /// Unknown or static object, or a non-finite value.
-    pub fn apply_impulse(&mut self, id: usize, j_n_s: Vec3A, point_m: Option<Vec3A>) -> Result<(), WorldError> {
+    pub fn apply_impulse(
+        &mut self,
+        id: usize,
+        j_n_s: Vec3A,
+        point_m: Option<Vec3A>,
+    ) -> Result<(), WorldError> {
         self.movable(id)?;
         if !j_n_s.is_finite() || point_m.is_some_and(|p| !p.is_finite()) {
-            return Err(WorldError::Refused { object: self.bodies[id].name.clone(), reason: "non-finite impulse".into() });
+            return Err(WorldError::Refused {
+                object: self.bodies[id].name.clone(),
+                reason: "non-finite impulse".into(),
+            });
         }
         self.wake(id);
         let dx = self.dx_m();
@@ -658,7 +787,10 @@ impl World {
     pub fn set_velocity(&mut self, id: usize, v_m_s: Vec3A) -> Result<(), WorldError> {
         self.movable(id)?;
         if !v_m_s.is_finite() {
-            return Err(WorldError::Refused { object: self.bodies[id].name.clone(), reason: "non-finite velocity".into() });
+            return Err(WorldError::Refused {
+                object: self.bodies[id].name.clone(),
+                reason: "non-finite velocity".into(),
+            });
         }
         self.wake(id);
         let dx = self.dx_m();
@@ -685,9 +817,15 @@ impl World {
         restitution: Option<f32>,
         friction: Option<f32>,
     ) -> Result<(), WorldError> {
-        let b = self.bodies.get_mut(id).ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
+        let b = self
+            .bodies
+            .get_mut(id)
+            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
         if let Some(spec) = spec {
-            let m = Material::from_spec(spec).map_err(|source| WorldError::Material { object: b.name.clone(), source })?;
+            let m = Material::from_spec(spec).map_err(|source| WorldError::Material {
+                object: b.name.clone(),
+                source,
+            })?;
             let rho = m.density_kg_m3();
             for (mass, vol) in b.particles.mass_kg.iter_mut().zip(&b.particles.volume0_m3) {
                 *mass = rho * vol;
@@ -716,7 +854,10 @@ impl World {
     /// # Errors
     /// Unknown object.
     pub fn set_kind(&mut self, id: usize, kind: ObjectKind) -> Result<(), WorldError> {
-        let b = self.bodies.get_mut(id).ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
+        let b = self
+            .bodies
+            .get_mut(id)
+            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
         if kind == ObjectKind::Rigid && b.kind != ObjectKind::Rigid {
             b.capture_rigid_pose();
         }
@@ -740,7 +881,11 @@ impl World {
 
     /// Published Gaussians: the visible ones of every object, then the background.
     pub fn published_count(&self) -> usize {
-        self.bodies.iter().map(|b| b.visible.iter().filter(|v| **v).count()).sum::<usize>() + self.background.len()
+        self.bodies
+            .iter()
+            .map(|b| b.visible.iter().filter(|v| **v).count())
+            .sum::<usize>()
+            + self.background.len()
     }
 
     /// Calls `f(object id or None for background, cloud, index)` for every published Gaussian in

@@ -12,7 +12,13 @@ use crate::collider::{Collider, Surface};
 
 /// Advances rigid `body` by `dt_s` under gravity, with collider contacts at time `time_s`.
 /// Returns the number of colliders touched.
-pub fn step(body: &mut Body, gravity: DVec3, dt_s: f64, colliders: &[Collider], time_s: f64) -> u32 {
+pub fn step(
+    body: &mut Body,
+    gravity: DVec3,
+    dt_s: f64,
+    colliders: &[Collider],
+    time_s: f64,
+) -> u32 {
     let rs = &mut body.rigid;
     rs.velocity_m_s += gravity * dt_s;
     rs.com_m += rs.velocity_m_s * dt_s;
