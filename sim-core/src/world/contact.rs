@@ -4,7 +4,9 @@
 //! Broad phase: bounding spheres (eq. 3: |c_i - c_j| <= r_i + r_j) and boxes. Narrow phase: the
 //! overlap of the two objects' occupied grid cells, so a donut and a vase collide where their
 //! particles meet. The contact zone of each object is its particles in cells the other occupies;
-//! the normal n points from A's zone centroid to B's, the contact point is their midpoint.
+//! the contact point is the midpoint of the two zones' centroids, and the normal n (from A to B)
+//! is the difference of the objects' outward normals there, each estimated as the direction from
+//! the centroid of that object's particles within 3 cells of the point to the point.
 //!
 //! Response, for approaching pairs only (v_rel·n < 0, v_rel = v_B - v_A at the contact point):
 //! j_n = -(1 + e) v_rel·n / (1/m_A + 1/m_B + n·[(I_A⁻¹ (r_A × n)) × r_A + (I_B⁻¹ (r_B × n)) × r_B]),
@@ -102,16 +104,33 @@ pub fn narrow_phase(
     };
     let ca = centroid(a, &zone_a);
     let cb = centroid(b, &zone_b);
-    let normal = (cb - ca)
-        .try_normalize()
-        .or_else(|| (sb.com_m - sa.com_m).try_normalize())
-        .unwrap_or(DVec3::Z);
-    Some(Contact {
-        normal,
-        point_m: (ca + cb) * 0.5,
-        zone_a,
-        zone_b,
-    })
+    let point = (ca + cb) * 0.5;
+    // Local-centroid normals: each object's particles within 3 cells of the contact point lie
+    // mostly behind its surface, so point - their centroid is its outward normal there. Robust
+    // even when the zones hold a handful of particles (zone centroids alone are not).
+    let reach2 = (3.0 * cell_m as f64).powi(2);
+    let outward = |body: &Body| {
+        let mut m = 0.0;
+        let mut mx = DVec3::ZERO;
+        for (x, &mi) in body.particles.x.iter().zip(&body.particles.mass_kg) {
+            let x = x.as_dvec3();
+            if (x - point).length_squared() <= reach2 {
+                m += mi as f64;
+                mx += x * mi as f64;
+            }
+        }
+        if m > 0.0 { (point - mx / m).try_normalize() } else { None }
+    };
+    let normal = match (outward(a), outward(b)) {
+        (Some(na), Some(nb)) => (na - nb).try_normalize(),
+        (Some(na), None) => Some(na),
+        (None, Some(nb)) => Some(-nb),
+        (None, None) => None,
+    }
+    .or_else(|| (cb - ca).try_normalize())
+    .or_else(|| (sb.com_m - sa.com_m).try_normalize())
+    .unwrap_or(DVec3::Z);
+    Some(Contact { normal, point_m: point, zone_a, zone_b })
 }
 
 /// Per-body quantities the impulse law needs.

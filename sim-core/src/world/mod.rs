@@ -677,6 +677,7 @@ impl World {
                     continue;
                 };
                 self.stats.contact_impulses += 1;
+                if std::env::var_os("SPLATPHYS_DEBUG_CONTACTS").is_some() { eprintln!("t={:.4} n={:?} p={:?} j={:?} va={:?} vb={:?} wa={:?}", self.time_s, c.normal, c.point_m, jv, da.velocity_m_s, db.velocity_m_s, da.omega_rad_s); }
                 self.give_impulse(i, -jv, c.point_m, &c.zone_a);
                 self.give_impulse(j, jv, c.point_m, &c.zone_b);
             }
