@@ -1,8 +1,9 @@
 //! `splatphys-render live` against a server as a separate process: `splatphys serve --fake`
 //! (the free-fall stand-in) when that binary was built next to ours (`cargo test --workspace`
-//! builds it; `SPLATPHYS_BIN` names another), otherwise the same stand-in served from a thread of
-//! this test. Every test uses its own service prefix under one iceoryx2 file prefix per test
-//! binary (`SPLATPHYS_IOX2_PREFIX`), and every wait is bounded.
+//! builds it; `SPLATPHYS_BIN` names another) and knows the flags used here; otherwise this test
+//! binary re-runs itself as the server (the ignored test `fake_server_process`, which serves the
+//! same stand-in through the ipc library). Every test uses its own service prefix under one
+//! iceoryx2 file prefix per test binary (`SPLATPHYS_IOX2_PREFIX`), and every wait is bounded.
 
 #[path = "common/procs.rs"]
 mod procs;
@@ -30,69 +31,92 @@ fn iox_prefix() -> String {
     prefix
 }
 
-/// `splatphys` built next to the renderer, or named by `SPLATPHYS_BIN`.
+/// `splatphys` built next to the renderer, or named by `SPLATPHYS_BIN`, if its `serve` knows
+/// the flags used here (a stale build may not).
 fn server_binary() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("SPLATPHYS_BIN") {
-        return Some(PathBuf::from(p));
-    }
-    let p = PathBuf::from(RENDER).with_file_name("splatphys");
-    p.is_file().then_some(p)
+    let p = match std::env::var_os("SPLATPHYS_BIN") {
+        Some(p) => PathBuf::from(p),
+        None => PathBuf::from(RENDER).with_file_name("splatphys"),
+    };
+    let help = Command::new(&p).args(["serve", "--help"]).output().ok()?;
+    let help = String::from_utf8_lossy(&help.stdout);
+    (help.contains("--wait-for-subscribers") && help.contains("--realtime")).then_some(p)
 }
 
-/// A running stand-in server: a child process or a thread of this test.
-enum Server {
-    Process(Proc),
-    Thread(std::thread::JoinHandle<u64>),
+/// Environment variables that turn this test binary into a server (see
+/// [`fake_server_process`]).
+const SERVE_PREFIX_ENV: &str = "SPLATPHYS_RENDER_TEST_SERVE";
+const SERVE_FRAMES_ENV: &str = "SPLATPHYS_RENDER_TEST_FRAMES";
+const SERVE_REALTIME_ENV: &str = "SPLATPHYS_RENDER_TEST_REALTIME";
+
+/// Not a test: the stand-in server when this binary is re-run as one.
+#[test]
+#[ignore = "run by the other tests as a server process"]
+fn fake_server_process() {
+    let Some(prefix) = std::env::var_os(SERVE_PREFIX_ENV) else {
+        return;
+    };
+    let cfg = ServerConfig {
+        prefix: Some(prefix.to_string_lossy().into_owned()),
+        max_frames: std::env::var(SERVE_FRAMES_ENV)
+            .ok()
+            .and_then(|f| f.parse().ok()),
+        realtime: std::env::var_os(SERVE_REALTIME_ENV).is_some(),
+        wait_for_subscribers: 1,
+        ..ServerConfig::default()
+    };
+    let mut sim = FreeFall::new("fake", 2, 500, 0.005, None);
+    serve(&mut sim, &cfg).expect("server");
 }
+
+/// A running stand-in server process.
+struct Server(Proc);
 
 impl Server {
-    fn start(prefix: &str, extra: &[&str]) -> Self {
+    /// Serves `frames` frames after the initial one (or until killed), paced to simulated time
+    /// with `realtime`.
+    fn start(prefix: &str, frames: Option<u64>, realtime: bool) -> Self {
         let iox = iox_prefix();
-        if let Some(bin) = server_binary() {
-            eprintln!("server: {} serve --fake", bin.display());
-            let child = Command::new(bin)
-                .args(["serve", "--fake", "--prefix", prefix, "--fake-dt", "0.005"])
-                .args(["--fake-gaussians", "500", "--wait-for-subscribers", "1"])
-                .args(extra)
-                .env("SPLATPHYS_IOX2_PREFIX", &iox)
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .expect("spawn splatphys serve");
-            return Server::Process(Proc(child));
-        }
-        eprintln!("server: no splatphys binary built; serving the stand-in from a thread");
-        let cfg = ServerConfig {
-            prefix: Some(prefix.to_owned()),
-            max_frames: Some(FRAMES),
-            wait_for_subscribers: 1,
-            ..ServerConfig::default()
+        let mut cmd = match server_binary() {
+            Some(bin) => {
+                eprintln!("server: {} serve --fake", bin.display());
+                let mut c = Command::new(bin);
+                c.args(["serve", "--fake", "--prefix", prefix, "--fake-dt", "0.005"])
+                    .args(["--fake-gaussians", "500", "--wait-for-subscribers", "1"]);
+                if let Some(f) = frames {
+                    c.args(["--frames", &f.to_string()]);
+                }
+                if realtime {
+                    c.arg("--realtime");
+                }
+                c
+            }
+            None => {
+                eprintln!("server: no usable splatphys binary; this test binary serves instead");
+                let mut c = Command::new(std::env::current_exe().expect("test binary"));
+                c.args(["--ignored", "--exact", "fake_server_process", "--nocapture"])
+                    .env(SERVE_PREFIX_ENV, prefix);
+                if let Some(f) = frames {
+                    c.env(SERVE_FRAMES_ENV, f.to_string());
+                }
+                if realtime {
+                    c.env(SERVE_REALTIME_ENV, "1");
+                }
+                c
+            }
         };
-        Server::Thread(std::thread::spawn(move || {
-            let mut sim = FreeFall::new("fake", 2, 500, 0.005, None);
-            serve(&mut sim, &cfg).expect("server").frames_published
-        }))
-    }
-
-    fn is_process(&self) -> bool {
-        matches!(self, Server::Process(_))
+        let child = cmd
+            .env("SPLATPHYS_IOX2_PREFIX", &iox)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn the server");
+        Server(Proc(child))
     }
 
     fn join(self, timeout: Duration) {
-        match self {
-            Server::Process(p) => {
-                let e = wait_exit(p, timeout);
-                assert_eq!(e.code, Some(0), "server failed:\n{}", e.stderr);
-            }
-            Server::Thread(h) => {
-                let start = Instant::now();
-                while !h.is_finished() {
-                    assert!(start.elapsed() < timeout, "server thread did not stop");
-                    std::thread::sleep(Duration::from_millis(10));
-                }
-                assert_eq!(h.join().expect("server thread"), FRAMES + 1);
-            }
-        }
+        let e = wait_exit(self.0, timeout);
+        assert_eq!(e.code, Some(0), "server failed:\n{}", e.stderr);
     }
 }
 
@@ -101,7 +125,7 @@ fn render_live(prefix: &str, out: &std::path::Path, extra: &[&str]) -> Proc {
         Command::new(RENDER)
             .args(["--threads", "2", "live", "--prefix", prefix, "--out-dir"])
             .arg(out)
-            .args(["--width", "160", "--height", "120", "--timeout-s", "20"])
+            .args(["--width", "160", "--height", "120"])
             .args(extra)
             .env("SPLATPHYS_IOX2_PREFIX", iox_prefix())
             .stdout(Stdio::piped())
@@ -116,8 +140,8 @@ fn live_renders_until_clean_shutdown() {
     let dir = tempfile::tempdir().expect("tempdir");
     let prefix = "t/render_live";
     // Renderer first: it waits for the server to appear.
-    let renderer = render_live(prefix, dir.path(), &[]);
-    let server = Server::start(prefix, &["--frames", &FRAMES.to_string()]);
+    let renderer = render_live(prefix, dir.path(), &["--timeout-s", "20"]);
+    let server = Server::start(prefix, Some(FRAMES), false);
     let e = wait_exit(renderer, Duration::from_secs(60));
     server.join(Duration::from_secs(30));
     assert_eq!(e.code, Some(0), "renderer failed:\n{}", e.stderr);
@@ -157,15 +181,8 @@ fn live_fails_clearly_without_a_server() {
 fn live_writes_what_it_has_when_the_server_dies() {
     let dir = tempfile::tempdir().expect("tempdir");
     let prefix = "t/render_killed";
-    let renderer = render_live(prefix, dir.path(), &[]);
-    let server = Server::start(prefix, &["--realtime"]);
-    if !server.is_process() {
-        eprintln!("skipped: needs the splatphys binary to kill the server");
-        drop(renderer);
-        // The thread serves FRAMES frames and stops on its own.
-        server.join(Duration::from_secs(30));
-        return;
-    }
+    let renderer = render_live(prefix, dir.path(), &["--timeout-s", "20"]);
+    let server = Server::start(prefix, None, true);
     // Let a few frames be rendered, then kill -9 the server.
     let start = Instant::now();
     while pngs(dir.path()).len() < 2 {
