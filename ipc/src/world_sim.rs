@@ -47,7 +47,13 @@ impl WorldSim {
             .chain(std::iter::once(world.background.sh_degree))
             .max()
             .unwrap_or(0) as u32;
-        Ok(Self { world, name: name.to_string(), sh_degree, substeps: 0, progress: false })
+        Ok(Self {
+            world,
+            name: name.to_string(),
+            sh_degree,
+            substeps: 0,
+            progress: false,
+        })
     }
 }
 
@@ -116,18 +122,28 @@ impl Simulation for WorldSim {
     }
 
     fn advance(&mut self) -> Result<Advance, SimulationError> {
-        let n = self
-            .world
-            .advance_frame()
-            .map_err(|e| SimulationError { step: self.world.frame, reason: e.to_string() })?;
+        let n = self.world.advance_frame().map_err(|e| SimulationError {
+            step: self.world.frame,
+            reason: e.to_string(),
+        })?;
         self.substeps += n;
         if self.progress {
             use std::io::Write;
             let mut out = std::io::stdout().lock();
-            let _ = writeln!(out, "progress {} {} {:.6}", self.world.frame, self.world.total_frames(), self.world.time_s);
+            let _ = writeln!(
+                out,
+                "progress {} {} {:.6}",
+                self.world.frame,
+                self.world.total_frames(),
+                self.world.time_s
+            );
             let _ = out.flush();
         }
-        Ok(Advance { steps: 1, substeps: n, time_s: self.world.time_s })
+        Ok(Advance {
+            steps: 1,
+            substeps: n,
+            time_s: self.world.time_s,
+        })
     }
 
     fn write_frame(&self, out: &mut [FrameGaussian]) {
@@ -153,14 +169,19 @@ impl Simulation for WorldSim {
         let at = self.world.frame + 1;
         let w = &mut self.world;
         let r = match *command {
-            Command::Impulse { object, impulse_n_s, point_m } => w.apply_impulse(
+            Command::Impulse {
+                object,
+                impulse_n_s,
+                point_m,
+            } => w.apply_impulse(
                 object as usize,
                 glam::DVec3::from(impulse_n_s).as_vec3a(),
                 point_m.map(|p| glam::DVec3::from(p).as_vec3a()),
             ),
-            Command::SetVelocity { object, velocity_m_s } => {
-                w.set_velocity(object as usize, glam::DVec3::from(velocity_m_s).as_vec3a())
-            }
+            Command::SetVelocity {
+                object,
+                velocity_m_s,
+            } => w.set_velocity(object as usize, glam::DVec3::from(velocity_m_s).as_vec3a()),
             Command::EditMaterial { object, edit } => {
                 let Some(b) = w.bodies.get(object as usize) else {
                     return Err(format!("unknown object {object}"));
@@ -171,8 +192,13 @@ impl Simulation for WorldSim {
                     || edit.poisson_ratio.is_some()
                     || edit.density_kg_m3.is_some();
                 let spec = MaterialSpec {
-                    model: edit.model.map_or_else(|| b.materials[0].name().to_string(), |m| model_name(m).into()),
-                    youngs_modulus_pa: edit.youngs_modulus_pa.unwrap_or(cur.youngs_modulus_pa as f64),
+                    model: edit.model.map_or_else(
+                        || b.materials[0].name().to_string(),
+                        |m| model_name(m).into(),
+                    ),
+                    youngs_modulus_pa: edit
+                        .youngs_modulus_pa
+                        .unwrap_or(cur.youngs_modulus_pa as f64),
                     poisson_ratio: edit.poisson_ratio.unwrap_or(cur.poisson_ratio as f64),
                     density_kg_m3: edit.density_kg_m3.unwrap_or(cur.density_kg_m3 as f64),
                     ..Default::default()

@@ -62,9 +62,14 @@ fn head_on_collision_follows_the_restitution_law() {
             let v1e = (p - m2 * e * (v1 - v2)) / (m1 + m2);
             let v2e = (p + m1 * e * (v1 - v2)) / (m1 + m2);
             let (u1, u2) = (o[0].velocity_m_s[0], o[1].velocity_m_s[0]);
-            println!("com e={e} ratio={ratio}: v1' = {u1:.4} (law {v1e:.4}), v2' = {u2:.4} (law {v2e:.4})");
+            println!(
+                "com e={e} ratio={ratio}: v1' = {u1:.4} (law {v1e:.4}), v2' = {u2:.4} (law {v2e:.4})"
+            );
             // 1 % of the approach speed (2 m/s).
-            assert!((u1 - v1e).abs() <= 0.02 && (u2 - v2e).abs() <= 0.02, "e={e} ratio={ratio}");
+            assert!(
+                (u1 - v1e).abs() <= 0.02 && (u2 - v2e).abs() <= 0.02,
+                "e={e} ratio={ratio}"
+            );
             assert!(w.stats.contact_impulses > 0);
         }
     }
@@ -75,13 +80,22 @@ fn shared_grid_baseline_sticks_and_is_recorded() {
     // The baseline's answer for e = 1 (it has no restitution: contact through one grid is
     // inelastic and sticky). Printed for the record; momentum must still be conserved.
     let scene = load_scene_str(&two_spheres("mpm", 1.0, 1000.0, 0.0), Path::new(".")).unwrap();
-    let p0 = World::from_scene(&scene).unwrap().diagnostics().momentum_kg_m_s;
+    let p0 = World::from_scene(&scene)
+        .unwrap()
+        .diagnostics()
+        .momentum_kg_m_s;
     let w = run(&two_spheres("mpm", 1.0, 1000.0, 0.0));
     let o = w.objects();
-    println!("mpm e=1: v1' = {:.4}, v2' = {:.4} (law: -1, 1)", o[0].velocity_m_s[0], o[1].velocity_m_s[0]);
+    println!(
+        "mpm e=1: v1' = {:.4}, v2' = {:.4} (law: -1, 1)",
+        o[0].velocity_m_s[0], o[1].velocity_m_s[0]
+    );
     let p = w.diagnostics().momentum_kg_m_s;
     let scale = o[0].mass_kg + o[1].mass_kg;
-    assert!((p[0] - p0[0]).abs() / scale < 1e-5, "momentum drift {p:?} from {p0:?}");
+    assert!(
+        (p[0] - p0[0]).abs() / scale < 1e-5,
+        "momentum drift {p:?} from {p0:?}"
+    );
 }
 
 #[test]
@@ -115,7 +129,12 @@ fn off_centre_collision_conserves_angular_momentum_and_spins_both() {
     assert!(drift <= 1e-3, "relative angular momentum drift {drift:e}");
     for o in w.objects() {
         let spin = o.angular_velocity_rad_s[2].abs();
-        assert!(spin > 0.1, "{} does not spin: {:?}", o.name, o.angular_velocity_rad_s);
+        assert!(
+            spin > 0.1,
+            "{} does not spin: {:?}",
+            o.name,
+            o.angular_velocity_rad_s
+        );
     }
 }
 
@@ -162,18 +181,34 @@ surface = "sticky"
     // this pins today's behaviour until contact manifolds land (see README, "not working yet").
     assert!(worst <= 1e-3, "rigid box moved {worst:e} m");
     let jelly = &w.bodies[1];
-    println!("jelly skipped {} of {} substeps asleep", jelly.substeps_skipped, w.stats.substeps);
+    println!(
+        "jelly skipped {} of {} substeps asleep",
+        jelly.substeps_skipped, w.stats.substeps
+    );
     assert!(jelly.sleeping, "a jelly at rest on the floor should sleep");
-    assert!(jelly.substeps_skipped > w.stats.substeps / 4, "skipped only {}", jelly.substeps_skipped);
+    assert!(
+        jelly.substeps_skipped > w.stats.substeps / 4,
+        "skipped only {}",
+        jelly.substeps_skipped
+    );
 }
 
 fn bits(threads: usize, method: &str) -> Vec<u32> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     pool.install(|| {
         let w = run(&two_spheres(method, 0.5, 2000.0, 0.02));
         w.bodies
             .iter()
-            .flat_map(|b| b.particles.x.iter().chain(b.particles.v.iter()).flat_map(|v| v.to_array()))
+            .flat_map(|b| {
+                b.particles
+                    .x
+                    .iter()
+                    .chain(b.particles.v.iter())
+                    .flat_map(|v| v.to_array())
+            })
             .map(f32::to_bits)
             .collect()
     })

@@ -252,7 +252,10 @@ mod tests {
     fn kinds_and_models_parse_by_name() {
         assert_eq!(parse_kind("Rigid").unwrap(), ObjectKind::Rigid);
         assert!(parse_kind("gas").is_err());
-        assert_eq!(parse_model("neo_hookean").unwrap(), MaterialModel::NeoHookean);
+        assert_eq!(
+            parse_model("neo_hookean").unwrap(),
+            MaterialModel::NeoHookean
+        );
         assert!(matches!(
             parse_model("rubber"),
             Err(ControlError::UnknownName { .. })

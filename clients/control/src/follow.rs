@@ -5,13 +5,17 @@
 //!
 //! ```text
 //! v̄ = v - g Δt / 2                  (mean velocity over the next frame once compensated)
-//! a = kp (x* - x) - kd v̄ - g        (m/s²; g is the gravity to compensate)
+//! v* = clamp((kp / kd) (x* - x), |v*| <= v_max)
+//! a = kd (v* - v̄) - g               (m/s²; g is the gravity to compensate)
 //! J = m a Δt, clamped to |J| <= J_max  (N·s)
 //! ```
 //!
 //! The damping term uses v̄ rather than the end-of-frame velocity v: with gravity compensated
 //! once per frame, an object held in place ends every frame with v = g Δt / 2, and damping
 //! that would leave a steady offset of kd g Δt / (2 kp) (3.7 cm at 60 Hz with the defaults).
+//! Within (kd / kp) v_max of the target the law is exactly a = kp (x* - x) - kd v̄ - g (PD);
+//! farther away the speed limit v* keeps a saturated controller from overshooting, which a
+//! plain PD with a clamped impulse does when started hundreds of metres away.
 //!
 //! With the defaults kp = 20 s⁻² and kd = 9 s⁻¹ the closed loop (ignoring delay) has
 //! ω = √kp ≈ 4.5 rad/s and damping ratio kd / (2ω) ≈ 1: critically damped, settling in about
@@ -53,6 +57,8 @@ pub struct FollowConfig {
     pub gravity_m_s2: [f64; 3],
     /// Largest impulse per command, N·s. Default 5.
     pub max_impulse_n_s: f64,
+    /// Largest approach speed the controller asks for, m/s. Default 2.
+    pub max_speed_m_s: f64,
     /// Wall-clock run time. Default 10 s.
     pub duration: Duration,
     /// Stop early once the error stayed below this for [`FollowConfig::settle_s`], metres.
@@ -71,6 +77,7 @@ impl FollowConfig {
             kd_per_s: 9.0,
             gravity_m_s2: [0.0, 0.0, -9.81],
             max_impulse_n_s: 5.0,
+            max_speed_m_s: 2.0,
             duration: Duration::from_secs(10),
             tolerance_m: None,
             settle_s: 0.5,
@@ -86,12 +93,25 @@ pub fn pd_impulse(
     mass_kg: f64,
     dt_s: f64,
 ) -> [f64; 3] {
+    let mut v_want = [0.0; 3];
+    if cfg.kd_per_s > 0.0 {
+        for a in 0..3 {
+            v_want[a] = cfg.kp_per_s2 / cfg.kd_per_s * (cfg.target_m[a] - position_m[a]);
+        }
+        let speed = norm(v_want);
+        if speed > cfg.max_speed_m_s && speed > 0.0 {
+            let s = cfg.max_speed_m_s.max(0.0) / speed;
+            v_want = v_want.map(|x| x * s);
+        }
+    }
     let mut j = [0.0; 3];
     for a in 0..3 {
         let mean_velocity = velocity_m_s[a] - 0.5 * cfg.gravity_m_s2[a] * dt_s;
-        let acc = cfg.kp_per_s2 * (cfg.target_m[a] - position_m[a])
-            - cfg.kd_per_s * mean_velocity
-            - cfg.gravity_m_s2[a];
+        let acc = if cfg.kd_per_s > 0.0 {
+            cfg.kd_per_s * (v_want[a] - mean_velocity)
+        } else {
+            cfg.kp_per_s2 * (cfg.target_m[a] - position_m[a])
+        } - cfg.gravity_m_s2[a];
         j[a] = mass_kg * acc * dt_s;
     }
     let norm = norm(j);
@@ -398,7 +418,13 @@ mod tests {
         let cfg = FollowConfig::new(0, [1.0, 2.0, 3.0]);
         // Held on target (end-of-frame velocity g dt / 2 downwards): only gravity compensation,
         // m g dt = 2 * 9.81 * 0.01 N·s upwards.
-        let j = pd_impulse(&cfg, [1.0, 2.0, 3.0], [0.0, 0.0, -0.5 * 9.81 * 0.01], 2.0, 0.01);
+        let j = pd_impulse(
+            &cfg,
+            [1.0, 2.0, 3.0],
+            [0.0, 0.0, -0.5 * 9.81 * 0.01],
+            2.0,
+            0.01,
+        );
         assert!((j[2] - 2.0 * 9.81 * 0.01).abs() < 1e-12);
         assert_eq!((j[0], j[1]), (0.0, 0.0));
     }
@@ -433,6 +459,25 @@ mod tests {
             queue.push_back(pd_impulse(&cfg, x, v, 1.0, dt));
         }
         norm([x[0] - 0.5, x[1], x[2] - 10.0])
+    }
+
+    #[test]
+    fn far_start_approaches_at_the_speed_limit_without_overshoot() {
+        // 500 m below the target, falling at 100 m/s: the loop must brake, climb at <= 2 m/s
+        // and arrive without overshooting by more than a few centimetres.
+        let cfg = FollowConfig::new(0, [0.0, 0.0, 0.0]);
+        let dt = 1.0 / 60.0;
+        let (mut z, mut v) = (-500.0f64, -100.0f64);
+        let mut max_z = f64::MIN;
+        for _ in 0..(60 * 400) {
+            let j = pd_impulse(&cfg, [0.0, 0.0, z], [0.0, 0.0, v], 1.0, dt)[2];
+            v += j;
+            z += v * dt - 0.5 * 9.81 * dt * dt;
+            v -= 9.81 * dt;
+            max_z = max_z.max(z);
+        }
+        assert!(z.abs() < 1e-3, "final z {z} m");
+        assert!(max_z < 0.05, "overshoot to {max_z} m");
     }
 
     #[test]

@@ -171,7 +171,9 @@ impl Session {
                 .map_err(|_| IpcError::Interrupted)?;
             self.refresh_scene()?;
         }
-        self.scene.as_ref().ok_or(ControlError::NoScene { waited_ms: 0 })
+        self.scene
+            .as_ref()
+            .ok_or(ControlError::NoScene { waited_ms: 0 })
     }
 
     /// The scene header if one has been received, without waiting.

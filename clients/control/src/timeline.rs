@@ -261,7 +261,8 @@ struct Pending {
     deadline: Instant,
 }
 
-/// Sends every event once the server's simulated time reaches it, and waits for every reply.
+/// Sends every event once the server's simulated time reaches it (with `relative`, once it
+/// reaches the time of the first status or frame seen plus `at_s`), and waits for every reply.
 /// `on_outcome` sees each event's outcome as its reply arrives. The session must have been
 /// connected with `objects` enabled for frame-accurate timing (otherwise the 10 Hz status
 /// time is used).
@@ -272,12 +273,15 @@ struct Pending {
 pub fn run_timeline(
     session: &mut Session,
     events: &[TimedAction],
+    relative: bool,
     mut on_outcome: impl FnMut(&EventOutcome),
 ) -> Result<TimelineReport, ControlError> {
     let mut report = TimelineReport::default();
     let mut next = 0;
     let mut in_flight: VecDeque<Pending> = VecDeque::new();
     let mut now_s = f64::NEG_INFINITY;
+    // With `relative`, event times are offsets from the first server time seen.
+    let mut origin_s: Option<f64> = (!relative).then_some(0.0);
     let reply_timeout = session.reply_timeout();
     let mut finish = |o: EventOutcome, report: &mut TimelineReport| {
         match &o.reply {
@@ -307,7 +311,11 @@ pub fn run_timeline(
             }
         }
 
-        while next < events.len() && events[next].at_s <= now_s {
+        if origin_s.is_none() && now_s.is_finite() {
+            origin_s = Some(now_s);
+        }
+        let due_s = now_s - origin_s.unwrap_or(f64::INFINITY);
+        while next < events.len() && events[next].at_s <= due_s {
             let ev = &events[next];
             let object = ev.action.object().map(|o| session.resolve(o)).transpose();
             match object.and_then(|_| session.command_for(&ev.action)) {
@@ -438,12 +446,24 @@ mod tests {
     #[test]
     fn bad_events_name_the_event_and_the_problem() {
         let cases = [
-            ("at_s = 1.0\ncommand = \"impulse\"\nobject = 0", "needs `impulse_n_s`"),
-            ("at_s = 1.0\ncommand = \"pause\"\nobject = 0", "does not apply"),
+            (
+                "at_s = 1.0\ncommand = \"impulse\"\nobject = 0",
+                "needs `impulse_n_s`",
+            ),
+            (
+                "at_s = 1.0\ncommand = \"pause\"\nobject = 0",
+                "does not apply",
+            ),
             ("at_s = -1.0\ncommand = \"pause\"", "finite time"),
             ("at_s = 1.0\ncommand = \"explode\"", "unknown command"),
-            ("at_s = 1.0\ncommand = \"set-kind\"\nobject = 0\nkind = \"gas\"", "object kind"),
-            ("at_s = 1.0\ncommand = \"edit-material\"\nobject = 0", "changes nothing"),
+            (
+                "at_s = 1.0\ncommand = \"set-kind\"\nobject = 0\nkind = \"gas\"",
+                "object kind",
+            ),
+            (
+                "at_s = 1.0\ncommand = \"edit-material\"\nobject = 0",
+                "changes nothing",
+            ),
         ];
         for (body, want) in cases {
             let text = format!("[[event]]\n{body}\n");

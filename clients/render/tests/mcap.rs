@@ -111,7 +111,11 @@ fn mcap_every_keeps_the_final_frame() {
     record(&file, 6, &[]);
     let out = dir.path().join("frames");
     let gif = dir.path().join("run.gif");
-    let e = render_mcap(&file, &out, &["--every", "4", "--gif", gif.to_str().unwrap()]);
+    let e = render_mcap(
+        &file,
+        &out,
+        &["--every", "4", "--gif", gif.to_str().unwrap()],
+    );
     assert_eq!(e.code, Some(0), "{}", e.stderr);
     let s = summary(&e.stdout);
     // Steps 0 and 4 by `--every`, then the final step 6.

@@ -38,7 +38,7 @@ impl Diagnostics {
     }
 
     /// Sums two sets of totals (max for the speed).
-    pub fn add(mut self, o: &Self) -> Self {
+    pub fn combine(mut self, o: &Self) -> Self {
         self.mass_kg += o.mass_kg;
         for k in 0..3 {
             self.momentum_kg_m_s[k] += o.momentum_kg_m_s[k];
@@ -92,6 +92,6 @@ impl Diagnostics {
                 t
             })
             .collect();
-        chunks.iter().fold(Diagnostics::default(), |a, b| a.add(b))
+        chunks.iter().fold(Diagnostics::default(), |a, b| a.combine(b))
     }
 }

@@ -52,7 +52,11 @@ pub fn update(
                 let (d, sx, sy, sz) = (d.as_uvec3(), span(d.x), span(d.y), span(d.z));
                 for lz in 0..sz {
                     for ly in 0..sy {
-                        let row = region_index(4 * d.x as usize, ly + 4 * d.y as usize, lz + 4 * d.z as usize);
+                        let row = region_index(
+                            4 * d.x as usize,
+                            ly + 4 * d.y as usize,
+                            lz + 4 * d.z as usize,
+                        );
                         let out = 4 * ly + 16 * lz;
                         for lx in 0..sx {
                             acc[out + lx] += region[row + lx];

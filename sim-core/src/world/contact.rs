@@ -119,7 +119,11 @@ pub fn narrow_phase(
                 mx += x * mi as f64;
             }
         }
-        if m > 0.0 { (point - mx / m).try_normalize() } else { None }
+        if m > 0.0 {
+            (point - mx / m).try_normalize()
+        } else {
+            None
+        }
     };
     let normal = match (outward(a), outward(b)) {
         (Some(na), Some(nb)) => (na - nb).try_normalize(),
@@ -130,7 +134,12 @@ pub fn narrow_phase(
     .or_else(|| (cb - ca).try_normalize())
     .or_else(|| (sb.com_m - sa.com_m).try_normalize())
     .unwrap_or(DVec3::Z);
-    Some(Contact { normal, point_m: point, zone_a, zone_b })
+    Some(Contact {
+        normal,
+        point_m: point,
+        zone_a,
+        zone_b,
+    })
 }
 
 /// Per-body quantities the impulse law needs.

@@ -677,7 +677,18 @@ impl World {
                     continue;
                 };
                 self.stats.contact_impulses += 1;
-                if std::env::var_os("SPLATPHYS_DEBUG_CONTACTS").is_some() { eprintln!("t={:.4} n={:?} p={:?} j={:?} va={:?} vb={:?} wa={:?}", self.time_s, c.normal, c.point_m, jv, da.velocity_m_s, db.velocity_m_s, da.omega_rad_s); }
+                if std::env::var_os("SPLATPHYS_DEBUG_CONTACTS").is_some() {
+                    eprintln!(
+                        "t={:.4} n={:?} p={:?} j={:?} va={:?} vb={:?} wa={:?}",
+                        self.time_s,
+                        c.normal,
+                        c.point_m,
+                        jv,
+                        da.velocity_m_s,
+                        db.velocity_m_s,
+                        da.omega_rad_s
+                    );
+                }
                 self.give_impulse(i, -jv, c.point_m, &c.zone_a);
                 self.give_impulse(j, jv, c.point_m, &c.zone_b);
             }
@@ -953,7 +964,7 @@ impl World {
         self.bodies
             .iter()
             .map(|b| Diagnostics::measure(&b.particles, &b.materials, self.gravity_m_s2, dx))
-            .fold(Diagnostics::default(), |a, b| a.add(&b))
+            .fold(Diagnostics::default(), |a, b| a.combine(&b))
     }
 }
 

@@ -130,6 +130,10 @@ enum Cmd {
     Timeline {
         /// Timeline file (see `splatphys_control::timeline` or docs/protocol.md).
         file: PathBuf,
+        /// Event times count from the server's simulated time when the timeline starts
+        /// (default: absolute simulated time).
+        #[arg(long)]
+        relative: bool,
     },
     /// Push an object's COM to a target with a PD controller; prints loop latency at the end.
     Follow {
@@ -150,6 +154,9 @@ enum Cmd {
         /// Largest impulse per command, N·s.
         #[arg(long, default_value_t = 5.0)]
         max_impulse: f64,
+        /// Largest approach speed asked for, m/s.
+        #[arg(long, default_value_t = 2.0)]
+        max_speed: f64,
         /// Run for this long (wall clock), seconds.
         #[arg(long, default_value_t = 10.0)]
         duration_s: f64,
@@ -234,7 +241,7 @@ fn run(cli: &Cli) -> Result<i32, ControlError> {
     // Validate the input before connecting.
     let action = one_shot_action(&cli.command)?;
     let timeline = match &cli.command {
-        Cmd::Timeline { file } => Some(load_timeline(file)?),
+        Cmd::Timeline { file, .. } => Some(load_timeline(file)?),
         _ => None,
     };
     opts.objects = matches!(cli.command, Cmd::Timeline { .. } | Cmd::Follow { .. });
@@ -252,7 +259,8 @@ fn run(cli: &Cli) -> Result<i32, ControlError> {
     }
     if let Some(events) = timeline {
         let json = cli.json;
-        let report = run_timeline(&mut session, &events, |o| {
+        let relative = matches!(cli.command, Cmd::Timeline { relative: true, .. });
+        let report = run_timeline(&mut session, &events, relative, |o| {
             let object = o.object.map_or(String::new(), |id| format!(" #{id}"));
             match (&o.reply, json) {
                 (Ok(r), true) => {
@@ -293,6 +301,7 @@ fn run(cli: &Cli) -> Result<i32, ControlError> {
         kd,
         gravity,
         max_impulse,
+        max_speed,
         duration_s,
         tolerance_m,
         verbose,
@@ -309,6 +318,7 @@ fn run(cli: &Cli) -> Result<i32, ControlError> {
         kd_per_s: *kd,
         gravity_m_s2: *gravity,
         max_impulse_n_s: *max_impulse,
+        max_speed_m_s: *max_speed,
         duration: Duration::from_secs_f64(duration_s.clamp(0.0, 1e6)),
         tolerance_m: *tolerance_m,
         ..FollowConfig::new(id, *target)

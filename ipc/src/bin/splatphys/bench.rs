@@ -20,7 +20,9 @@ use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
 #[derive(Subcommand, Debug)]
 pub enum BenchCommand {
     /// MLS-MPM throughput on the standard elastic-cube problem.
-    #[command(after_help = "Example:\n  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2")]
+    #[command(
+        after_help = "Example:\n  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2"
+    )]
     Mpm(MpmBenchArgs),
 }
 
@@ -52,20 +54,40 @@ pub fn run(cmd: &BenchCommand) -> Result<()> {
 }
 
 fn mpm(a: &MpmBenchArgs) -> Result<()> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build().context("thread pool")?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads)
+        .build()
+        .context("thread pool")?;
     let n = a.particles_per_axis.max(1);
     let dx = 1.0 / a.grid.max(1) as f32;
     let spacing = 0.3 / n as f32;
     let jelly = Material::jelly(1e5, 0.3, 1000.0)?;
-    let mut p = Particles::lattice_box(Vec3A::new(0.35, 0.35, 0.3), Vec3A::new(0.65, 0.65, 0.6), spacing, 1000.0, 0, 0);
+    let mut p = Particles::lattice_box(
+        Vec3A::new(0.35, 0.35, 0.3),
+        Vec3A::new(0.65, 0.65, 0.6),
+        spacing,
+        1000.0,
+        0,
+        0,
+    );
     p.v.iter_mut().for_each(|v| *v = Vec3A::new(0.0, 0.0, -1.0));
     let count = p.len();
     let mut sys = MpmSystem::new(p, vec![jelly], dx);
     sys.gravity_m_s2 = Vec3A::new(0.0, 0.0, -9.8);
-    sys.policy = TimeStepPolicy::Fixed { dt_s: 1e-4, force: false };
-    let bound = BoxShape::new(Vec3A::splat(3.0 * dx), Vec3A::splat(a.domain_scale - 3.0 * dx))
-        .context("--domain-scale too small")?;
-    sys.colliders.push(Collider::fixed(Shape::DomainBound(bound), Surface::Separate, 0.0));
+    sys.policy = TimeStepPolicy::Fixed {
+        dt_s: 1e-4,
+        force: false,
+    };
+    let bound = BoxShape::new(
+        Vec3A::splat(3.0 * dx),
+        Vec3A::splat(a.domain_scale - 3.0 * dx),
+    )
+    .context("--domain-scale too small")?;
+    sys.colliders.push(Collider::fixed(
+        Shape::DomainBound(bound),
+        Surface::Separate,
+        0.0,
+    ));
     let seconds = pool.install(|| -> Result<f64> {
         for _ in 0..5 {
             sys.substep(1.0)?;

@@ -14,12 +14,17 @@ mod serve;
 /// Loads a 3DGS scene, simulates its objects with MPM and a centre-of-mass object layer, and
 /// serves every step over iceoryx2 shared memory to renderer, recorder and controller processes.
 #[derive(Parser, Debug)]
-#[command(version, about, long_about, after_help = "Examples:
+#[command(
+    version,
+    about,
+    long_about,
+    after_help = "Examples:
   splatphys run --out out/default                         # built-in scene: server + recorder + renderer
   splatphys run scenes/donut_drop.toml --out out/donut    # a captured donut on a table
   splatphys serve scenes/donut_drop.toml                  # the server alone
   splatphys inspect ../shared/data/v3dg_donut.ply
-  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2")]
+  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -48,7 +48,8 @@ pub struct RunArgs {
 
 /// Runs the main job.
 pub fn run(args: &RunArgs) -> Result<()> {
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
     if args.in_process {
         in_process(args)
     } else {
@@ -59,25 +60,40 @@ pub fn run(args: &RunArgs) -> Result<()> {
 fn progress_bar(total_frames: u64) -> ProgressBar {
     let pb = ProgressBar::new(total_frames);
     pb.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     pb
 }
 
 fn in_process(args: &RunArgs) -> Result<()> {
     if let Some(n) = args.threads {
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("setting --threads")?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .context("setting --threads")?;
     }
     let (name, scene) = crate::scene_arg::load(args.scene.as_deref(), args.duration_s)?;
-    let mut world = World::from_scene(&scene).with_context(|| format!("building scene {name:?}"))?;
+    let mut world =
+        World::from_scene(&scene).with_context(|| format!("building scene {name:?}"))?;
     let csv_path = args.out.join("objects.csv");
-    let mut csv = std::io::BufWriter::new(File::create(&csv_path).with_context(|| format!("creating {}", csv_path.display()))?);
-    writeln!(csv, "step,time_s,object,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg")?;
+    let mut csv = std::io::BufWriter::new(
+        File::create(&csv_path).with_context(|| format!("creating {}", csv_path.display()))?,
+    );
+    writeln!(
+        csv,
+        "step,time_s,object,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg"
+    )?;
     let write_rows = |csv: &mut std::io::BufWriter<File>, w: &World| -> Result<()> {
         for o in w.objects() {
             let (p, v) = (o.com_m, o.velocity_m_s);
-            writeln!(csv, "{},{},{},{},{},{},{},{},{},{}", w.frame, w.time_s, o.id, p[0], p[1], p[2], v[0], v[1], v[2], o.mass_kg)?;
+            writeln!(
+                csv,
+                "{},{},{},{},{},{},{},{},{},{}",
+                w.frame, w.time_s, o.id, p[0], p[1], p[2], v[0], v[1], v[2], o.mass_kg
+            )?;
         }
         Ok(())
     };
@@ -119,7 +135,11 @@ fn in_process(args: &RunArgs) -> Result<()> {
         "error": error.as_ref().map(|e| e.to_string()),
     });
     write_json(&args.out.join("summary.json"), &summary)?;
-    eprintln!("splatphys run: {} frames in {wall_s:.2} s; wrote {}", world.frame, args.out.display());
+    eprintln!(
+        "splatphys run: {} frames in {wall_s:.2} s; wrote {}",
+        world.frame,
+        args.out.display()
+    );
     if let Some(e) = error {
         bail!("simulation stopped: {e} (objects.csv and summary.json keep what was done)");
     }
@@ -127,7 +147,8 @@ fn in_process(args: &RunArgs) -> Result<()> {
 }
 
 fn write_json(path: &Path, v: &Value) -> Result<()> {
-    std::fs::write(path, serde_json::to_string_pretty(v)?).with_context(|| format!("writing {}", path.display()))
+    std::fs::write(path, serde_json::to_string_pretty(v)?)
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// A sibling executable of this one (cargo puts every workspace binary in one folder).
@@ -150,7 +171,12 @@ struct Proc {
 }
 
 impl Proc {
-    fn spawn(name: &'static str, mut cmd: Command, log: &Path, threads: Option<usize>) -> Result<Self> {
+    fn spawn(
+        name: &'static str,
+        mut cmd: Command,
+        log: &Path,
+        threads: Option<usize>,
+    ) -> Result<Self> {
         let err = File::create(log).with_context(|| format!("creating {}", log.display()))?;
         cmd.stderr(err).stdin(Stdio::null());
         if let Some(n) = threads {
@@ -168,7 +194,11 @@ impl Proc {
                 return Ok(status.success());
             }
             if Instant::now() >= until {
-                eprintln!("splatphys run: {} did not exit within {:.0} s; killing it", self.name, timeout.as_secs_f64());
+                eprintln!(
+                    "splatphys run: {} did not exit within {:.0} s; killing it",
+                    self.name,
+                    timeout.as_secs_f64()
+                );
                 let _ = self.child.kill();
                 let _ = self.child.wait();
                 return Ok(false);
@@ -193,7 +223,10 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     let world = World::from_scene(&scene).with_context(|| format!("building scene {name:?}"))?;
     let total_frames = world.total_frames();
     drop(world);
-    let prefix = args.prefix.clone().unwrap_or_else(|| format!("splatphys/run-{}", std::process::id()));
+    let prefix = args
+        .prefix
+        .clone()
+        .unwrap_or_else(|| format!("splatphys/run-{}", std::process::id()));
     let logs = args.out.join("logs");
     let frames = args.out.join("frames");
     std::fs::create_dir_all(&logs)?;
@@ -208,7 +241,14 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         server_cmd.arg(s);
     }
     server_cmd
-        .args(["--prefix", &prefix, "--wait-for-subscribers", "2", "--progress", "--report"])
+        .args([
+            "--prefix",
+            &prefix,
+            "--wait-for-subscribers",
+            "2",
+            "--progress",
+            "--report",
+        ])
         .arg(args.out.join("server.json"))
         .stdout(Stdio::piped());
     if let Some(d) = args.duration_s {
@@ -218,13 +258,29 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     let server_out = server.child.stdout.take().context("server stdout")?;
 
     let mut rec_cmd = Command::new(&record_bin);
-    rec_cmd.args(["record", "--prefix", &prefix, "--connect-timeout-s", "30", "--out"]).arg(args.out.join("run.mcap"));
+    rec_cmd
+        .args([
+            "record",
+            "--prefix",
+            &prefix,
+            "--connect-timeout-s",
+            "30",
+            "--out",
+        ])
+        .arg(args.out.join("run.mcap"));
     rec_cmd.stdout(Stdio::null());
     let mut recorder = Proc::spawn("recorder", rec_cmd, &logs.join("recorder.log"), None)?;
 
     let mut ren_cmd = Command::new(&render_bin);
     ren_cmd
-        .args(["live", "--prefix", &prefix, "--timeout-s", "30", "--out-dir"])
+        .args([
+            "live",
+            "--prefix",
+            &prefix,
+            "--timeout-s",
+            "30",
+            "--out-dir",
+        ])
         .arg(&frames)
         .arg("--gif")
         .arg(args.out.join("animation.gif"))
@@ -232,11 +288,28 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     if let Some(cam) = scene.cameras.first() {
         let v = |a: [f32; 3]| format!("{},{},{}", a[0], a[1], a[2]);
         ren_cmd
-            .args(["--camera-pos", &v(cam.position_m), "--look-at", &v(cam.look_at_m), "--up", &v(cam.up)])
+            .args([
+                "--camera-pos",
+                &v(cam.position_m),
+                "--look-at",
+                &v(cam.look_at_m),
+                "--up",
+                &v(cam.up),
+            ])
             .args(["--fov-deg", &cam.fov_y_deg.to_string()])
-            .args(["--width", &cam.width_px.to_string(), "--height", &cam.height_px.to_string()]);
+            .args([
+                "--width",
+                &cam.width_px.to_string(),
+                "--height",
+                &cam.height_px.to_string(),
+            ]);
     }
-    let mut renderer = Proc::spawn("renderer", ren_cmd, &logs.join("renderer.log"), args.threads)?;
+    let mut renderer = Proc::spawn(
+        "renderer",
+        ren_cmd,
+        &logs.join("renderer.log"),
+        args.threads,
+    )?;
     let render_out = renderer.child.stdout.take().context("renderer stdout")?;
     let render_json = std::thread::spawn(move || -> Option<Value> {
         BufReader::new(render_out)
@@ -296,7 +369,9 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         .and_then(|s| serde_json::from_str(&s).ok())
         .unwrap_or(Value::Null);
     let render_json = render_json.join().ok().flatten().unwrap_or(Value::Null);
-    let frames_png = std::fs::read_dir(&frames).map(|d| d.filter_map(Result::ok).count()).unwrap_or(0);
+    let frames_png = std::fs::read_dir(&frames)
+        .map(|d| d.filter_map(Result::ok).count())
+        .unwrap_or(0);
     let summary = json!({
         "mode": "multi-process",
         "scene": name,

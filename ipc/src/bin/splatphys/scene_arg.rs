@@ -11,7 +11,9 @@ pub fn load(path: Option<&Path>, duration_s: Option<f64>) -> Result<(String, Sce
     let (name, mut scene) = match path {
         Some(p) => {
             let scene = load_scene(p).with_context(|| format!("loading scene {}", p.display()))?;
-            let name = p.file_stem().map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+            let name = p
+                .file_stem()
+                .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
             (name, scene)
         }
         None => ("default".to_string(), Scene::builtin_default()),

@@ -106,7 +106,8 @@ pub fn run(args: &ServeArgs) -> Result<()> {
 /// Serves the scene file (or the built-in default scene) with the real simulation.
 fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
     let (name, scene) = crate::scene_arg::load(args.scene.as_deref(), args.duration_s)?;
-    let mut sim = WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
+    let mut sim =
+        WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
     sim.progress = args.progress;
     eprintln!(
         "splatphys serve: scene {name:?}: {} objects, {} particles, {} Gaussians published, {} frames",

@@ -1,7 +1,10 @@
 //! `live`: subscribe to a running server and render the newest frame each time.
 //!
-//! The renderer takes the newest buffered frame and skips the ones it is too slow for (counted
-//! as dropped from the frame-index gaps). The scene (static part: SH, opacities) arrives once
+//! The renderer takes the newest frame and skips the ones it is too slow for (counted as dropped
+//! from the frame-index gaps). The frame service does not overflow: a full subscriber buffer
+//! holds the oldest frames and the server drops the newer ones for it, so after finding its
+//! buffer full the renderer waits briefly for a fresh frame. For the same reason the very last
+//! frame of a run is lost when the server publishes it while the buffer is full. The scene (static part: SH, opacities) arrives once
 //! per generation. On the server's clean shutdown every frame still buffered is drained, the
 //! final frame rendered, and the animations written; when the server dies (no heartbeat) the
 //! animations of what was rendered are still written and the command fails.
@@ -38,6 +41,10 @@ enum End {
     Interrupted,
 }
 
+/// Frames our subscriber buffers.
+const FRAME_BUFFER: usize = 2;
+/// How long to wait for a fresh frame after finding the buffer full of older ones.
+const FRESH_WAIT: Duration = Duration::from_millis(20);
 /// How long a frame whose scene has not arrived yet waits for it.
 const SCENE_WAIT: Duration = Duration::from_millis(500);
 
@@ -55,7 +62,7 @@ pub fn live(args: &LiveArgs) -> Result<()> {
     opts.connect_timeout = Duration::from_secs_f64(args.timeout_s.min(1e6));
     opts.objects = false;
     opts.commands = false;
-    opts.frame_buffer = 2;
+    opts.frame_buffer = FRAME_BUFFER;
     let mut conn = Connection::connect(&opts)
         .with_context(|| format!("connecting to the server under `{}`", args.prefix))?;
     eprintln!("splatphys-render: connected to `{}`", args.prefix);
@@ -65,11 +72,14 @@ pub fn live(args: &LiveArgs) -> Result<()> {
         if let Err(e) = drain_scenes(&mut conn, &mut scene, args.seq.sh_degree) {
             break End::Failed(e.into());
         }
-        match conn.latest_frame() {
-            Ok(Some(sample)) => {
-                let header = *sample.user_header();
-                renderer.frame_mut().fill(&header, sample.payload());
-                drop(sample); // release the shared memory before rendering
+        match take_newest(&mut conn, &mut renderer) {
+            Ok(taken) if taken > 0 => {
+                if taken >= FRAME_BUFFER {
+                    // The buffer was full, so newer frames were dropped: wait briefly for a
+                    // fresh one rather than render a stale one (errors surface next round).
+                    let _ = wait_fresh(&mut conn, &mut renderer);
+                }
+                let header = renderer.frame_mut().header;
                 if scene
                     .as_ref()
                     .is_none_or(|s| s.generation != header.scene_generation)
@@ -81,7 +91,7 @@ pub fn live(args: &LiveArgs) -> Result<()> {
                     break End::Failed(e);
                 }
             }
-            Ok(None) => {
+            Ok(_) => {
                 if conn.node().wait(Duration::from_millis(1)).is_err() {
                     break End::Interrupted;
                 }
@@ -122,6 +132,36 @@ pub fn live(args: &LiveArgs) -> Result<()> {
             args.seq.out_dir.display()
         ))),
     }
+}
+
+/// Copies every buffered frame in turn into the renderer's frame buffer (the frame service
+/// lends one sample at a time), so the newest stays; returns how many were taken.
+fn take_newest(conn: &mut Connection, renderer: &mut FrameRenderer) -> Result<usize, IpcError> {
+    let mut taken = 0;
+    loop {
+        match conn.recv_frame() {
+            Ok(Some(sample)) => {
+                renderer
+                    .frame_mut()
+                    .fill(sample.user_header(), sample.payload());
+                taken += 1;
+            }
+            Ok(None) => return Ok(taken),
+            Err(IpcError::ServerShutDown { .. }) if taken > 0 => return Ok(taken),
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Waits up to [`FRESH_WAIT`] for a frame newer than those just drained.
+fn wait_fresh(conn: &mut Connection, renderer: &mut FrameRenderer) -> Result<(), IpcError> {
+    let start = std::time::Instant::now();
+    while take_newest(conn, renderer)? == 0 && start.elapsed() < FRESH_WAIT {
+        conn.node()
+            .wait(Duration::from_micros(500))
+            .map_err(|_| IpcError::Interrupted)?;
+    }
+    Ok(())
 }
 
 /// Takes every scene sample buffered, keeping the newest.

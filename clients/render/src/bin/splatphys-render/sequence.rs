@@ -148,7 +148,8 @@ impl FrameArrays {
         self.positions.extend(payload.iter().map(|g| g.position_m));
         self.covariances
             .extend(payload.iter().map(|g| g.covariance_m2));
-        self.rotations.extend(payload.iter().map(|g| g.rotation_wxyz));
+        self.rotations
+            .extend(payload.iter().map(|g| g.rotation_wxyz));
     }
 
     /// Number of Gaussians held.
@@ -282,8 +283,6 @@ impl FrameRenderer {
             started: Instant::now(),
         })
     }
-
-
 
     /// The frame buffer to fill with [`FrameArrays::fill`] before [`FrameRenderer::offer`].
     pub fn frame_mut(&mut self) -> &mut FrameArrays {
@@ -430,7 +429,10 @@ impl FrameRenderer {
                 eprintln!("splatphys-render: wrote {}", mp4.display());
             }
         } else if self.args.mp4.is_some() {
-            eprintln!("splatphys-render: ffmpeg not found on PATH: skipped {}", mp4.display());
+            eprintln!(
+                "splatphys-render: ffmpeg not found on PATH: skipped {}",
+                mp4.display()
+            );
         }
         Ok(summary)
     }
