@@ -501,7 +501,7 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
         if last_status.elapsed() >= crate::services::STATUS_PERIOD {
             let dt = period.0.elapsed().as_secs_f64().max(1e-9);
             rates = (
-                (sim.step() - period.1) as f64 / dt,
+                (sim.step().saturating_sub(period.1)) as f64 / dt, // a reset moves the step back
                 (sim.substeps().saturating_sub(period.2)) as f64 / dt,
             );
             period = (Instant::now(), sim.step(), sim.substeps());

@@ -65,7 +65,7 @@ fn fake_server_process() {
         wait_for_subscribers: 1,
         ..ServerConfig::default()
     };
-    let mut sim = FreeFall::new("fake", 2, 500, 0.005, None);
+    let mut sim = FreeFall::new("fake", 2, 500, 0.002, None);
     serve(&mut sim, &cfg).expect("server");
 }
 
@@ -81,7 +81,7 @@ impl Server {
             Some(bin) => {
                 eprintln!("server: {} serve --fake", bin.display());
                 let mut c = Command::new(bin);
-                c.args(["serve", "--fake", "--prefix", prefix, "--fake-dt", "0.005"])
+                c.args(["serve", "--fake", "--prefix", prefix, "--fake-dt", "0.002"])
                     .args(["--fake-gaussians", "500", "--wait-for-subscribers", "1"]);
                 if let Some(f) = frames {
                     c.args(["--frames", &f.to_string()]);
@@ -160,7 +160,10 @@ fn live_renders_until_clean_shutdown() {
     let files = pngs(dir.path());
     // Step 0 may be rendered twice (published before and after the renderer subscribed).
     let n = files.len() as u64;
-    assert!(n == rendered || n + 1 == rendered, "{rendered} rendered, {files:?}");
+    assert!(
+        n == rendered || n + 1 == rendered,
+        "{rendered} rendered, {files:?}"
+    );
     for f in &files {
         assert!(lit_pixels(f) > 0, "{} is blank", f.display());
     }

@@ -62,16 +62,30 @@ impl Binning {
     /// # Errors
     /// The smallest index of a particle whose position is not finite or out of range.
     pub fn rebuild(&mut self, x: &[Vec3A], inv_dx: f32) -> Result<(), usize> {
-        let keyed: Vec<Option<(u64, u32)>> = x
-            .par_iter()
-            .enumerate()
-            .map(|(i, &p)| block_key(p, inv_dx).map(|k| (pack(k), i as u32)))
-            .collect();
-        if let Some(bad) = keyed.iter().position(Option::is_none) {
+        // Keys in the previous substep's order: particles rarely change blocks between substeps,
+        // so the list is usually already sorted and the sort is skipped. (block, index) pairs are
+        // unique, so the sorted result never depends on the input order or the thread count.
+        let n = x.len();
+        let reuse = self.order.len() == n;
+        let keyed: Vec<Option<(u64, u32)>> = if reuse {
+            self.order
+                .par_iter()
+                .map(|&i| block_key(x[i as usize], inv_dx).map(|k| (pack(k), i)))
+                .collect()
+        } else {
+            x.par_iter()
+                .enumerate()
+                .map(|(i, &p)| block_key(p, inv_dx).map(|k| (pack(k), i as u32)))
+                .collect()
+        };
+        if keyed.iter().any(Option::is_none) {
+            let bad = (0..n).find(|&i| block_key(x[i], inv_dx).is_none()).unwrap_or(0);
             return Err(bad);
         }
         let mut keyed: Vec<(u64, u32)> = keyed.into_iter().flatten().collect();
-        keyed.par_sort_unstable();
+        if !keyed.windows(2).all(|w| w[0] < w[1]) {
+            keyed.par_sort_unstable();
+        }
         self.order.clear();
         self.blocks.clear();
         self.block_of.resize(x.len(), 0);

@@ -6,11 +6,14 @@
 use glam::{Mat3A, Vec3A};
 use rayon::prelude::*;
 
-use super::binning::{BLOCK, BLOCK_NODES, Binning};
+use super::binning::{BLOCK, BLOCK_NODES, Binning, REGION, REGION_NODES};
 use super::bspline::Stencil;
 use super::grid::SparseGrid;
 use super::particles::Particles;
 use crate::material::{ConstitutiveModel, Material};
+
+/// One particle block's 6³ node velocities (m/s, relative to the reference velocity).
+pub type VelocityRegion = [Vec3A; REGION_NODES];
 
 /// What a G2P pass found.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,7 +34,24 @@ pub fn gather(
     dx_m: f32,
     dt_s: f32,
     v_ref: Vec3A,
+    regions: &mut Vec<VelocityRegion>,
 ) -> GatherReport {
+    // Each particle block's 6³ node velocities, gathered once from its (up to 8) grid blocks, so
+    // the per-particle loop reads one contiguous array.
+    regions.resize(bins.blocks.len(), [Vec3A::ZERO; REGION_NODES]);
+    regions.par_iter_mut().zip(grid.pb_grid.par_iter()).for_each(|(region, neighbours)| {
+        for rz in 0..REGION {
+            for ry in 0..REGION {
+                for rx in 0..REGION {
+                    let corner = (rx >= 4) as usize + 2 * (ry >= 4) as usize + 4 * (rz >= 4) as usize;
+                    let gb = neighbours[corner] as usize;
+                    let l = (rx & 3) + 4 * (ry & 3) + 16 * (rz & 3);
+                    region[rx + REGION * ry + REGION * REGION * rz] = grid.velocity_m_s[gb * BLOCK_NODES + l];
+                }
+            }
+        }
+    });
+    let regions: &[VelocityRegion] = regions;
     let inv_dx = 1.0 / dx_m;
     let d_inv = 4.0 * inv_dx * inv_dx;
     let Particles {
@@ -50,22 +70,19 @@ pub fn gather(
             let s = Stencil::new(*x, inv_dx);
             let origin = bins.blocks[b as usize].key * BLOCK;
             let local = (s.base - origin).as_uvec3();
-            let neighbours = &grid.pb_grid[b as usize];
+            let region = &regions[b as usize];
             let v_old = *v - v_ref;
             let mut new_v = Vec3A::ZERO;
             let mut new_c = Mat3A::ZERO;
             for k in 0..3usize {
-                let rz = local.z as usize + k;
                 for j in 0..3usize {
-                    let ry = local.y as usize + j;
+                    let row = local.x as usize
+                        + REGION * (local.y as usize + j)
+                        + REGION * REGION * (local.z as usize + k);
+                    let wjk = s.w[j].y * s.w[k].z;
                     for i in 0..3usize {
-                        let rx = local.x as usize + i;
-                        let corner =
-                            (rx >= 4) as usize + 2 * (ry >= 4) as usize + 4 * (rz >= 4) as usize;
-                        let gb = neighbours[corner] as usize;
-                        let l = (rx & 3) + 4 * (ry & 3) + 16 * (rz & 3);
-                        let vi = grid.velocity_m_s[gb * BLOCK_NODES + l];
-                        let w = s.weight(i, j, k);
+                        let vi = region[row + i];
+                        let w = s.w[i].x * wjk;
                         let dpos = Vec3A::new(i as f32, j as f32, k as f32) - s.fx;
                         new_v += vi * w;
                         // Σ w (xi - xp) = 0, so subtracting the particle's previous velocity

@@ -89,6 +89,7 @@ pub struct MpmSolver {
     bins: Binning,
     grid: SparseGrid,
     scratch: Vec<Region>,
+    velocity_regions: Vec<g2p::VelocityRegion>,
 }
 
 impl MpmSolver {
@@ -99,6 +100,7 @@ impl MpmSolver {
             bins: Binning::default(),
             grid: SparseGrid::default(),
             scratch: Vec::new(),
+            velocity_regions: Vec::new(),
         }
     }
 
@@ -165,7 +167,7 @@ impl MpmSolver {
             input.materials,
             self.dx_m,
             input.dt_s,
-            v_ref,
+            v_ref, &mut self.velocity_regions,
         );
         if let Some(particle) = r.first_non_finite {
             return Err(MpmError::NonFiniteParticle { particle });

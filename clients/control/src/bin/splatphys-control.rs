@@ -13,6 +13,7 @@ use splatphys_control::follow::{FollowConfig, FollowStop, follow};
 use splatphys_control::session::{describe_reply, reply_json};
 use splatphys_control::timeline::{load_timeline, run_timeline};
 use splatphys_control::{ControlError, Session, SessionOptions};
+use splatphys_ipc::IpcError;
 use splatphys_ipc::command::{MaterialEdit, Reply};
 
 /// Environment variable giving the default service prefix.
@@ -384,6 +385,11 @@ fn main() -> Result<()> {
         Ok(code) => code,
         Err(e) => {
             eprintln!("splatphys-control: {e}");
+            if matches!(e, ControlError::Ipc(IpcError::ServerGone { .. })) {
+                // The dead server's shared memory can go once nobody holds its services
+                // (the session is dropped by now).
+                let _ = splatphys_ipc::services::cleanup_dead_nodes();
+            }
             exit_code(&e)
         }
     };

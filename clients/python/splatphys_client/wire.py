@@ -1,0 +1,211 @@
+"""The splatphys wire types (ipc/src/wire.rs) as ctypes structures and numpy dtypes.
+
+Names, offsets and sizes match the Rust `#[repr(C)]` structs byte for byte; every size is
+asserted at import. Each ctypes structure has `type_name()` returning the iceoryx2 type name
+the Rust side registers (`splatphys::<Type>`), so services open with matching type details.
+Units are SI and in the field names (see docs/protocol.md).
+"""
+
+import ctypes
+
+import numpy as np
+
+LAYOUT_VERSION = 1
+SH_COEFFS_PER_CHANNEL = 16
+MAX_NAMED_OBJECTS = 64
+OBJECT_NAME_BYTES = 32
+SCENE_NAME_BYTES = 64
+MAX_REPORTED_SUBSCRIBERS = 8
+REPLY_MESSAGE_BYTES = 96
+
+STATUS_SHUTTING_DOWN = 1
+STATUS_PAUSED = 2
+STATUS_FINISHED = 4
+STATUS_LOSSLESS_LAGGING = 8
+
+f32x3 = ctypes.c_float * 3
+f32x4 = ctypes.c_float * 4
+f64x3 = ctypes.c_double * 3
+
+
+class _Wire(ctypes.Structure):
+    """Base: iceoryx2 type name `splatphys::<class name>`."""
+
+    @classmethod
+    def type_name(cls) -> str:
+        return "splatphys::" + cls.__name__
+
+
+class FrameHeader(_Wire):
+    """User header of `frame` and `objects` samples (48 B)."""
+
+    _fields_ = [
+        ("step", ctypes.c_uint64),
+        ("time_s", ctypes.c_double),
+        ("substeps", ctypes.c_uint64),
+        ("frame_index", ctypes.c_uint64),
+        ("count", ctypes.c_uint32),
+        ("scene_generation", ctypes.c_uint32),
+        ("layout_version", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+    ]
+
+
+class FrameGaussian(_Wire):
+    """Dynamic state of one Gaussian (52 B): position m, covariance m² (xx,xy,xz,yy,yz,zz), R."""
+
+    _fields_ = [
+        ("position_m", f32x3),
+        ("covariance_m2", ctypes.c_float * 6),
+        ("rotation_wxyz", f32x4),
+    ]
+
+
+class SceneGaussian(_Wire):
+    """Static part of one Gaussian (228 B)."""
+
+    _fields_ = [
+        ("sh", ctypes.c_float * 48),
+        ("opacity", ctypes.c_float),
+        ("scale_m", f32x3),
+        ("rotation_wxyz", f32x4),
+        ("object_id", ctypes.c_uint32),
+    ]
+
+
+class SceneHeader(_Wire):
+    """User header of `scene` samples (2144 B)."""
+
+    _fields_ = [
+        ("scene_generation", ctypes.c_uint32),
+        ("layout_version", ctypes.c_uint32),
+        ("gaussian_count", ctypes.c_uint32),
+        ("object_count", ctypes.c_uint32),
+        ("sh_degree", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+        ("frame_dt_s", ctypes.c_double),
+        ("scene_name", ctypes.c_uint8 * SCENE_NAME_BYTES),
+        ("object_names", (ctypes.c_uint8 * OBJECT_NAME_BYTES) * MAX_NAMED_OBJECTS),
+    ]
+
+
+class ObjectState(_Wire):
+    """Per-object COM state (64 B)."""
+
+    _fields_ = [
+        ("id", ctypes.c_uint32),
+        ("contact_count", ctypes.c_uint32),
+        ("position_m", f32x3),
+        ("velocity_m_s", f32x3),
+        ("orientation_wxyz", f32x4),
+        ("angular_velocity_rad_s", f32x3),
+        ("mass_kg", ctypes.c_float),
+    ]
+
+
+class CommandMsg(_Wire):
+    """A command (120 B); see docs/protocol.md for kinds, codes and field flags."""
+
+    _fields_ = [
+        ("kind", ctypes.c_uint32),
+        ("object_id", ctypes.c_uint32),
+        ("sequence", ctypes.c_uint64),
+        ("vector", f64x3),
+        ("point_m", f64x3),
+        ("fields", ctypes.c_uint32),
+        ("code", ctypes.c_uint32),
+        ("youngs_modulus_pa", ctypes.c_double),
+        ("poisson_ratio", ctypes.c_double),
+        ("density_kg_m3", ctypes.c_double),
+        ("restitution", ctypes.c_double),
+        ("friction", ctypes.c_double),
+        ("count", ctypes.c_uint64),
+    ]
+
+
+class ReplyMsg(_Wire):
+    """A reply (120 B)."""
+
+    _fields_ = [
+        ("sequence", ctypes.c_uint64),
+        ("effective_step", ctypes.c_uint64),
+        ("accepted", ctypes.c_uint32),
+        ("reject_code", ctypes.c_uint32),
+        ("message", ctypes.c_uint8 * REPLY_MESSAGE_BYTES),
+    ]
+
+
+class SubscriberLag(_Wire):
+    """Per-subscriber statistics inside Status (32 B)."""
+
+    _fields_ = [
+        ("id_lo", ctypes.c_uint64),
+        ("id_hi", ctypes.c_uint64),
+        ("frames_dropped", ctypes.c_uint64),
+        ("max_wait_ms", ctypes.c_float),
+        ("lossless", ctypes.c_uint32),
+    ]
+
+
+class Status(_Wire):
+    """Server heartbeat and statistics (352 B), 10 Hz."""
+
+    _fields_ = [
+        ("heartbeat", ctypes.c_uint64),
+        ("step", ctypes.c_uint64),
+        ("time_s", ctypes.c_double),
+        ("frames_published", ctypes.c_uint64),
+        ("steps_per_s", ctypes.c_double),
+        ("substeps_per_s", ctypes.c_double),
+        ("frames_dropped", ctypes.c_uint64),
+        ("recorder_frames_lost", ctypes.c_uint64),
+        ("commands_received", ctypes.c_uint64),
+        ("commands_rejected", ctypes.c_uint64),
+        ("flags", ctypes.c_uint32),
+        ("scene_generation", ctypes.c_uint32),
+        ("subscriber_count", ctypes.c_uint32),
+        ("reported_subscribers", ctypes.c_uint32),
+        ("subscribers", SubscriberLag * MAX_REPORTED_SUBSCRIBERS),
+    ]
+
+
+def _dtype(struct: type) -> np.dtype:
+    """The numpy structured dtype of a ctypes structure (same names, offsets, itemsize)."""
+    return np.dtype(struct)
+
+
+FRAME_HEADER_DTYPE = _dtype(FrameHeader)
+FRAME_GAUSSIAN_DTYPE = _dtype(FrameGaussian)
+SCENE_GAUSSIAN_DTYPE = _dtype(SceneGaussian)
+SCENE_HEADER_DTYPE = _dtype(SceneHeader)
+OBJECT_STATE_DTYPE = _dtype(ObjectState)
+COMMAND_DTYPE = _dtype(CommandMsg)
+REPLY_DTYPE = _dtype(ReplyMsg)
+STATUS_DTYPE = _dtype(Status)
+
+# Sizes of the Rust structs (compile-time asserted there); a mismatch here is a contract break.
+RUST_SIZES = {
+    FrameHeader: 48,
+    FrameGaussian: 52,
+    SceneGaussian: 228,
+    SceneHeader: 32 + SCENE_NAME_BYTES + MAX_NAMED_OBJECTS * OBJECT_NAME_BYTES,
+    ObjectState: 64,
+    CommandMsg: 120,
+    ReplyMsg: 120,
+    SubscriberLag: 32,
+    Status: 96 + 32 * MAX_REPORTED_SUBSCRIBERS,
+}
+for _t, _size in RUST_SIZES.items():
+    assert ctypes.sizeof(_t) == _size, f"{_t.__name__}: {ctypes.sizeof(_t)} B != Rust {_size} B"
+    assert np.dtype(_t).itemsize == _size, f"{_t.__name__} dtype itemsize != {_size}"
+# Spot-check offsets the dtypes rely on.
+assert FRAME_GAUSSIAN_DTYPE.fields["rotation_wxyz"][1] == 36
+assert OBJECT_STATE_DTYPE.fields["mass_kg"][1] == 60
+assert SCENE_GAUSSIAN_DTYPE.fields["object_id"][1] == 224
+assert STATUS_DTYPE.fields["subscribers"][1] == 96
+
+
+def fixed_str(buf) -> str:
+    """A NUL-padded UTF-8 byte array as a string."""
+    raw = bytes(buf)
+    return raw.split(b"\0", 1)[0].decode("utf-8", "replace")
