@@ -79,7 +79,9 @@ impl Binning {
                 .collect()
         };
         if keyed.iter().any(Option::is_none) {
-            let bad = (0..n).find(|&i| block_key(x[i], inv_dx).is_none()).unwrap_or(0);
+            let bad = (0..n)
+                .find(|&i| block_key(x[i], inv_dx).is_none())
+                .unwrap_or(0);
             return Err(bad);
         }
         let mut keyed: Vec<(u64, u32)> = keyed.into_iter().flatten().collect();

@@ -92,6 +92,8 @@ impl Diagnostics {
                 t
             })
             .collect();
-        chunks.iter().fold(Diagnostics::default(), |a, b| a.combine(b))
+        chunks
+            .iter()
+            .fold(Diagnostics::default(), |a, b| a.combine(b))
     }
 }

@@ -39,18 +39,23 @@ pub fn gather(
     // Each particle block's 6³ node velocities, gathered once from its (up to 8) grid blocks, so
     // the per-particle loop reads one contiguous array.
     regions.resize(bins.blocks.len(), [Vec3A::ZERO; REGION_NODES]);
-    regions.par_iter_mut().zip(grid.pb_grid.par_iter()).for_each(|(region, neighbours)| {
-        for rz in 0..REGION {
-            for ry in 0..REGION {
-                for rx in 0..REGION {
-                    let corner = (rx >= 4) as usize + 2 * (ry >= 4) as usize + 4 * (rz >= 4) as usize;
-                    let gb = neighbours[corner] as usize;
-                    let l = (rx & 3) + 4 * (ry & 3) + 16 * (rz & 3);
-                    region[rx + REGION * ry + REGION * REGION * rz] = grid.velocity_m_s[gb * BLOCK_NODES + l];
+    regions
+        .par_iter_mut()
+        .zip(grid.pb_grid.par_iter())
+        .for_each(|(region, neighbours)| {
+            for rz in 0..REGION {
+                for ry in 0..REGION {
+                    for rx in 0..REGION {
+                        let corner =
+                            (rx >= 4) as usize + 2 * (ry >= 4) as usize + 4 * (rz >= 4) as usize;
+                        let gb = neighbours[corner] as usize;
+                        let l = (rx & 3) + 4 * (ry & 3) + 16 * (rz & 3);
+                        region[rx + REGION * ry + REGION * REGION * rz] =
+                            grid.velocity_m_s[gb * BLOCK_NODES + l];
+                    }
                 }
             }
-        }
-    });
+        });
     let regions: &[VelocityRegion] = regions;
     let inv_dx = 1.0 / dx_m;
     let d_inv = 4.0 * inv_dx * inv_dx;

@@ -167,7 +167,8 @@ impl MpmSolver {
             input.materials,
             self.dx_m,
             input.dt_s,
-            v_ref, &mut self.velocity_regions,
+            v_ref,
+            &mut self.velocity_regions,
         );
         if let Some(particle) = r.first_non_finite {
             return Err(MpmError::NonFiniteParticle { particle });
