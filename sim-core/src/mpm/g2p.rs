@@ -26,6 +26,7 @@ pub struct GatherReport {
 
 /// Gathers grid velocities (relative to `v_ref`, m/s) into every particle and advances it by
 /// `dt_s`.
+#[allow(clippy::too_many_arguments)]
 pub fn gather(
     particles: &mut Particles,
     bins: &Binning,
