@@ -14,7 +14,9 @@
 
 pub mod body;
 pub mod coherence;
+mod commands;
 pub mod contact;
+mod output;
 pub mod rigid;
 
 use std::collections::HashMap;
@@ -27,12 +29,9 @@ pub use body::{Body, BodyState, RigidState, measure};
 
 use crate::collider::{BoxShape, Collider, Plane, Shape, Surface};
 use crate::gaussians::GaussianCloud;
-use crate::kinematics::{GaussianState, gaussian_state, pack_symmetric};
+use crate::kinematics::{GaussianState, pack_symmetric};
 use crate::material::{ConstitutiveModel, Material, MaterialError};
-use crate::math::polar;
-use crate::mpm::{
-    Diagnostics, MpmError, MpmSolver, Particles, SubstepInput, TimeStepError, TimeStepPolicy,
-};
+use crate::mpm::{MpmError, MpmSolver, Particles, SubstepInput, TimeStepError, TimeStepPolicy};
 use crate::scene::{self, EventAction, EventSpec, Method, ObjectKind, Scene};
 
 /// Speed below which an object counts as still (m/s).
@@ -677,18 +676,6 @@ impl World {
                     continue;
                 };
                 self.stats.contact_impulses += 1;
-                if std::env::var_os("SPLATPHYS_DEBUG_CONTACTS").is_some() {
-                    eprintln!(
-                        "t={:.4} n={:?} p={:?} j={:?} va={:?} vb={:?} wa={:?}",
-                        self.time_s,
-                        c.normal,
-                        c.point_m,
-                        jv,
-                        da.velocity_m_s,
-                        db.velocity_m_s,
-                        da.omega_rad_s
-                    );
-                }
                 self.give_impulse(i, -jv, c.point_m, &c.zone_a);
                 self.give_impulse(j, jv, c.point_m, &c.zone_b);
             }
@@ -731,157 +718,6 @@ impl World {
         }
     }
 
-    fn wake(&mut self, id: usize) {
-        self.bodies[id].sleeping = false;
-        self.bodies[id].still_s = 0.0;
-    }
-
-    fn movable(&self, id: usize) -> Result<(), WorldError> {
-        let b = self
-            .bodies
-            .get(id)
-            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
-        if b.kind == ObjectKind::Static {
-            return Err(WorldError::Refused {
-                object: b.name.clone(),
-                reason: "static objects do not move".into(),
-            });
-        }
-        Ok(())
-    }
-
-    /// Applies impulse `j_n_s` (N s) to object `id` at `point_m` (default: its COM).
-    ///
-    /// # Errors
-    /// Unknown or static object, or a non-finite value.
-    pub fn apply_impulse(
-        &mut self,
-        id: usize,
-        j_n_s: Vec3A,
-        point_m: Option<Vec3A>,
-    ) -> Result<(), WorldError> {
-        self.movable(id)?;
-        if !j_n_s.is_finite() || point_m.is_some_and(|p| !p.is_finite()) {
-            return Err(WorldError::Refused {
-                object: self.bodies[id].name.clone(),
-                reason: "non-finite impulse".into(),
-            });
-        }
-        self.wake(id);
-        let dx = self.dx_m();
-        let b = &mut self.bodies[id];
-        let s = measure(&b.particles, dx);
-        let point = point_m.map(|p| p.as_dvec3()).unwrap_or(s.com_m);
-        match b.kind {
-            ObjectKind::Rigid => self.give_impulse(id, j_n_s.as_dvec3(), point, &[]),
-            _ => {
-                // The zone: particles within 3 cells of the point (all of them for the COM).
-                let r2 = (3.0 * dx as f64).powi(2);
-                let zone: Vec<u32> = if point_m.is_some() {
-                    (0..b.particles.len())
-                        .filter(|&i| (b.particles.x[i].as_dvec3() - point).length_squared() <= r2)
-                        .map(|i| i as u32)
-                        .collect()
-                } else {
-                    Vec::new()
-                };
-                coherence::apply_impulse(b, j_n_s.as_dvec3(), point, &zone);
-                b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
-            }
-        }
-        Ok(())
-    }
-
-    /// Sets object `id`'s COM velocity (m/s), keeping its spin and internal motion.
-    ///
-    /// # Errors
-    /// Unknown or static object, or a non-finite value.
-    pub fn set_velocity(&mut self, id: usize, v_m_s: Vec3A) -> Result<(), WorldError> {
-        self.movable(id)?;
-        if !v_m_s.is_finite() {
-            return Err(WorldError::Refused {
-                object: self.bodies[id].name.clone(),
-                reason: "non-finite velocity".into(),
-            });
-        }
-        self.wake(id);
-        let dx = self.dx_m();
-        let b = &mut self.bodies[id];
-        if b.kind == ObjectKind::Rigid {
-            b.rigid.velocity_m_s = v_m_s.as_dvec3();
-            b.sync_rigid_particles();
-        } else {
-            let s = measure(&b.particles, dx);
-            coherence::enforce(b, v_m_s.as_dvec3() * s.mass_kg, s.angular_momentum, s.com_m);
-        }
-        b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
-        Ok(())
-    }
-
-    /// Replaces object `id`'s material and/or contact coefficients. Masses follow a new density.
-    ///
-    /// # Errors
-    /// Unknown object or a refused material.
-    pub fn set_material(
-        &mut self,
-        id: usize,
-        spec: Option<&crate::material::MaterialSpec>,
-        restitution: Option<f32>,
-        friction: Option<f32>,
-    ) -> Result<(), WorldError> {
-        let b = self
-            .bodies
-            .get_mut(id)
-            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
-        if let Some(spec) = spec {
-            let m = Material::from_spec(spec).map_err(|source| WorldError::Material {
-                object: b.name.clone(),
-                source,
-            })?;
-            let rho = m.density_kg_m3();
-            for (mass, vol) in b.particles.mass_kg.iter_mut().zip(&b.particles.volume0_m3) {
-                *mass = rho * vol;
-            }
-            if m.name() != b.materials[0].name() {
-                let p0 = m.initial_plastic_state();
-                b.particles.plastic.iter_mut().for_each(|p| *p = p0);
-            }
-            b.materials[0] = m;
-            if b.kind == ObjectKind::Rigid {
-                b.capture_rigid_pose();
-            }
-        }
-        if let Some(e) = restitution {
-            b.restitution = e.clamp(0.0, 1.0);
-        }
-        if let Some(mu) = friction {
-            b.friction = mu.max(0.0);
-        }
-        self.wake(id);
-        Ok(())
-    }
-
-    /// Changes object `id`'s kind. Becoming rigid freezes the current shape as the rest shape.
-    ///
-    /// # Errors
-    /// Unknown object.
-    pub fn set_kind(&mut self, id: usize, kind: ObjectKind) -> Result<(), WorldError> {
-        let b = self
-            .bodies
-            .get_mut(id)
-            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
-        if kind == ObjectKind::Rigid && b.kind != ObjectKind::Rigid {
-            b.capture_rigid_pose();
-        }
-        if kind == ObjectKind::Static {
-            b.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
-            b.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
-        }
-        b.kind = kind;
-        self.wake(id);
-        Ok(())
-    }
-
     /// Back to the initial state; bumps the scene generation.
     pub fn reset(&mut self) {
         self.bodies = self.initial.clone();
@@ -890,96 +726,4 @@ impl World {
         self.next_event = 0;
         self.generation += 1;
     }
-
-    /// Published Gaussians: the visible ones of every object, then the background.
-    pub fn published_count(&self) -> usize {
-        self.bodies
-            .iter()
-            .map(|b| b.visible.iter().filter(|v| **v).count())
-            .sum::<usize>()
-            + self.background.len()
-    }
-
-    /// Calls `f(object id or None for background, cloud, index)` for every published Gaussian in
-    /// publishing order (the static part a renderer needs: SH, opacity, scales).
-    pub fn for_each_published(&self, mut f: impl FnMut(Option<u32>, &GaussianCloud, usize)) {
-        for (k, b) in self.bodies.iter().enumerate() {
-            for i in (0..b.particles.len()).filter(|&i| b.visible[i]) {
-                f(Some(k as u32), &b.gaussians, i);
-            }
-        }
-        for i in 0..self.background.len() {
-            f(None, &self.background, i);
-        }
-    }
-
-    /// Writes every published Gaussian's state into `out` (length [`World::published_count`];
-    /// extra entries are left untouched), in parallel, in place.
-    pub fn write_gaussians(&self, out: &mut [GaussianState]) {
-        let mut rest = out;
-        for b in &self.bodies {
-            let n = b.visible.iter().filter(|v| **v).count().min(rest.len());
-            let (mine, tail) = rest.split_at_mut(n);
-            rest = tail;
-            let idx: Vec<usize> = (0..b.particles.len()).filter(|&i| b.visible[i]).collect();
-            mine.par_iter_mut().zip(idx.par_iter()).for_each(|(o, &i)| {
-                *o = gaussian_state(b.particles.x[i], b.particles.f[i], b.sigma0[i]);
-            });
-        }
-        let n = self.background_state.len().min(rest.len());
-        rest[..n].copy_from_slice(&self.background_state[..n]);
-    }
-
-    /// Per-object summaries (COM, velocity, orientation, spin, mass, contacts).
-    pub fn objects(&self) -> Vec<ObjectSummary> {
-        let dx = self.dx_m();
-        self.bodies
-            .iter()
-            .enumerate()
-            .map(|(k, b)| {
-                let s = measure(&b.particles, dx);
-                let (q, w) = if b.kind == ObjectKind::Rigid {
-                    (b.rigid.orientation, b.rigid.omega_rad_s)
-                } else {
-                    (best_fit_rotation(b, s.com_m), s.angular_velocity())
-                };
-                ObjectSummary {
-                    id: k as u32,
-                    name: b.name.clone(),
-                    com_m: s.com_m.to_array(),
-                    velocity_m_s: s.velocity_m_s.to_array(),
-                    orientation_wxyz: [q.w, q.x, q.y, q.z],
-                    angular_velocity_rad_s: w.to_array(),
-                    mass_kg: s.mass_kg,
-                    contacts: b.contacts,
-                    sleeping: b.sleeping,
-                }
-            })
-            .collect()
-    }
-
-    /// Conservation diagnostics summed over every object.
-    pub fn diagnostics(&self) -> Diagnostics {
-        let dx = self.dx_m();
-        self.bodies
-            .iter()
-            .map(|b| Diagnostics::measure(&b.particles, &b.materials, self.gravity_m_s2, dx))
-            .fold(Diagnostics::default(), |a, b| a.combine(&b))
-    }
-}
-
-/// The rotation that best maps an object's rest offsets onto its current ones (shape matching,
-/// Müller et al. 2005): R from the polar decomposition of Σ m (x - c)(r0)ᵀ.
-fn best_fit_rotation(b: &Body, com: DVec3) -> Quat {
-    let c = com.as_vec3a();
-    let mut a = Mat3A::ZERO;
-    for i in 0..b.particles.len() {
-        let d = (b.particles.x[i] - c) * b.particles.mass_kg[i];
-        let r0 = b.rest_offsets[i];
-        a += Mat3A::from_cols(d * r0.x, d * r0.y, d * r0.z);
-    }
-    if !a.is_finite() || a.abs().to_cols_array().iter().all(|v| *v == 0.0) {
-        return Quat::IDENTITY;
-    }
-    Quat::from_mat3a(&polar(a).r).normalize()
 }

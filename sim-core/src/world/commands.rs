@@ -1,0 +1,161 @@
+//! Commands on objects: impulses, velocities, material and kind edits. Each wakes the object;
+//! static objects refuse to move. Used by scene events and the server's command service.
+
+use glam::{Mat3A, Vec3A};
+
+use super::{World, WorldError, coherence, measure};
+use crate::material::{ConstitutiveModel, Material};
+use crate::scene::ObjectKind;
+
+impl World {
+    fn wake(&mut self, id: usize) {
+        self.bodies[id].sleeping = false;
+        self.bodies[id].still_s = 0.0;
+    }
+
+    fn movable(&self, id: usize) -> Result<(), WorldError> {
+        let b = self
+            .bodies
+            .get(id)
+            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
+        if b.kind == ObjectKind::Static {
+            return Err(WorldError::Refused {
+                object: b.name.clone(),
+                reason: "static objects do not move".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Applies impulse `j_n_s` (N s) to object `id` at `point_m` (default: its COM).
+    ///
+    /// # Errors
+    /// Unknown or static object, or a non-finite value.
+    pub fn apply_impulse(
+        &mut self,
+        id: usize,
+        j_n_s: Vec3A,
+        point_m: Option<Vec3A>,
+    ) -> Result<(), WorldError> {
+        self.movable(id)?;
+        if !j_n_s.is_finite() || point_m.is_some_and(|p| !p.is_finite()) {
+            return Err(WorldError::Refused {
+                object: self.bodies[id].name.clone(),
+                reason: "non-finite impulse".into(),
+            });
+        }
+        self.wake(id);
+        let dx = self.dx_m();
+        let b = &mut self.bodies[id];
+        let s = measure(&b.particles, dx);
+        let point = point_m.map(|p| p.as_dvec3()).unwrap_or(s.com_m);
+        match b.kind {
+            ObjectKind::Rigid => self.give_impulse(id, j_n_s.as_dvec3(), point, &[]),
+            _ => {
+                // The zone: particles within 3 cells of the point (all of them for the COM).
+                let r2 = (3.0 * dx as f64).powi(2);
+                let zone: Vec<u32> = if point_m.is_some() {
+                    (0..b.particles.len())
+                        .filter(|&i| (b.particles.x[i].as_dvec3() - point).length_squared() <= r2)
+                        .map(|i| i as u32)
+                        .collect()
+                } else {
+                    Vec::new()
+                };
+                coherence::apply_impulse(b, j_n_s.as_dvec3(), point, &zone);
+                b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+            }
+        }
+        Ok(())
+    }
+
+    /// Sets object `id`'s COM velocity (m/s), keeping its spin and internal motion.
+    ///
+    /// # Errors
+    /// Unknown or static object, or a non-finite value.
+    pub fn set_velocity(&mut self, id: usize, v_m_s: Vec3A) -> Result<(), WorldError> {
+        self.movable(id)?;
+        if !v_m_s.is_finite() {
+            return Err(WorldError::Refused {
+                object: self.bodies[id].name.clone(),
+                reason: "non-finite velocity".into(),
+            });
+        }
+        self.wake(id);
+        let dx = self.dx_m();
+        let b = &mut self.bodies[id];
+        if b.kind == ObjectKind::Rigid {
+            b.rigid.velocity_m_s = v_m_s.as_dvec3();
+            b.sync_rigid_particles();
+        } else {
+            let s = measure(&b.particles, dx);
+            coherence::enforce(b, v_m_s.as_dvec3() * s.mass_kg, s.angular_momentum, s.com_m);
+        }
+        b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+        Ok(())
+    }
+
+    /// Replaces object `id`'s material and/or contact coefficients. Masses follow a new density.
+    ///
+    /// # Errors
+    /// Unknown object or a refused material.
+    pub fn set_material(
+        &mut self,
+        id: usize,
+        spec: Option<&crate::material::MaterialSpec>,
+        restitution: Option<f32>,
+        friction: Option<f32>,
+    ) -> Result<(), WorldError> {
+        let b = self
+            .bodies
+            .get_mut(id)
+            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
+        if let Some(spec) = spec {
+            let m = Material::from_spec(spec).map_err(|source| WorldError::Material {
+                object: b.name.clone(),
+                source,
+            })?;
+            let rho = m.density_kg_m3();
+            for (mass, vol) in b.particles.mass_kg.iter_mut().zip(&b.particles.volume0_m3) {
+                *mass = rho * vol;
+            }
+            if m.name() != b.materials[0].name() {
+                let p0 = m.initial_plastic_state();
+                b.particles.plastic.iter_mut().for_each(|p| *p = p0);
+            }
+            b.materials[0] = m;
+            if b.kind == ObjectKind::Rigid {
+                b.capture_rigid_pose();
+            }
+        }
+        if let Some(e) = restitution {
+            b.restitution = e.clamp(0.0, 1.0);
+        }
+        if let Some(mu) = friction {
+            b.friction = mu.max(0.0);
+        }
+        self.wake(id);
+        Ok(())
+    }
+
+    /// Changes object `id`'s kind. Becoming rigid freezes the current shape as the rest shape.
+    ///
+    /// # Errors
+    /// Unknown object.
+    pub fn set_kind(&mut self, id: usize, kind: ObjectKind) -> Result<(), WorldError> {
+        let b = self
+            .bodies
+            .get_mut(id)
+            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
+        if kind == ObjectKind::Rigid && b.kind != ObjectKind::Rigid {
+            b.capture_rigid_pose();
+        }
+        if kind == ObjectKind::Static {
+            b.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
+            b.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
+        }
+        b.kind = kind;
+        self.wake(id);
+        Ok(())
+    }
+}

@@ -1,0 +1,106 @@
+//! What the world publishes: per-Gaussian state (kinematics), per-object summaries and
+//! conservation diagnostics.
+
+use glam::{DVec3, Mat3A, Quat};
+use rayon::prelude::*;
+
+use super::{Body, ObjectSummary, World, measure};
+use crate::gaussians::GaussianCloud;
+use crate::kinematics::{GaussianState, gaussian_state};
+use crate::math::polar;
+use crate::mpm::Diagnostics;
+use crate::scene::ObjectKind;
+
+impl World {
+    /// Published Gaussians: the visible ones of every object, then the background.
+    pub fn published_count(&self) -> usize {
+        self.bodies
+            .iter()
+            .map(|b| b.visible.iter().filter(|v| **v).count())
+            .sum::<usize>()
+            + self.background.len()
+    }
+
+    /// Calls `f(object id or None for background, cloud, index)` for every published Gaussian in
+    /// publishing order (the static part a renderer needs: SH, opacity, scales).
+    pub fn for_each_published(&self, mut f: impl FnMut(Option<u32>, &GaussianCloud, usize)) {
+        for (k, b) in self.bodies.iter().enumerate() {
+            for i in (0..b.particles.len()).filter(|&i| b.visible[i]) {
+                f(Some(k as u32), &b.gaussians, i);
+            }
+        }
+        for i in 0..self.background.len() {
+            f(None, &self.background, i);
+        }
+    }
+
+    /// Writes every published Gaussian's state into `out` (length [`World::published_count`];
+    /// extra entries are left untouched), in parallel, in place.
+    pub fn write_gaussians(&self, out: &mut [GaussianState]) {
+        let mut rest = out;
+        for b in &self.bodies {
+            let n = b.visible.iter().filter(|v| **v).count().min(rest.len());
+            let (mine, tail) = rest.split_at_mut(n);
+            rest = tail;
+            let idx: Vec<usize> = (0..b.particles.len()).filter(|&i| b.visible[i]).collect();
+            mine.par_iter_mut().zip(idx.par_iter()).for_each(|(o, &i)| {
+                *o = gaussian_state(b.particles.x[i], b.particles.f[i], b.sigma0[i]);
+            });
+        }
+        let n = self.background_state.len().min(rest.len());
+        rest[..n].copy_from_slice(&self.background_state[..n]);
+    }
+
+    /// Per-object summaries (COM, velocity, orientation, spin, mass, contacts).
+    pub fn objects(&self) -> Vec<ObjectSummary> {
+        let dx = self.dx_m();
+        self.bodies
+            .iter()
+            .enumerate()
+            .map(|(k, b)| {
+                let s = measure(&b.particles, dx);
+                let (q, w) = if b.kind == ObjectKind::Rigid {
+                    (b.rigid.orientation, b.rigid.omega_rad_s)
+                } else {
+                    (best_fit_rotation(b, s.com_m), s.angular_velocity())
+                };
+                ObjectSummary {
+                    id: k as u32,
+                    name: b.name.clone(),
+                    com_m: s.com_m.to_array(),
+                    velocity_m_s: s.velocity_m_s.to_array(),
+                    orientation_wxyz: [q.w, q.x, q.y, q.z],
+                    angular_velocity_rad_s: w.to_array(),
+                    mass_kg: s.mass_kg,
+                    contacts: b.contacts,
+                    sleeping: b.sleeping,
+                }
+            })
+            .collect()
+    }
+
+    /// Conservation diagnostics summed over every object.
+    pub fn diagnostics(&self) -> Diagnostics {
+        let dx = self.dx_m();
+        self.bodies
+            .iter()
+            .map(|b| Diagnostics::measure(&b.particles, &b.materials, self.gravity_m_s2, dx))
+            .fold(Diagnostics::default(), |a, b| a.combine(&b))
+    }
+}
+
+/// The rotation that best maps an object's rest offsets onto its current ones (shape matching,
+/// Müller et al. 2005): R from the polar decomposition of Σ m (x - c)(r0)ᵀ.
+fn best_fit_rotation(b: &Body, com: DVec3) -> Quat {
+    let c = com.as_vec3a();
+    let mut a = Mat3A::ZERO;
+    for i in 0..b.particles.len() {
+        let d = (b.particles.x[i] - c) * b.particles.mass_kg[i];
+        let r0 = b.rest_offsets[i];
+        a += Mat3A::from_cols(d * r0.x, d * r0.y, d * r0.z);
+    }
+    if !a.is_finite() || a.abs().to_cols_array().iter().all(|v| *v == 0.0) {
+        return Quat::IDENTITY;
+    }
+    Quat::from_mat3a(&polar(a).r).normalize()
+}
