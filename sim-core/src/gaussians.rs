@@ -15,7 +15,7 @@ pub const fn sh_coeffs_per_channel(degree: u8) -> usize {
 /// Gaussians in struct-of-arrays form, `N` = [`GaussianCloud::len`].
 ///
 /// Frame: the file's own frame and units until a scene transform is applied
-/// ([`GaussianCloud::transform`]); after that world metres, z up.
+/// (`scene::transform::apply_similarity`); after that world metres, z up.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct GaussianCloud {
     /// `[N][3]` centre positions (m once placed in the world).

@@ -10,8 +10,8 @@
 
 use glam::{Mat3A, Vec3A};
 
-/// A = U · diag(sigma) · Vᵀ with U, V proper rotations and sigma[0] >= sigma[1] >= |sigma[2]|,
-/// sigma[0], sigma[1] >= 0, sign(sigma[2]) = sign(det A).
+/// A = U · diag(sigma) · Vᵀ with U, V proper rotations and σ0 >= σ1 >= |σ2|,
+/// σ0, σ1 >= 0, sign(σ2) = sign(det A).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Svd3 {
     /// Left rotation U (det +1).

@@ -27,9 +27,9 @@ pub const CORNERS: [IVec3; 8] = [
 pub struct SparseGrid {
     /// Grid block coordinates, sorted.
     pub keys: Vec<IVec3>,
-    /// Per grid block G: the particle block K = G - CORNERS[c] scattering into it, for each c.
+    /// Per grid block G: the particle block K = G - `CORNERS[c]` scattering into it, for each c.
     pub contributors: Vec<[u32; 8]>,
-    /// Per particle block K: the grid block K + CORNERS[c], for each c.
+    /// Per particle block K: the grid block K + `CORNERS[c]`, for each c.
     pub pb_grid: Vec<[u32; 8]>,
     /// `[blocks × 64]` node mass (kg).
     pub mass_kg: Vec<f32>,

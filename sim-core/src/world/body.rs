@@ -209,7 +209,7 @@ impl Body {
         self.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
     }
 
-    /// Writes the rigid pose into the particles: x = com + R r0, v = v + ω × R r0, F = R, C = [ω]×.
+    /// Writes the rigid pose into the particles: x = com + R r0, v = v + ω × R r0, F = R, C = `[ω]×`.
     pub fn sync_rigid_particles(&mut self) {
         let r = Mat3A::from_quat(self.rigid.orientation);
         let com = self.rigid.com_m.as_vec3a();

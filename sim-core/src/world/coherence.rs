@@ -5,7 +5,7 @@
 //! capped at twice the COM's, so a small zone cannot be flung), which MPM then turns into local
 //! deformation; the rest is spread evenly. Then the object's particle momentum, linear and
 //! angular, is made equal to its object-level value (old momentum + J, old angular momentum +
-//! r × J) by adding a uniform velocity and a rigid rotation field (v += δv + δω × r, C += [δω]×):
+//! r × J) by adding a uniform velocity and a rigid rotation field (v += δv + δω × r, C += `[δω]×`):
 //! rigid fields carry no strain rate, so the internal deformation velocities are undisturbed.
 
 use glam::{DVec3, Mat3A, Vec3A};
