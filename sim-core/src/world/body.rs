@@ -152,6 +152,9 @@ pub struct Body {
     pub rigid: RigidState,
     /// Asleep: skips all work until woken.
     pub sleeping: bool,
+    /// Object-level state of a static or sleeping object (it does not change until woken or
+    /// edited); `None` while the object moves.
+    pub state_cache: Option<BodyState>,
     /// Simulated time the body has been still (s).
     pub still_s: f64,
     /// Substeps skipped while asleep or static.

@@ -10,6 +10,7 @@ use crate::scene::ObjectKind;
 impl World {
     fn wake(&mut self, id: usize) {
         self.bodies[id].sleeping = false;
+        self.bodies[id].state_cache = None;
         self.bodies[id].still_s = 0.0;
     }
 

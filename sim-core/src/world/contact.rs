@@ -13,8 +13,6 @@
 //! Coulomb friction j_t <= μ j_n against the tangential velocity, impulse J = j_n n + j_t t on B and
 //! -J on A, at the contact point, so linear and angular momentum are both conserved.
 
-use std::collections::HashSet;
-
 use glam::{DMat3, DVec3, IVec3};
 
 use super::body::{Body, BodyState};
@@ -63,22 +61,28 @@ pub fn narrow_phase(
         let x = x.as_dvec3();
         x.cmpge(lo).all() && x.cmple(hi).all()
     };
-    let cells_of = |body: &Body| -> HashSet<IVec3> {
-        body.particles
+    // Occupied cells as a sorted, deduplicated list (binary search; no hashing).
+    let cells_of = |body: &Body| -> Vec<[i32; 3]> {
+        let mut c: Vec<[i32; 3]> = body
+            .particles
             .x
             .iter()
             .filter(|x| inside(**x))
-            .map(|x| cell(*x, inv_h))
-            .collect()
+            .map(|x| cell(*x, inv_h).to_array())
+            .collect();
+        c.sort_unstable();
+        c.dedup();
+        c
     };
     let cells_b = cells_of(b);
     if cells_b.is_empty() {
         return None;
     }
-    let zone = |body: &Body, other: &HashSet<IVec3>| -> Vec<u32> {
+    let zone = |body: &Body, other: &[[i32; 3]]| -> Vec<u32> {
         (0..body.particles.len())
             .filter(|&i| {
-                inside(body.particles.x[i]) && other.contains(&cell(body.particles.x[i], inv_h))
+                let x = body.particles.x[i];
+                inside(x) && other.binary_search(&cell(x, inv_h).to_array()).is_ok()
             })
             .map(|i| i as u32)
             .collect()

@@ -320,6 +320,7 @@ impl World {
                     mass_kg: 0.0,
                 },
                 sleeping: false,
+                state_cache: None,
                 still_s: 0.0,
                 substeps_skipped: 0,
                 contacts: 0,
@@ -636,10 +637,19 @@ impl World {
             return;
         }
         let dx = self.dx_m();
+        // Static and sleeping objects do not move: their state is measured once and cached
+        // (cleared when they wake or are edited).
         let states: Vec<BodyState> = self
             .bodies
-            .par_iter()
-            .map(|b| measure(&b.particles, dx))
+            .par_iter_mut()
+            .map(|b| {
+                if b.is_active() {
+                    b.state_cache = None;
+                    return measure(&b.particles, dx);
+                }
+                *b.state_cache
+                    .get_or_insert_with(|| measure(&b.particles, dx))
+            })
             .collect();
         let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
         for i in 0..n {
