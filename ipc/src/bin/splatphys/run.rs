@@ -285,25 +285,27 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         .arg("--gif")
         .arg(args.out.join("animation.gif"))
         .stdout(Stdio::piped());
-    if let Some(cam) = scene.cameras.first() {
-        let v = |a: [f32; 3]| format!("{},{},{}", a[0], a[1], a[2]);
-        ren_cmd
-            .args([
-                "--camera-pos",
-                &v(cam.position_m),
-                "--look-at",
-                &v(cam.look_at_m),
-                "--up",
-                &v(cam.up),
-            ])
-            .args(["--fov-deg", &cam.fov_y_deg.to_string()])
-            .args([
-                "--width",
-                &cam.width_px.to_string(),
-                "--height",
-                &cam.height_px.to_string(),
-            ]);
-    }
+    let camera_args: Vec<String> = match scene.cameras.first() {
+        Some(cam) => {
+            let v = |a: [f32; 3]| format!("{},{},{}", a[0], a[1], a[2]);
+            vec![
+                "--camera-pos".into(),
+                v(cam.position_m),
+                "--look-at".into(),
+                v(cam.look_at_m),
+                "--up".into(),
+                v(cam.up),
+                "--fov-deg".into(),
+                cam.fov_y_deg.to_string(),
+                "--width".into(),
+                cam.width_px.to_string(),
+                "--height".into(),
+                cam.height_px.to_string(),
+            ]
+        }
+        None => Vec::new(),
+    };
+    ren_cmd.args(&camera_args);
     let mut renderer = Proc::spawn(
         "renderer",
         ren_cmd,
@@ -369,6 +371,25 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         .and_then(|s| serde_json::from_str(&s).ok())
         .unwrap_or(Value::Null);
     let render_json = render_json.join().ok().flatten().unwrap_or(Value::Null);
+    // The live renderer shows the newest frame and skips when it is slower than the simulation;
+    // the animation left behind should hold every step, so re-render any skipped ones from the
+    // lossless recording (the live figure stays in the summary).
+    let mut rerendered = false;
+    if recorder_ok && render_json["frames_dropped"].as_u64().unwrap_or(0) > 0 {
+        let status = Command::new(&render_bin)
+            .arg("mcap")
+            .arg(args.out.join("run.mcap"))
+            .arg("--out-dir")
+            .arg(&frames)
+            .arg("--gif")
+            .arg(args.out.join("animation.gif"))
+            .args(&camera_args)
+            .stdout(Stdio::null())
+            .stderr(File::create(logs.join("render-mcap.log"))?)
+            .status()
+            .context("running splatphys-render mcap")?;
+        rerendered = status.success();
+    }
     let frames_png = std::fs::read_dir(&frames)
         .map(|d| d.filter_map(Result::ok).count())
         .unwrap_or(0);
@@ -388,6 +409,7 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         "simulation_wall_s": server_json["step_wall_s"],
         "particle_substeps_per_s": server_json["particle_substeps_per_s"],
         "frames_dropped_by_renderer": render_json["frames_dropped"],
+        "frames_rerendered_from_recording": rerendered,
         "frames_lost_by_recorder": server_json["frames_lost_by_recorder"],
         "recorder_ok": recorder_ok,
         "renderer_ok": renderer_ok,
