@@ -60,7 +60,9 @@ pub fn svd3(a: Mat3A) -> Svd3 {
             let alpha = b[p].length_squared();
             let beta = b[q].length_squared();
             let gamma = b[p].dot(b[q]);
-            if gamma == 0.0 || gamma.abs() <= 1e-7 * (alpha * beta).sqrt() {
+            // 1e-6 relative: f32 rounding alone leaves |γ| ~1e-7 √(αβ), so a tighter bound only
+            // spends sweeps pushing noise (measured 7-14 % of an MPM substep).
+            if gamma == 0.0 || gamma.abs() <= 1e-6 * (alpha * beta).sqrt() {
                 continue;
             }
             rotated = true;
