@@ -43,6 +43,27 @@ pub struct GaussianCloud {
 }
 
 impl GaussianCloud {
+    /// An empty cloud with room for `n` Gaussians carrying `sh_rest_len` `f_rest_*` values each
+    /// (0, 9, 24 or 45); the SH degree is the one that count implies.
+    pub fn with_capacity(n: usize, sh_rest_len: usize) -> Self {
+        Self {
+            positions: Vec::with_capacity(n),
+            sh_degree: match sh_rest_len {
+                0 => 0,
+                9 => 1,
+                24 => 2,
+                _ => 3,
+            },
+            sh_dc: Vec::with_capacity(n),
+            sh_rest: Vec::with_capacity(n * sh_rest_len),
+            sh_rest_len,
+            opacity_logit: Vec::with_capacity(n),
+            log_scales: Vec::with_capacity(n),
+            rotations_wxyz: Vec::with_capacity(n),
+            ..Self::default()
+        }
+    }
+
     /// Number of Gaussians.
     pub fn len(&self) -> usize {
         self.positions.len()

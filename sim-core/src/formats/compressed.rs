@@ -150,22 +150,7 @@ pub fn parse_compressed_ply(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, 
         }
     }
     let n_rest = sh_cols.len();
-    let mut cloud = GaussianCloud {
-        positions: Vec::with_capacity(n),
-        sh_degree: match n_rest {
-            0 => 0,
-            9 => 1,
-            24 => 2,
-            _ => 3,
-        },
-        sh_dc: Vec::with_capacity(n),
-        sh_rest: Vec::with_capacity(n * n_rest),
-        sh_rest_len: n_rest,
-        opacity_logit: Vec::with_capacity(n),
-        log_scales: Vec::with_capacity(n),
-        rotations_wxyz: Vec::with_capacity(n),
-        ..GaussianCloud::default()
-    };
+    let mut cloud = GaussianCloud::with_capacity(n, n_rest);
     for (i, row) in vertex.rows.iter().enumerate() {
         let ch = &chunk.rows[i / CHUNK_SIZE];
         let c = |k: usize| ch[cc[k]];

@@ -350,24 +350,12 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<PlyFile, FormatError> {
     let n = v.rows.len();
     let f = |row: &[f64], c: usize| row[c] as f32;
     let mut cloud = GaussianCloud {
-        positions: Vec::with_capacity(n),
         normals: normals.map(|_| Vec::with_capacity(n)),
-        sh_degree: match n_rest {
-            0 => 0,
-            9 => 1,
-            24 => 2,
-            _ => 3,
-        },
-        sh_dc: Vec::with_capacity(n),
-        sh_rest: Vec::with_capacity(n * n_rest),
-        sh_rest_len: n_rest,
-        opacity_logit: Vec::with_capacity(n),
-        log_scales: Vec::with_capacity(n),
-        rotations_wxyz: Vec::with_capacity(n),
         extra: extra_cols
             .iter()
             .map(|&c| (v.props[c].0.clone(), Vec::with_capacity(n)))
             .collect(),
+        ..GaussianCloud::with_capacity(n, n_rest)
     };
     for row in &v.rows {
         let c = &core;
