@@ -112,8 +112,8 @@ fn recorder_gets_every_frame_and_a_killed_recorder_keeps_closed_chunks() {
     stop.store(true, Ordering::Release);
     let _ = server.join();
     assert!(
-        t0.elapsed() < Duration::from_secs(5),
-        "server stopped promptly"
+        t0.elapsed() < Duration::from_secs(30),
+        "server did not stop"
     );
     let bytes = read_file(&out2).unwrap();
     assert!(
