@@ -76,31 +76,37 @@ fn head_on_collision_follows_the_restitution_law() {
 }
 
 #[test]
-fn shared_grid_baseline_sticks_and_is_recorded() {
-    // The baseline's answer for e = 1 (it has no restitution: contact through one grid is
-    // inelastic and sticky). Printed for the record; momentum must still be conserved.
-    let scene = load_scene_str(&two_spheres("mpm", 1.0, 1000.0, 0.0), Path::new(".")).unwrap();
-    let p0 = World::from_scene(&scene)
-        .unwrap()
-        .diagnostics()
-        .momentum_kg_m_s;
-    let w = run(&two_spheres("mpm", 1.0, 1000.0, 0.0));
-    let o = w.objects();
-    println!(
-        "mpm e=1: v1' = {:.4}, v2' = {:.4} (law: -1, 1)",
-        o[0].velocity_m_s[0], o[1].velocity_m_s[0]
-    );
-    let p = w.diagnostics().momentum_kg_m_s;
-    let scale = o[0].mass_kg + o[1].mass_kg;
-    assert!(
-        (p[0] - p0[0]).abs() / scale < 1e-5,
-        "momentum drift {p:?} from {p0:?}"
-    );
+fn baselines_are_recorded_and_conserve_momentum() {
+    // The baselines' answers for e = 1 (neither has a restitution coefficient: the bounce comes
+    // from the spheres' elasticity), printed for the record; momentum must still be conserved.
+    for method in ["mpm", "multi-field"] {
+        let text = two_spheres(method, 1.0, 1000.0, 0.0);
+        let scene = load_scene_str(&text, Path::new(".")).unwrap();
+        let p0 = World::from_scene(&scene)
+            .unwrap()
+            .diagnostics()
+            .momentum_kg_m_s;
+        let w = run(&text);
+        let o = w.objects();
+        let (u1, u2) = (o[0].velocity_m_s[0], o[1].velocity_m_s[0]);
+        println!("{method} e=1: v1' = {u1:.4}, v2' = {u2:.4} (law: -1, 1)");
+        let p = w.diagnostics().momentum_kg_m_s;
+        let scale = o[0].mass_kg + o[1].mass_kg;
+        assert!(
+            (p[0] - p0[0]).abs() / scale < 1e-5,
+            "{method}: momentum drift {p:?} from {p0:?}"
+        );
+        // Both baselines turn the spheres around; multi-field contact lets them part freely.
+        assert!(u1 < 0.0 && u2 > 0.0, "{method}: {u1} {u2}");
+        if method == "multi-field" {
+            assert!(w.stats.contact_nodes > 0);
+        }
+    }
 }
 
 #[test]
 fn momentum_is_conserved_through_a_collision_for_every_method() {
-    for method in ["com", "mpm"] {
+    for method in ["com", "mpm", "multi-field"] {
         let scene = load_scene_str(&two_spheres(method, 0.5, 3000.0, 0.0), Path::new(".")).unwrap();
         let mut w = World::from_scene(&scene).unwrap();
         let p0 = w.diagnostics().momentum_kg_m_s;
@@ -218,7 +224,7 @@ fn bits(threads: usize, method: &str) -> Vec<u32> {
 
 #[test]
 fn world_is_bit_identical_for_1_and_2_threads() {
-    for method in ["com", "mpm"] {
+    for method in ["com", "mpm", "multi-field"] {
         assert_eq!(bits(1, method), bits(2, method), "{method}");
     }
 }

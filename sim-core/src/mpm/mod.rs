@@ -14,6 +14,7 @@ pub mod diagnostics;
 pub mod g2p;
 pub mod grid;
 pub mod grid_update;
+pub mod multi_field;
 pub mod p2g;
 pub mod particles;
 pub mod solver;

@@ -90,6 +90,7 @@ pub struct MpmSolver {
     grid: SparseGrid,
     scratch: Vec<Region>,
     velocity_regions: Vec<g2p::VelocityRegion>,
+    v_ref: Vec3A,
 }
 
 impl MpmSolver {
@@ -101,6 +102,7 @@ impl MpmSolver {
             grid: SparseGrid::default(),
             scratch: Vec::new(),
             velocity_regions: Vec::new(),
+            v_ref: Vec3A::ZERO,
         }
     }
 
@@ -109,7 +111,7 @@ impl MpmSolver {
         &self.grid
     }
 
-    /// Advances `particles` by one substep.
+    /// Advances `particles` by one substep: [`Self::scatter_and_update`] then [`Self::gather`].
     ///
     /// # Errors
     /// [`MpmError`] when the state would become non-finite or a particle leaves the grid; no NaN
@@ -119,8 +121,27 @@ impl MpmSolver {
         particles: &mut Particles,
         input: &SubstepInput<'_>,
     ) -> Result<SubstepReport, MpmError> {
+        self.scatter_and_update(particles, input)?;
+        self.gather(particles, input)
+    }
+
+    /// First half of a substep: binning, P2G and the grid update (gravity, colliders). Afterwards
+    /// [`Self::grid`] holds this substep's node masses and velocities (relative to
+    /// [`Self::reference_velocity_m_s`]), which a coupling scheme may edit through
+    /// [`Self::grid_mut`] before [`Self::gather`].
+    ///
+    /// # Errors
+    /// [`MpmError`] for a bad material index, a particle outside the grid or a non-finite grid.
+    pub fn scatter_and_update(
+        &mut self,
+        particles: &Particles,
+        input: &SubstepInput<'_>,
+    ) -> Result<(), MpmError> {
+        self.v_ref = Vec3A::ZERO;
         if particles.is_empty() {
-            return Ok(SubstepReport::default());
+            self.bins = Binning::default();
+            self.grid.rebuild(&self.bins);
+            return Ok(());
         }
         if let Some(p) = particles
             .material
@@ -138,17 +159,17 @@ impl MpmSolver {
             .rebuild(&particles.x, inv_dx)
             .map_err(|particle| MpmError::OutOfGrid { particle })?;
         self.grid.rebuild(&self.bins);
-        let v_ref = mean_velocity(particles);
+        self.v_ref = mean_velocity(particles);
         p2g::scatter(
             particles,
             &self.bins,
             input.materials,
             self.dx_m,
             input.dt_s,
-            v_ref,
+            self.v_ref,
             &mut self.scratch,
         );
-        if let Some(block) = grid_update::update(
+        match grid_update::update(
             &mut self.grid,
             &self.scratch,
             self.dx_m,
@@ -156,9 +177,26 @@ impl MpmSolver {
             input.gravity_m_s2,
             input.colliders,
             input.time_s,
-            v_ref,
+            self.v_ref,
         ) {
-            return Err(MpmError::NonFiniteGrid { block });
+            Some(block) => Err(MpmError::NonFiniteGrid { block }),
+            None => Ok(()),
+        }
+    }
+
+    /// Second half of a substep: G2P from the current grid, advecting `particles` (which must be
+    /// the set given to [`Self::scatter_and_update`], unchanged).
+    ///
+    /// # Errors
+    /// [`MpmError::NonFiniteParticle`] (the particle is left at its previous state; this also
+    /// catches a non-finite grid velocity left by an edit).
+    pub fn gather(
+        &mut self,
+        particles: &mut Particles,
+        input: &SubstepInput<'_>,
+    ) -> Result<SubstepReport, MpmError> {
+        if particles.is_empty() {
+            return Ok(SubstepReport::default());
         }
         let r = g2p::gather(
             particles,
@@ -167,7 +205,7 @@ impl MpmSolver {
             input.materials,
             self.dx_m,
             input.dt_s,
-            v_ref,
+            self.v_ref,
             &mut self.velocity_regions,
         );
         if let Some(particle) = r.first_non_finite {
@@ -178,6 +216,18 @@ impl MpmSolver {
             grid_blocks: self.grid.block_count(),
             particle_blocks: self.bins.blocks.len(),
         })
+    }
+
+    /// The velocity of the frame the grid works in this substep (m/s): grid node velocities are
+    /// relative to it.
+    pub fn reference_velocity_m_s(&self) -> Vec3A {
+        self.v_ref
+    }
+
+    /// The sparse grid for editing between [`Self::scatter_and_update`] and [`Self::gather`]
+    /// (node velocities relative to [`Self::reference_velocity_m_s`]).
+    pub fn grid_mut(&mut self) -> &mut SparseGrid {
+        &mut self.grid
     }
 
     /// Releases scratch memory beyond what the last substep used.

@@ -10,7 +10,10 @@
 //!    object-level value ([`coherence`]).
 //!
 //! Baseline `mpm`: all deformable objects share one grid (contact through the grid, which sticks).
-//! Baseline `multi-field` (Bardenhagen et al. 2000) is not implemented yet and is refused.
+//! Baseline `multi-field` (Bardenhagen et al. 2000): each deformable object keeps its own field on
+//! the shared node lattice and fields meet through the multi-field contact rule
+//! ([`crate::mpm::multi_field`]). In both baselines the COM layer still resolves contacts that
+//! involve a rigid or static object.
 
 pub mod body;
 pub mod coherence;
@@ -31,7 +34,9 @@ use crate::collider::{BoxShape, Collider, Plane, Shape, Surface};
 use crate::gaussians::GaussianCloud;
 use crate::kinematics::{GaussianState, pack_symmetric};
 use crate::material::{ConstitutiveModel, Material, MaterialError};
-use crate::mpm::{MpmError, MpmSolver, Particles, SubstepInput, TimeStepError, TimeStepPolicy};
+use crate::mpm::{
+    MpmError, MpmSolver, Particles, SubstepInput, TimeStepError, TimeStepPolicy, multi_field,
+};
 use crate::scene::{self, EventAction, EventSpec, Method, ObjectKind, Scene};
 
 /// Speed below which an object counts as still (m/s).
@@ -61,9 +66,6 @@ pub enum WorldError {
     /// The scene's settings are unusable.
     #[error("[simulation] {0}")]
     Settings(String),
-    /// The method is not available.
-    #[error("method {0:?} is not implemented yet (use \"com\" or \"mpm\")")]
-    Unsupported(Method),
     /// The time step was refused.
     #[error("frame {frame}, t = {time_s:.6} s: {source}")]
     TimeStep {
@@ -108,6 +110,8 @@ pub struct WorldStats {
     pub mpm_particle_substeps: u64,
     /// Object-object contacts resolved with an impulse.
     pub contact_impulses: u64,
+    /// Multi-field baseline: field-node velocities corrected by the contact rule.
+    pub contact_nodes: u64,
     /// Wall time in MPM (s).
     pub mpm_wall_s: f64,
     /// Wall time in the COM layer: measuring, contacts, impulses, rigid bodies (s).
@@ -226,9 +230,6 @@ impl World {
     /// unimplemented method.
     pub fn from_scene(scene: &Scene) -> Result<Self, WorldError> {
         let s = &scene.simulation;
-        if s.method == Method::MultiField {
-            return Err(WorldError::Unsupported(s.method));
-        }
         let dx = s.grid_dx_m as f32;
         if !(dx.is_finite() && dx > 0.0) {
             return Err(WorldError::Settings(format!(
@@ -484,7 +485,8 @@ impl World {
         let t0 = Instant::now();
         match self.settings.method {
             Method::Mpm => self.mpm_shared_substep(dt)?,
-            _ => self.mpm_per_object_substep(dt)?,
+            Method::MultiField => self.multi_field_substep(dt)?,
+            Method::Com => self.mpm_per_object_substep(dt)?,
         }
         let t1 = Instant::now();
         self.rigid_substep(dt as f64);
@@ -524,6 +526,71 @@ impl World {
                 time_s: self.time_s,
             };
             match b.solver.substep(&mut b.particles, &input) {
+                Ok(r) => {
+                    b.max_speed_m_s = r.max_speed_m_s;
+                    self.stats.mpm_particle_substeps += b.particles.len() as u64;
+                }
+                Err(e) => {
+                    let name = b.name.clone();
+                    return Err(self.solver_error(&name, e));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The multi-field baseline: per-object P2G and grid update, multi-field contact at shared
+    /// nodes, per-object G2P.
+    fn multi_field_substep(&mut self, dt: f32) -> Result<(), WorldError> {
+        let dx = self.dx_m();
+        let active = |b: &Body| b.is_active() && b.kind == ObjectKind::Deformable;
+        for k in 0..self.bodies.len() {
+            let b = &mut self.bodies[k];
+            if !active(b) {
+                b.substeps_skipped += 1;
+                continue;
+            }
+            let input = SubstepInput {
+                materials: &b.materials,
+                colliders: &self.colliders,
+                gravity_m_s2: self.gravity_m_s2,
+                dt_s: dt,
+                time_s: self.time_s,
+            };
+            if let Err(e) = b.solver.scatter_and_update(&b.particles, &input) {
+                let name = b.name.clone();
+                return Err(self.solver_error(&name, e));
+            }
+        }
+        let mut fields: Vec<multi_field::Field<'_>> = self
+            .bodies
+            .iter_mut()
+            .filter(|b| active(b))
+            .map(|b| {
+                let v_ref_m_s = b.solver.reference_velocity_m_s();
+                multi_field::Field {
+                    grid: b.solver.grid_mut(),
+                    v_ref_m_s,
+                    friction: b.friction,
+                }
+            })
+            .collect();
+        let r = multi_field::couple(&mut fields, dx, &self.colliders, self.time_s);
+        drop(fields);
+        self.stats.contact_nodes += r.corrected as u64;
+        for k in 0..self.bodies.len() {
+            let b = &mut self.bodies[k];
+            if !active(b) {
+                continue;
+            }
+            let input = SubstepInput {
+                materials: &b.materials,
+                colliders: &self.colliders,
+                gravity_m_s2: self.gravity_m_s2,
+                dt_s: dt,
+                time_s: self.time_s,
+            };
+            match b.solver.gather(&mut b.particles, &input) {
                 Ok(r) => {
                     b.max_speed_m_s = r.max_speed_m_s;
                     self.stats.mpm_particle_substeps += b.particles.len() as u64;
@@ -658,11 +725,11 @@ impl World {
                 if !(bi.is_active() || bj.is_active()) {
                     continue;
                 }
-                if self.settings.method == Method::Mpm
+                if self.settings.method != Method::Com
                     && bi.kind == ObjectKind::Deformable
                     && bj.kind == ObjectKind::Deformable
                 {
-                    continue; // the shared grid handles these
+                    continue; // the grid handles these in the baselines
                 }
                 if !contact::broad_phase(&states[i], &states[j], dx as f64) {
                     continue;
