@@ -48,6 +48,45 @@ pub fn inverse_or_zero(i: DMat3) -> DMat3 {
     }
 }
 
+/// The part of [`measure`] the broad phase needs, at a fraction of its cost: mass, COM,
+/// velocity, radius and box. `angular_momentum` and `inertia` are left zero; call [`measure`]
+/// for a body whose contact is resolved.
+pub fn measure_bounds(p: &Particles, dx_m: f32) -> BodyState {
+    let mut m = 0.0f64;
+    let mut mx = DVec3::ZERO;
+    let mut mv = DVec3::ZERO;
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for i in 0..p.len() {
+        let mi = p.mass_kg[i] as f64;
+        let x = p.x[i].as_dvec3();
+        m += mi;
+        mx += x * mi;
+        mv += p.v[i].as_dvec3() * mi;
+        lo = lo.min(x);
+        hi = hi.max(x);
+    }
+    if m <= 0.0 {
+        return BodyState::default();
+    }
+    let com = mx / m;
+    let c = com.as_vec3a();
+    let r2max =
+        p.x.iter()
+            .map(|x| (*x - c).length_squared())
+            .fold(0.0f32, f32::max) as f64;
+    BodyState {
+        mass_kg: m,
+        com_m: com,
+        velocity_m_s: mv / m,
+        angular_momentum: DVec3::ZERO,
+        inertia: DMat3::ZERO,
+        // f32 distances: widen by a relative 1e-6 so the sphere still holds every particle.
+        radius_m: r2max.sqrt() * (1.0 + 1e-6) + dx_m as f64 / 2.0,
+        aabb_m: (lo, hi),
+    }
+}
+
 /// Measures mass, COM, velocity, angular momentum and inertia of `p` (cell size `dx_m` for the
 /// APIC spin term and the radius margin).
 pub fn measure(p: &Particles, dx_m: f32) -> BodyState {

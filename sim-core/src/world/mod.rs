@@ -706,16 +706,20 @@ impl World {
         let dx = self.dx_m();
         // Static and sleeping objects do not move: their state is measured once and cached
         // (cleared when they wake or are edited).
-        let states: Vec<BodyState> = self
+        // Awake objects get the broad phase's bounds only; the full state (inertia, angular
+        // momentum) is measured for the objects of a pair that passes it.
+        let mut states: Vec<(BodyState, bool)> = self
             .bodies
             .par_iter_mut()
             .map(|b| {
                 if b.is_active() {
                     b.state_cache = None;
-                    return measure(&b.particles, dx);
+                    return (body::measure_bounds(&b.particles, dx), false);
                 }
-                *b.state_cache
-                    .get_or_insert_with(|| measure(&b.particles, dx))
+                let s = *b
+                    .state_cache
+                    .get_or_insert_with(|| measure(&b.particles, dx));
+                (s, true)
             })
             .collect();
         let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
@@ -731,10 +735,16 @@ impl World {
                 {
                     continue; // the grid handles these in the baselines
                 }
-                if !contact::broad_phase(&states[i], &states[j], dx as f64) {
+                if !contact::broad_phase(&states[i].0, &states[j].0, dx as f64) {
                     continue;
                 }
-                let Some(c) = contact::narrow_phase(bi, &states[i], bj, &states[j], dx) else {
+                for k in [i, j] {
+                    if !states[k].1 {
+                        states[k] = (measure(&self.bodies[k].particles, dx), true);
+                    }
+                }
+                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+                let Some(c) = contact::narrow_phase(bi, &states[i].0, bj, &states[j].0, dx) else {
                     continue;
                 };
                 self.bodies[i].contacts += 1;
@@ -745,7 +755,10 @@ impl World {
                         self.bodies[k].still_s = 0.0;
                     }
                 }
-                let (da, db) = (self.dynamics(i, &states[i]), self.dynamics(j, &states[j]));
+                let (da, db) = (
+                    self.dynamics(i, &states[i].0),
+                    self.dynamics(j, &states[j].0),
+                );
                 let e = self.bodies[i].restitution.min(self.bodies[j].restitution) as f64;
                 let mu = ((self.bodies[i].friction * self.bodies[j].friction) as f64).sqrt();
                 let Some(jv) = contact::impulse(&da, &db, c.point_m, c.normal, e, mu, resting)
