@@ -111,24 +111,35 @@ pub fn measure(p: &Particles, dx_m: f32) -> BodyState {
     let vel = mv / m;
     let d = (dx_m as f64).powi(2) / 4.0;
     let mut l = DVec3::ZERO;
-    let mut inertia = DMat3::ZERO;
+    let mut spin = DVec3::ZERO;
+    // Second moments Σ m r rᵀ: diagonal and (xy, xz, yz).
+    let mut diag = DVec3::ZERO;
+    let mut off = DVec3::ZERO;
     let mut r2max = 0.0f64;
     for i in 0..p.len() {
         let mi = p.mass_kg[i] as f64;
         let r = p.x[i].as_dvec3() - com;
         let v = p.v[i].as_dvec3() - vel;
         let c = p.c[i];
-        let spin = DVec3::new(
+        spin += DVec3::new(
             (c.y_axis.z - c.z_axis.y) as f64,
             (c.z_axis.x - c.x_axis.z) as f64,
             (c.x_axis.y - c.y_axis.x) as f64,
-        );
-        l += r.cross(v) * mi + spin * (mi * d);
-        let r2 = r.length_squared();
-        r2max = r2max.max(r2);
-        // I = Σ m (|r|² 1 - r rᵀ), plus each particle's own spread m d (2 on the diagonal).
-        inertia += (DMat3::from_diagonal(DVec3::splat(r2 + 2.0 * d)) - outer(r, r)) * mi;
+        ) * mi;
+        l += r.cross(v) * mi;
+        let mr = r * mi;
+        diag += mr * r;
+        off += DVec3::new(mr.x * r.y, mr.x * r.z, mr.y * r.z);
+        r2max = r2max.max(r.length_squared());
     }
+    l += spin * d;
+    // I = Σ m (|r|² 1 - r rᵀ), plus each particle's own spread m d (2 on the diagonal).
+    let trace = diag.x + diag.y + diag.z + 2.0 * d * m;
+    let inertia = DMat3::from_cols(
+        DVec3::new(trace - diag.x, -off.x, -off.y),
+        DVec3::new(-off.x, trace - diag.y, -off.z),
+        DVec3::new(-off.y, -off.z, trace - diag.z),
+    );
     BodyState {
         mass_kg: m,
         com_m: com,

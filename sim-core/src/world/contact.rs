@@ -54,45 +54,63 @@ pub fn narrow_phase(
     cell_m: f32,
 ) -> Option<Contact> {
     let inv_h = 1.0 / cell_m;
-    // Only particles inside the boxes' overlap (grown by a cell) can share a cell.
+    // Only particles inside the boxes' overlap (grown by a cell) can share a cell, and the
+    // normal below looks 3 cells around the contact point (which lies in that grown overlap):
+    // one pass per body keeps the particles of the overlap grown by 4 cells, and everything
+    // after works on those.
     let lo = sa.aabb_m.0.max(sb.aabb_m.0) - DVec3::splat(cell_m as f64);
     let hi = sa.aabb_m.1.min(sb.aabb_m.1) + DVec3::splat(cell_m as f64);
+    let (lo3, hi3) = (
+        (lo - DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
+        (hi + DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
+    );
+    let near = |body: &Body| -> Vec<u32> {
+        (0..body.particles.len() as u32)
+            .filter(|&i| {
+                let x = body.particles.x[i as usize];
+                x.cmpge(lo3).all() && x.cmple(hi3).all()
+            })
+            .collect()
+    };
+    let (near_a, near_b) = (near(a), near(b));
+    if near_a.is_empty() || near_b.is_empty() {
+        return None;
+    }
     let inside = |x: glam::Vec3A| {
         let x = x.as_dvec3();
         x.cmpge(lo).all() && x.cmple(hi).all()
     };
     // Occupied cells as a sorted, deduplicated list (binary search; no hashing).
-    let cells_of = |body: &Body| -> Vec<[i32; 3]> {
-        let mut c: Vec<[i32; 3]> = body
-            .particles
-            .x
+    let cells_of = |body: &Body, near: &[u32]| -> Vec<[i32; 3]> {
+        let mut c: Vec<[i32; 3]> = near
             .iter()
-            .filter(|x| inside(**x))
-            .map(|x| cell(*x, inv_h).to_array())
+            .map(|&i| body.particles.x[i as usize])
+            .filter(|x| inside(*x))
+            .map(|x| cell(x, inv_h).to_array())
             .collect();
         c.sort_unstable();
         c.dedup();
         c
     };
-    let cells_b = cells_of(b);
+    let cells_b = cells_of(b, &near_b);
     if cells_b.is_empty() {
         return None;
     }
-    let zone = |body: &Body, other: &[[i32; 3]]| -> Vec<u32> {
-        (0..body.particles.len())
+    let zone = |body: &Body, near: &[u32], other: &[[i32; 3]]| -> Vec<u32> {
+        near.iter()
+            .copied()
             .filter(|&i| {
-                let x = body.particles.x[i];
+                let x = body.particles.x[i as usize];
                 inside(x) && other.binary_search(&cell(x, inv_h).to_array()).is_ok()
             })
-            .map(|i| i as u32)
             .collect()
     };
-    let zone_a = zone(a, &cells_b);
+    let zone_a = zone(a, &near_a, &cells_b);
     if zone_a.is_empty() {
         return None;
     }
-    let cells_a = cells_of(a);
-    let zone_b = zone(b, &cells_a);
+    let cells_a = cells_of(a, &near_a);
+    let zone_b = zone(b, &near_b, &cells_a);
     if zone_b.is_empty() {
         return None;
     }
@@ -113,10 +131,14 @@ pub fn narrow_phase(
     // mostly behind its surface, so point - their centroid is its outward normal there. Robust
     // even when the zones hold a handful of particles (zone centroids alone are not).
     let reach2 = (3.0 * cell_m as f64).powi(2);
-    let outward = |body: &Body| {
+    let outward = |body: &Body, near: &[u32]| {
         let mut m = 0.0;
         let mut mx = DVec3::ZERO;
-        for (x, &mi) in body.particles.x.iter().zip(&body.particles.mass_kg) {
+        for &i in near {
+            let (x, mi) = (
+                body.particles.x[i as usize],
+                body.particles.mass_kg[i as usize],
+            );
             let x = x.as_dvec3();
             if (x - point).length_squared() <= reach2 {
                 m += mi as f64;
@@ -129,7 +151,7 @@ pub fn narrow_phase(
             None
         }
     };
-    let normal = match (outward(a), outward(b)) {
+    let normal = match (outward(a, &near_a), outward(b, &near_b)) {
         (Some(na), Some(nb)) => (na - nb).try_normalize(),
         (Some(na), None) => Some(na),
         (None, Some(nb)) => Some(-nb),
