@@ -78,29 +78,44 @@ pub fn gather(
             let local = (s.base - origin).as_uvec3();
             let region = &regions[b as usize];
             let v_old = *v - v_ref;
-            let mut new_v = Vec3A::ZERO;
-            let mut new_c = Mat3A::ZERO;
+            // With u = vi - v_old and d = (i, j, k) - fx (cells): v = v_old + Σ w u and
+            // C ∝ Σ w u dᵀ. Σ w d = 0, so subtracting the particle's previous velocity changes
+            // nothing in exact arithmetic but keeps a uniform translation from leaking rounding
+            // noise into C (and F). Per axis, wd = w · (offset - fx) is formed once, and the sums
+            // run per row of 3 nodes along x, then per (j, k) weight, without cancellation.
+            let wd = [
+                s.w[0] * (Vec3A::ZERO - s.fx),
+                s.w[1] * (Vec3A::ONE - s.fx),
+                s.w[2] * (Vec3A::splat(2.0) - s.fx),
+            ];
+            let mut sum_v = Vec3A::ZERO;
+            let mut col = [Vec3A::ZERO; 3];
             for k in 0..3usize {
                 for j in 0..3usize {
                     let row = local.x as usize
                         + REGION * (local.y as usize + j)
                         + REGION * REGION * (local.z as usize + k);
+                    let u = [
+                        region[row] - v_old,
+                        region[row + 1] - v_old,
+                        region[row + 2] - v_old,
+                    ];
+                    let row_w = u[0] * s.w[0].x + u[1] * s.w[1].x + u[2] * s.w[2].x;
+                    let row_v = region[row] * s.w[0].x
+                        + region[row + 1] * s.w[1].x
+                        + region[row + 2] * s.w[2].x;
+                    let row_d = u[0] * wd[0].x + u[1] * wd[1].x + u[2] * wd[2].x;
                     let wjk = s.w[j].y * s.w[k].z;
-                    for i in 0..3usize {
-                        let vi = region[row + i];
-                        let w = s.w[i].x * wjk;
-                        let dpos = Vec3A::new(i as f32, j as f32, k as f32) - s.fx;
-                        new_v += vi * w;
-                        // Σ w (xi - xp) = 0, so subtracting the particle's previous velocity
-                        // changes nothing in exact arithmetic but keeps a uniform translation
-                        // from leaking rounding noise into C (and F).
-                        let wv = (vi - v_old) * w;
-                        new_c += Mat3A::from_cols(wv * dpos.x, wv * dpos.y, wv * dpos.z);
-                    }
+                    sum_v += row_v * wjk;
+                    col[0] += row_d * wjk;
+                    col[1] += row_w * (wd[j].y * s.w[k].z);
+                    col[2] += row_w * (s.w[j].y * wd[k].z);
                 }
             }
+            let new_v = sum_v;
+            let new_c = Mat3A::from_cols(col[0], col[1], col[2]);
             let new_v = new_v + v_ref;
-            // dpos above is in cells: (4/dx²) · dx = 4/dx.
+            // d above is in cells: (4/dx²) · dx = 4/dx.
             let new_c = new_c * (d_inv * dx_m);
             let mut new_f = (Mat3A::IDENTITY + new_c * dt_s) * *f;
             let mut new_plastic = *plastic;

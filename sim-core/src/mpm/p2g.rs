@@ -44,22 +44,28 @@ pub fn scatter(
                 let affine: Mat3A =
                     tau * (-dt_s * particles.volume0_m3[p] * d_inv) + particles.c[p] * m;
                 // Momentum at offset o: w (m v + affine (o - fx) dx) = w (q + A o) with A = affine dx.
+                // Carried as Vec4 with the mass in w (the A columns have w = 0), so one product
+                // per node gives (momentum, mass) · weight.
                 let s = Stencil::new(x, inv_dx);
                 let a = affine * dx_m;
                 let q = (particles.v[p] - v_ref) * m - a * s.fx;
+                let q4 = Vec4::from((q, m));
+                let (ax, ay, az) = (
+                    Vec4::from((a.x_axis, 0.0)),
+                    Vec4::from((a.y_axis, 0.0)),
+                    Vec4::from((a.z_axis, 0.0)),
+                );
                 let local = (s.base - origin).as_uvec3();
                 for k in 0..3 {
                     for j in 0..3 {
                         let wjk = s.w[j].y * s.w[k].z;
-                        let qjk = q + a.y_axis * j as f32 + a.z_axis * k as f32;
+                        let qjk = q4 + ay * j as f32 + az * k as f32;
                         let row = (local.x as usize)
                             + REGION * (local.y as usize + j)
                             + REGION * REGION * (local.z as usize + k);
-                        for i in 0..3 {
-                            let w = s.w[i].x * wjk;
-                            let mom = (qjk + a.x_axis * i as f32) * w;
-                            region[row + i] += Vec4::new(mom.x, mom.y, mom.z, m * w);
-                        }
+                        region[row] += qjk * (s.w[0].x * wjk);
+                        region[row + 1] += (qjk + ax) * (s.w[1].x * wjk);
+                        region[row + 2] += (qjk + ax * 2.0) * (s.w[2].x * wjk);
                     }
                 }
             }
