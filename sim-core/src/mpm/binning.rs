@@ -36,6 +36,8 @@ pub struct Binning {
     pub blocks: Vec<ParticleBlock>,
     /// `[N]` index into `blocks` of each particle.
     pub block_of: Vec<u32>,
+    /// Reused (key, particle) buffer.
+    scratch: Vec<(u64, u32)>,
 }
 
 /// Packs block coordinates into a u64 that sorts lexicographically by (x, y, z).
@@ -53,7 +55,8 @@ pub(crate) fn block_key(x_m: Vec3A, inv_dx: f32) -> Option<IVec3> {
     if !(xp.is_finite() && xp.abs().max_element() < lim) {
         return None;
     }
-    Some(xp.floor().as_ivec3().div_euclid(IVec3::splat(BLOCK)))
+    // Floor division by BLOCK = 4 is an arithmetic shift, also for negative indices.
+    Some(xp.floor().as_ivec3() >> 2)
 }
 
 impl Binning {
@@ -67,24 +70,25 @@ impl Binning {
         // unique, so the sorted result never depends on the input order or the thread count.
         let n = x.len();
         let reuse = self.order.len() == n;
-        let keyed: Vec<Option<(u64, u32)>> = if reuse {
-            self.order
-                .par_iter()
-                .map(|&i| block_key(x[i as usize], inv_dx).map(|k| (pack(k), i)))
-                .collect()
+        // An invalid position gets the key u64::MAX (packed keys are < 2^63).
+        let key_of =
+            |i: u32| block_key(x[i as usize], inv_dx).map_or((u64::MAX, i), |k| (pack(k), i));
+        let mut keyed = std::mem::take(&mut self.scratch);
+        keyed.clear();
+        if reuse {
+            keyed.par_extend(self.order.par_iter().map(|&i| key_of(i)));
         } else {
-            x.par_iter()
-                .enumerate()
-                .map(|(i, &p)| block_key(p, inv_dx).map(|k| (pack(k), i as u32)))
-                .collect()
-        };
-        if keyed.iter().any(Option::is_none) {
-            let bad = (0..n)
-                .find(|&i| block_key(x[i], inv_dx).is_none())
-                .unwrap_or(0);
+            keyed.par_extend((0..n as u32).into_par_iter().map(key_of));
+        }
+        if let Some(bad) = keyed
+            .iter()
+            .filter(|k| k.0 == u64::MAX)
+            .map(|k| k.1 as usize)
+            .min()
+        {
+            self.scratch = keyed;
             return Err(bad);
         }
-        let mut keyed: Vec<(u64, u32)> = keyed.into_iter().flatten().collect();
         if !keyed.windows(2).all(|w| w[0] < w[1]) {
             keyed.par_sort_unstable();
         }
@@ -111,6 +115,7 @@ impl Binning {
         if let Some(last) = self.blocks.last_mut() {
             last.end = keyed.len() as u32;
         }
+        self.scratch = keyed;
         Ok(())
     }
 }
