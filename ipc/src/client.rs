@@ -143,7 +143,8 @@ impl Connection {
         let node = create_node(&opts.node_name)?;
         let names = ServiceNames::new(&opts.prefix);
         let start = Instant::now();
-        // The server creates `status` last, so once it opens every other service exists.
+        // The server creates `status` last, so once it opens every other service and the
+        // server's ports exist (a command sent now reaches the command server).
         let status = loop {
             match status_service(&node, &names, Role::User) {
                 Ok(s) => break s,
@@ -353,20 +354,30 @@ impl Connection {
         }
     }
 
-    /// The newest buffered frame, dropping older ones (renderers).
+    /// The newest buffered frame, releasing older ones (renderers).
+    ///
+    /// Holds at most one sample at a time (the `frame` service lets a subscriber borrow one):
+    /// each older sample is released before the next one is taken, however many are pending.
     ///
     /// # Errors
     /// As [`Connection::recv_frame`].
     pub fn latest_frame(&mut self) -> Result<Option<FrameSample>, IpcError> {
-        let mut newest = None;
-        loop {
-            match self.recv_frame() {
-                Ok(Some(s)) => newest = Some(s),
-                Ok(None) => return Ok(newest),
-                Err(IpcError::ServerShutDown { .. }) if newest.is_some() => return Ok(newest),
-                Err(e) => return Err(e),
-            }
+        let mut newest = self.recv_frame()?;
+        while newest.is_some() && self.frame_pending()? {
+            // Release before borrowing the next: a second borrow fails with ExceedsMaxBorrows.
+            drop(newest.take());
+            newest = self.recv_frame()?;
         }
+        Ok(newest)
+    }
+
+    /// Whether our `frame` subscriber holds more frames.
+    fn frame_pending(&self) -> Result<bool, IpcError> {
+        let Some(sub) = &self.frame_sub else {
+            return Ok(false);
+        };
+        sub.has_samples()
+            .map_err(|e| IpcError::iox("receive", &self.names.name("frame"), e))
     }
 
     /// Waits up to `timeout` for the next frame.

@@ -17,15 +17,16 @@ use iceoryx2::node::Node;
 use iceoryx2::port::backpressure_strategy::BackpressureStrategy;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::update_connections::UpdateConnections;
-use iceoryx2::prelude::{AllocationStrategy, CallbackProgression};
+use iceoryx2::prelude::AllocationStrategy;
 
 use crate::backpressure::LagBook;
 use crate::command::{Command, RejectCode, Reply};
 use crate::error::IpcError;
 use crate::heartbeat::Heartbeat;
 use crate::services::{
-    FrameService, Iox, LOSSLESS_PORT_NAME, ObjectsService, Role, ServiceNames, command_log_service,
-    command_service, create_node, frame_service, objects_service, scene_service,
+    FrameService, Iox, ObjectsService, Role, ServiceNames, command_log_service, command_service,
+    create_node, frame_service, frame_subscribers, objects_service, objects_subscribers,
+    scene_service,
 };
 use crate::simulation::Simulation;
 use crate::validate::{Limits, validate};
@@ -131,18 +132,6 @@ struct Ports {
     subscriber_counts: (usize, usize),
 }
 
-fn subscriber_ids<F>(list: F) -> Vec<(u128, bool)>
-where
-    F: FnOnce(&mut dyn FnMut(u128, &str) -> CallbackProgression),
-{
-    let mut out = Vec::new();
-    list(&mut |id, name| {
-        out.push((id, name == LOSSLESS_PORT_NAME));
-        CallbackProgression::Continue
-    });
-    out
-}
-
 impl Ports {
     /// Re-reads which subscribers exist and which ask for lossless delivery.
     fn refresh_subscribers(&mut self, force: bool) {
@@ -157,17 +146,9 @@ impl Ports {
             return;
         }
         self.subscriber_counts = counts;
-        let f = subscriber_ids(|cb| {
-            self.frame_service
-                .dynamic_config()
-                .list_subscribers(|d| cb(d.subscriber_id.value(), d.subscriber_name.as_str()));
-        });
-        self.frame_book.set_subscribers(&f);
-        let o = subscriber_ids(|cb| {
-            self.objects_service
-                .dynamic_config()
-                .list_subscribers(|d| cb(d.subscriber_id.value(), d.subscriber_name.as_str()));
-        });
+        self.frame_book
+            .set_subscribers(&frame_subscribers(&self.frame_service));
+        let o = objects_subscribers(&self.objects_service);
         self.objects_book.set_subscribers(&o);
     }
 }
@@ -251,6 +232,49 @@ fn publish_frame<S: Simulation>(sim: &S, ports: &Ports, frame_index: u64) -> Res
     Ok(())
 }
 
+/// The `frame` publisher as the server creates it: room for `gaussians` per sample (grows by
+/// powers of two), and a full subscriber buffer handled by `book` (lossless subscribers are
+/// waited for up to its limit, best-effort ones skip the frame). `splatphys bench ipc` measures
+/// this very publisher.
+///
+/// # Errors
+/// iceoryx2 failures.
+pub fn frame_publisher(
+    service: &FrameService,
+    names: &ServiceNames,
+    gaussians: usize,
+    book: &LagBook,
+) -> Result<Publisher<Iox, [FrameGaussian], FrameHeader>, IpcError> {
+    service
+        .publisher_builder()
+        .initial_max_slice_len(gaussians.max(1))
+        .allocation_strategy(AllocationStrategy::PowerOfTwo)
+        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
+        .set_backpressure_handler(book.handler())
+        .create()
+        .map_err(|e| IpcError::iox("create publisher", &names.name("frame"), e))
+}
+
+/// The `objects` publisher as the server creates it; see [`frame_publisher`].
+///
+/// # Errors
+/// iceoryx2 failures.
+pub fn objects_publisher(
+    service: &ObjectsService,
+    names: &ServiceNames,
+    objects: usize,
+    book: &LagBook,
+) -> Result<Publisher<Iox, [ObjectState], FrameHeader>, IpcError> {
+    service
+        .publisher_builder()
+        .initial_max_slice_len(objects.max(1))
+        .allocation_strategy(AllocationStrategy::PowerOfTwo)
+        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
+        .set_backpressure_handler(book.handler())
+        .create()
+        .map_err(|e| IpcError::iox("create publisher", &names.name("objects"), e))
+}
+
 fn clean_dead_nodes(node: &Node<Iox>) {
     // Removes the shared-memory resources of killed clients; a cleanup that is busy elsewhere
     // is simply retried next period.
@@ -287,7 +311,6 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
     let objects_service = owned(objects_service(&node, &names, Role::Owner), &prefix)?;
     let command_service = owned(command_service(&node, &names, Role::Owner), &prefix)?;
     let command_log_service = owned(command_log_service(&node, &names, Role::Owner), &prefix)?;
-    let heartbeat = owned(Heartbeat::start(&names), &prefix)?;
 
     let scene_pub = scene_service
         .publisher_builder()
@@ -297,22 +320,9 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
         .map_err(|e| IpcError::iox("create publisher", &names.name("scene"), e))?;
     let frame_book = LagBook::new(cfg.lossless_limit);
     let objects_book = LagBook::new(cfg.lossless_limit);
-    let frame_pub = frame_service
-        .publisher_builder()
-        .initial_max_slice_len(sim.gaussian_count().max(1))
-        .allocation_strategy(AllocationStrategy::PowerOfTwo)
-        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
-        .set_backpressure_handler(frame_book.handler())
-        .create()
-        .map_err(|e| IpcError::iox("create publisher", &names.name("frame"), e))?;
-    let objects_pub = objects_service
-        .publisher_builder()
-        .initial_max_slice_len(sim.object_count().max(1))
-        .allocation_strategy(AllocationStrategy::PowerOfTwo)
-        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
-        .set_backpressure_handler(objects_book.handler())
-        .create()
-        .map_err(|e| IpcError::iox("create publisher", &names.name("objects"), e))?;
+    let frame_pub = frame_publisher(&frame_service, &names, sim.gaussian_count(), &frame_book)?;
+    let objects_pub =
+        objects_publisher(&objects_service, &names, sim.object_count(), &objects_book)?;
     let command_log_pub = command_log_service
         .publisher_builder()
         .create()
@@ -322,6 +332,10 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
         .backpressure_strategy(BackpressureStrategy::DiscardData)
         .create()
         .map_err(|e| IpcError::iox("create server", &names.name("command"), e))?;
+    // `status` last: a client connects once it opens, and sends commands at once. iceoryx2
+    // delivers a request only to the servers connected when it is sent, so the command server
+    // port must exist by then (regression: a `resume` sent right after connecting was lost).
+    let heartbeat = owned(Heartbeat::start(&names), &prefix)?;
 
     let mut ports = Ports {
         names: names.clone(),

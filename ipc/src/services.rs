@@ -21,7 +21,7 @@ use core::time::Duration;
 use iceoryx2::config::Config;
 use iceoryx2::node::Node;
 use iceoryx2::prelude::{
-    FileName, LogLevel, NodeBuilder, NodeName, SemanticString, ServiceName,
+    CallbackProgression, FileName, LogLevel, NodeBuilder, NodeName, SemanticString, ServiceName,
     set_log_level_from_env_or,
 };
 use iceoryx2::service::port_factory::{publish_subscribe, request_response};
@@ -149,6 +149,35 @@ pub fn cleanup_dead_nodes() -> Result<(u64, u64), IpcError> {
     let node = create_node("splatphys-cleanup")?;
     let state = node.blocking_cleanup_dead_nodes(Duration::from_millis(200));
     Ok((state.cleanups, state.failed_cleanups))
+}
+
+/// Every subscriber of a `frame` or `objects` dynamic config: (iceoryx2 subscriber id, whether
+/// it asked for lossless delivery through [`LOSSLESS_PORT_NAME`]).
+macro_rules! list_subscribers {
+    ($service:expr) => {{
+        use iceoryx2::service::port_factory::PortFactory;
+        let mut out = Vec::new();
+        $service.dynamic_config().list_subscribers(|d| {
+            out.push((
+                d.subscriber_id.value(),
+                d.subscriber_name.as_str() == LOSSLESS_PORT_NAME,
+            ));
+            CallbackProgression::Continue
+        });
+        out
+    }};
+}
+
+/// Every subscriber of the `frame` service: (iceoryx2 subscriber id, whether it asked for
+/// lossless delivery through [`LOSSLESS_PORT_NAME`]). Feeds
+/// [`crate::backpressure::LagBook::set_subscribers`].
+pub fn frame_subscribers(service: &FrameService) -> Vec<(u128, bool)> {
+    list_subscribers!(service)
+}
+
+/// Every subscriber of the `objects` service, as [`frame_subscribers`].
+pub fn objects_subscribers(service: &ObjectsService) -> Vec<(u128, bool)> {
+    list_subscribers!(service)
 }
 
 macro_rules! open_by_role {

@@ -3,121 +3,12 @@
 //! (`SPLATPHYS_IOX2_PREFIX`) and checks that nothing of it is left in /dev/shm or
 //! /tmp/iceoryx2 afterwards (except iceoryx2's persistent 16-byte `*.global_mgmt` node counter).
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+mod common;
+
+use std::process::Command;
 use std::time::{Duration, Instant};
 
-const SERVER: &str = env!("CARGO_BIN_EXE_splatphys");
-const PROBE: &str = env!("CARGO_BIN_EXE_splatphys-probe");
-
-struct Proc(Child);
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn iox_prefix(test: &str) -> String {
-    format!("spxt_{test}_{}_", std::process::id())
-}
-
-fn server(iox: &str, prefix: &str, gaussians: usize) -> Proc {
-    Proc(
-        Command::new(SERVER)
-            .args(["serve", "--fake", "--prefix", prefix, "--fake-dt", "0.001"])
-            .args(["--fake-gaussians", &gaussians.to_string()])
-            .env("SPLATPHYS_IOX2_PREFIX", iox)
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn server"),
-    )
-}
-
-fn probe(iox: &str, prefix: &str, extra: &[&str]) -> Proc {
-    Proc(
-        Command::new(PROBE)
-            .arg(prefix)
-            .args(extra)
-            .env("SPLATPHYS_IOX2_PREFIX", iox)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn probe"),
-    )
-}
-
-/// Reads stdout lines until one contains `needle`, within `timeout`.
-fn wait_line(p: &mut Proc, needle: &str, timeout: Duration) -> String {
-    let out = p.0.stdout.take().expect("stdout");
-    let (tx, rx) = std::sync::mpsc::channel();
-    let needle = needle.to_owned();
-    std::thread::spawn(move || {
-        for line in BufReader::new(out).lines().map_while(Result::ok) {
-            if line.contains(&needle) {
-                let _ = tx.send(line);
-            }
-        }
-    });
-    rx.recv_timeout(timeout).expect("expected line in time")
-}
-
-/// Waits for exit within `timeout`; returns (status code, stdout, stderr, elapsed).
-fn wait_exit(mut p: Proc, timeout: Duration) -> (Option<i32>, String, String, Duration) {
-    let t0 = Instant::now();
-    loop {
-        if let Some(st) = p.0.try_wait().expect("try_wait") {
-            let mut out = String::new();
-            let mut err = String::new();
-            use std::io::Read;
-            if let Some(mut o) = p.0.stdout.take() {
-                let _ = o.read_to_string(&mut out);
-            }
-            if let Some(mut e) = p.0.stderr.take() {
-                let _ = e.read_to_string(&mut err);
-            }
-            return (st.code(), out, err, t0.elapsed());
-        }
-        assert!(
-            t0.elapsed() < timeout,
-            "process did not exit within {timeout:?}"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
-}
-
-fn leftovers(iox: &str) -> Vec<String> {
-    let mut found = Vec::new();
-    for dir in ["/dev/shm", "/tmp/iceoryx2/services", "/tmp/iceoryx2/nodes"] {
-        if let Ok(rd) = std::fs::read_dir(dir) {
-            for e in rd.flatten() {
-                let name = e.file_name().to_string_lossy().into_owned();
-                if name.starts_with(iox) && !name.ends_with(".global_mgmt") {
-                    found.push(format!("{dir}/{name}"));
-                }
-            }
-        }
-    }
-    // Node directories are named by id; look inside for our prefix.
-    if let Ok(rd) = std::fs::read_dir("/tmp/iceoryx2/nodes") {
-        for e in rd.flatten().filter(|e| e.path().is_dir()) {
-            if let Ok(inner) = std::fs::read_dir(e.path()) {
-                for f in inner.flatten() {
-                    if f.file_name().to_string_lossy().starts_with(iox) {
-                        found.push(f.path().display().to_string());
-                    }
-                }
-            }
-        }
-    }
-    found
-}
-
-fn json_field(line: &str, key: &str) -> i64 {
-    let v: serde_json::Value = serde_json::from_str(line.lines().last().unwrap_or("{}")).unwrap();
-    v[key].as_i64().unwrap_or(i64::MIN)
-}
+use common::{iox_prefix, json_field, leftovers, probe, server, wait_exit, wait_line};
 
 #[test]
 fn killed_server_makes_clients_exit_with_a_clear_message() {

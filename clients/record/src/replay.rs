@@ -1,21 +1,29 @@
 //! Replay: publish a recording back onto the services, so any client (a renderer) can play it.
 //!
 //! The replayer owns the services under the prefix like a server does (scene, frame, objects,
-//! status heartbeat, command); commands are not answered. Timing: the original wall-clock
-//! spacing of the frames, or as fast as possible.
+//! status heartbeat, command); commands are not answered. Frames and objects go out through the
+//! server's own publishers ([`frame_publisher`], [`objects_publisher`]): a lossless subscriber
+//! (a recorder) is waited for, up to [`ReplayOptions::lossless_limit`] per message, and gets
+//! every message. Timing: the
+//! original wall-clock spacing of the messages, or as fast as possible. With
+//! [`ReplayOptions::wait_for_subscribers`] nothing is published before that many clients
+//! subscribed to `frame` and `objects` (frames keep no history, so a late client misses the
+//! start).
 
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use iceoryx2::port::backpressure_strategy::BackpressureStrategy;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::AllocationStrategy;
+use iceoryx2::service::port_factory::PortFactory;
 use splatphys_ipc::IpcError;
 use splatphys_ipc::backpressure::LagBook;
 use splatphys_ipc::heartbeat::Heartbeat;
+use splatphys_ipc::server::{frame_publisher, objects_publisher};
 use splatphys_ipc::services::{
-    Role, ServiceNames, command_log_service, command_service, create_node, frame_service,
-    objects_service, scene_service,
+    FrameService, ObjectsService, Role, ServiceNames, command_log_service, command_service,
+    create_node, frame_service, frame_subscribers, objects_service, objects_subscribers,
+    scene_service,
 };
 use splatphys_ipc::wire::{
     FrameGaussian, FrameHeader, ObjectState, STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader,
@@ -25,6 +33,55 @@ use splatphys_ipc::wire::{
 use crate::channels::{FRAME, OBJECTS, SCENE};
 use crate::error::RecordError;
 use crate::read::{messages, read_file, split};
+
+/// How to replay.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayOptions {
+    /// Keep the recorded spacing of the messages; `false` publishes as fast as the subscribers
+    /// allow. Default true.
+    pub realtime: bool,
+    /// Publish nothing before this many subscribers are connected to `frame` and to `objects`
+    /// (0 = start at once, the default).
+    pub wait_for_subscribers: usize,
+    /// Longest wait for them; the replay then starts anyway. Default 10 s.
+    pub wait_timeout: Duration,
+    /// Longest wait on a full lossless subscriber per message, as the server's
+    /// `ServerConfig::lossless_limit`. Default 100 ms.
+    pub lossless_limit: Duration,
+}
+
+impl Default for ReplayOptions {
+    fn default() -> Self {
+        Self {
+            realtime: true,
+            wait_for_subscribers: 0,
+            wait_timeout: Duration::from_secs(10),
+            lossless_limit: Duration::from_millis(100),
+        }
+    }
+}
+
+/// Which subscribers the backpressure books know, refreshed when the counts change.
+struct Books {
+    frame: LagBook,
+    objects: LagBook,
+    counts: (usize, usize),
+}
+
+impl Books {
+    fn refresh(&mut self, frame_s: &FrameService, objects_s: &ObjectsService) {
+        let counts = (
+            frame_s.dynamic_config().number_of_subscribers(),
+            objects_s.dynamic_config().number_of_subscribers(),
+        );
+        if counts != self.counts {
+            self.counts = counts;
+            self.frame.set_subscribers(&frame_subscribers(frame_s));
+            self.objects
+                .set_subscribers(&objects_subscribers(objects_s));
+        }
+    }
+}
 
 /// What a replay published.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -45,11 +102,16 @@ fn iox(op: &'static str, e: impl std::fmt::Debug) -> RecordError {
     })
 }
 
-/// Publishes `path` under `prefix`; `realtime` keeps the recorded spacing.
+/// Publishes `path` under `prefix` (see [`ReplayOptions`]).
 ///
 /// # Errors
-/// File, MCAP and iceoryx2 errors.
-pub fn replay(path: &Path, prefix: &str, realtime: bool) -> Result<ReplayCounts, RecordError> {
+/// File, MCAP and iceoryx2 errors; [`IpcError::Interrupted`] on a signal while waiting for
+/// subscribers.
+pub fn replay(
+    path: &Path,
+    prefix: &str,
+    opts: &ReplayOptions,
+) -> Result<ReplayCounts, RecordError> {
     let bytes = read_file(path)?;
     let msgs = messages(&bytes, path, true)?;
     let names = ServiceNames::new(prefix);
@@ -61,25 +123,33 @@ pub fn replay(path: &Path, prefix: &str, realtime: bool) -> Result<ReplayCounts,
     let _command_s = command_service(&node, &names, Role::Owner)?;
     let _command_log_s = command_log_service(&node, &names, Role::Owner)?;
     let heartbeat = Heartbeat::start(&names)?;
-    let book = LagBook::new(Duration::from_millis(100));
+    let limit = opts.lossless_limit;
+    let mut books = Books {
+        frame: LagBook::new(limit),
+        objects: LagBook::new(limit),
+        counts: (usize::MAX, usize::MAX),
+    };
     let scene_pub = scene_s
         .publisher_builder()
         .allocation_strategy(AllocationStrategy::PowerOfTwo)
         .create()
         .map_err(|e| iox("create publisher", e))?;
-    let frame_pub = frame_s
-        .publisher_builder()
-        .allocation_strategy(AllocationStrategy::PowerOfTwo)
-        .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
-        .set_backpressure_handler(book.handler())
-        .create()
-        .map_err(|e| iox("create publisher", e))?;
-    let objects_pub = objects_s
-        .publisher_builder()
-        .allocation_strategy(AllocationStrategy::PowerOfTwo)
-        .backpressure_strategy(BackpressureStrategy::DiscardData)
-        .create()
-        .map_err(|e| iox("create publisher", e))?;
+    // Room for one Gaussian and one object to start with: the slices grow by powers of two.
+    let frame_pub = frame_publisher(&frame_s, &names, 1, &books.frame)?;
+    let objects_pub = objects_publisher(&objects_s, &names, 1, &books.objects)?;
+
+    let waited = Instant::now();
+    while opts.wait_for_subscribers > 0 && waited.elapsed() < opts.wait_timeout {
+        let have = frame_s
+            .dynamic_config()
+            .number_of_subscribers()
+            .min(objects_s.dynamic_config().number_of_subscribers());
+        if have >= opts.wait_for_subscribers {
+            break;
+        }
+        node.wait(Duration::from_millis(2))
+            .map_err(|_| RecordError::Ipc(IpcError::Interrupted))?;
+    }
 
     let mut counts = ReplayCounts::default();
     let t0 = Instant::now();
@@ -89,7 +159,7 @@ pub fn replay(path: &Path, prefix: &str, realtime: bool) -> Result<ReplayCounts,
         if node.wait(Duration::ZERO).is_err() {
             break;
         }
-        if realtime {
+        if opts.realtime {
             let due = Duration::from_nanos(m.log_time_ns.saturating_sub(first_log));
             let el = t0.elapsed();
             if due > el && node.wait(due - el).is_err() {
@@ -112,12 +182,15 @@ pub fn replay(path: &Path, prefix: &str, realtime: bool) -> Result<ReplayCounts,
             }
             FRAME => {
                 let (h, p): (FrameHeader, Vec<FrameGaussian>) = split(m, path, "frame")?;
+                books.refresh(&frame_s, &objects_s);
                 let s = frame_pub
                     .loan_slice_uninit(p.len())
                     .map_err(|e| iox("loan", e))?;
                 let mut s = s.write_from_slice(&p);
                 *s.user_header_mut() = h;
+                books.frame.begin_frame(counts.frames);
                 s.send().map_err(|e| iox("send", e))?;
+                books.frame.end_frame(counts.frames);
                 counts.frames += 1;
                 status.step = h.step;
                 status.time_s = h.time_s;
@@ -126,12 +199,15 @@ pub fn replay(path: &Path, prefix: &str, realtime: bool) -> Result<ReplayCounts,
             }
             OBJECTS => {
                 let (h, p): (FrameHeader, Vec<ObjectState>) = split(m, path, "objects")?;
+                books.refresh(&frame_s, &objects_s);
                 let s = objects_pub
                     .loan_slice_uninit(p.len())
                     .map_err(|e| iox("loan", e))?;
                 let mut s = s.write_from_slice(&p);
                 *s.user_header_mut() = h;
+                books.objects.begin_frame(counts.objects);
                 s.send().map_err(|e| iox("send", e))?;
+                books.objects.end_frame(counts.objects);
                 counts.objects += 1;
             }
             _ => {}

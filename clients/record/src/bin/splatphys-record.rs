@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use splatphys_record::read::{messages, objects_csv, read_file};
 use splatphys_record::recorder::{RecordEnd, RecordOptions, record};
-use splatphys_record::replay::replay;
+use splatphys_record::replay::{ReplayOptions, replay};
 use splatphys_record::writer::ChunkCompression;
 
 /// Record, replay and export splatphys runs (MCAP).
@@ -51,6 +51,15 @@ enum Cmd {
         /// As fast as possible instead of the recorded timing.
         #[arg(long)]
         fast: bool,
+        /// Publish nothing before this many clients subscribed (frames keep no history).
+        #[arg(long, default_value_t = 0)]
+        wait_for_subscribers: usize,
+        /// Longest wait for those clients, seconds; the replay then starts anyway.
+        #[arg(long, default_value_t = 10.0)]
+        wait_timeout_s: f64,
+        /// Longest wait on a lagging lossless subscriber (recorder) per message, milliseconds.
+        #[arg(long, default_value_t = 100)]
+        lossless_limit_ms: u64,
     },
     /// Export the objects of every frame as CSV.
     ExportObjects {
@@ -94,8 +103,21 @@ fn main() -> Result<()> {
                 bail!("{msg} (the recording up to that point is complete)");
             }
         }
-        Cmd::Replay { file, prefix, fast } => {
-            let c = replay(&file, &prefix, !fast)
+        Cmd::Replay {
+            file,
+            prefix,
+            fast,
+            wait_for_subscribers,
+            wait_timeout_s,
+            lossless_limit_ms,
+        } => {
+            let opts = ReplayOptions {
+                realtime: !fast,
+                wait_for_subscribers,
+                wait_timeout: Duration::from_secs_f64(wait_timeout_s.max(0.0)),
+                lossless_limit: Duration::from_millis(lossless_limit_ms),
+            };
+            let c = replay(&file, &prefix, &opts)
                 .with_context(|| format!("replaying {}", file.display()))?;
             eprintln!(
                 "splatphys-record replay: {} frames, {} scenes under {prefix}",

@@ -67,7 +67,7 @@ pub fn run(a: &CompareBenchArgs) -> Result<()> {
     if a.objects.iter().any(|&k| k == 0 || k > 64) {
         bail!("--objects: counts must be in 1..=64, got {:?}", a.objects);
     }
-    if a.particles.iter().any(|&n| n < 100 || n > 20_000_000) {
+    if a.particles.iter().any(|n| !(100..=20_000_000).contains(n)) {
         bail!(
             "--particles: counts must be in 100..=20000000, got {:?}",
             a.particles

@@ -4,6 +4,11 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod bench_compare;
+mod bench_flood;
+mod bench_ipc;
+mod bench_peer;
+mod chart;
 mod inspect;
 mod run;
 mod scene_arg;
@@ -23,7 +28,8 @@ mod serve;
   splatphys run scenes/donut_drop.toml --out out/donut    # a captured donut on a table
   splatphys serve scenes/donut_drop.toml                  # the server alone
   splatphys inspect ../shared/data/v3dg_donut.ply
-  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2"
+  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2
+  splatphys bench ipc --sizes 1000,10000,100000,1000000 --out-dir docs/bench"
 )]
 struct Cli {
     #[command(subcommand)]
