@@ -193,11 +193,11 @@ fn accuracy(a: &CompareBenchArgs) -> Result<()> {
         .collect();
     chart::line_chart(
         &stem,
+        &format!("Head-on spheres, e = {}: error vs wall time", a.restitution),
         &format!(
-            "Head-on spheres, e = {}: error vs wall time (points: dx = {:?} m)",
-            a.restitution, a.dx_m
+            "wall time for 0.3 s simulated (s); points: dx = {:?} m",
+            a.dx_m
         ),
-        "wall time for 0.3 s simulated (s)",
         "post-impact velocity error / approach speed",
         &series,
         true,
