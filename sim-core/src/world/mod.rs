@@ -226,8 +226,7 @@ impl World {
     /// Builds the world from a scene.
     ///
     /// # Errors
-    /// [`WorldError`] for a refused material, a degenerate collider, unusable settings or an
-    /// unimplemented method.
+    /// [`WorldError`] for a refused material, a degenerate collider or unusable settings.
     pub fn from_scene(scene: &Scene) -> Result<Self, WorldError> {
         let s = &scene.simulation;
         let dx = s.grid_dx_m as f32;

@@ -5,9 +5,10 @@
 //! Coulomb friction with the larger of the surface's and the object's coefficient.
 //!
 //! Collider contact is a manifold: every penetrating particle (the deepest [`MAX_CONTACTS`]) is a
-//! contact point, and the impulse law is applied point by point for up to [`ITERATIONS`] passes
-//! (sequential impulses, Gauss-Seidel, as in Catto's Box2D solver). One impulse at the averaged
-//! point would leave a box on a jittered lattice rocking between its lowest particles.
+//! contact point, solved point by point with accumulated, clamped impulses for up to
+//! [`ITERATIONS`] passes (sequential impulses, Gauss-Seidel, as in Catto's Box2D solver; the same
+//! restitution, resting threshold and friction as the object impulse law). One impulse at the
+//! averaged point would leave a box on a jittered lattice rocking between its lowest particles.
 
 use glam::{DMat3, DQuat, DVec3};
 
