@@ -43,6 +43,88 @@ pub fn render_tile(
     background: [f32; 3],
     keys: &mut Vec<u64>,
 ) -> Box<TilePixels> {
+    let mut color_r = [0.0f32; TILE_PIXELS];
+    let mut color_g = [0.0f32; TILE_PIXELS];
+    let mut color_b = [0.0f32; TILE_PIXELS];
+    let tile = TileRect::new(tile_x, tile_y, width, height);
+    let transmittance = blend_tile(&tile, entries, splats, keys, |_, s, first, alpha, t| {
+        let range = first..first + LANES;
+        let [cr, cg, cb] = s.color.map(f32x4::splat);
+        let sum = load(&color_r[range.clone()]) + cr * alpha * t;
+        store(&mut color_r[range.clone()], sum);
+        let sum = load(&color_g[range.clone()]) + cg * alpha * t;
+        store(&mut color_g[range.clone()], sum);
+        let sum = load(&color_b[range.clone()]) + cb * alpha * t;
+        store(&mut color_b[range], sum);
+    });
+
+    let mut out = Box::new([[0.0f32; 3]; TILE_PIXELS]);
+    for py in 0..tile.rows() {
+        for px in 0..tile.cols() {
+            let p = py * TILE_PX as usize + px;
+            let t = transmittance[p];
+            out[p] = [
+                color_r[p] + t * background[0],
+                color_g[p] + t * background[1],
+                color_b[p] + t * background[2],
+            ];
+        }
+    }
+    out
+}
+
+/// The pixels of one tile: tile `(tile_x, tile_y)` of a `width × height` image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TileRect {
+    /// First pixel column.
+    pub x0: u32,
+    /// First pixel row.
+    pub y0: u32,
+    /// One past the last column (clipped to the image).
+    pub x_end: u32,
+    /// One past the last row (clipped to the image).
+    pub y_end: u32,
+}
+
+impl TileRect {
+    /// Tile `(tile_x, tile_y)` of a `width × height` image.
+    pub fn new(tile_x: u32, tile_y: u32, width: u32, height: u32) -> Self {
+        let x0 = tile_x * TILE_PX;
+        let y0 = tile_y * TILE_PX;
+        Self {
+            x0,
+            y0,
+            x_end: (x0 + TILE_PX).min(width),
+            y_end: (y0 + TILE_PX).min(height),
+        }
+    }
+
+    /// Columns inside the image.
+    pub fn cols(&self) -> usize {
+        self.x_end.saturating_sub(self.x0) as usize
+    }
+
+    /// Rows inside the image.
+    pub fn rows(&self) -> usize {
+        self.y_end.saturating_sub(self.y0) as usize
+    }
+}
+
+/// Runs the blending of one tile and reports every blend to `sink` instead of summing colours:
+/// the tile's splats (`entries`, indices into `splats`) are depth-sorted and visited front to
+/// back exactly as [`render_tile`] does, and for each splat and each group of 4 consecutive
+/// pixels of a tile row that it touches, `sink(index, splat, first, alpha, t)` receives the
+/// splat's index, the splat, the tile-relative index of the group's first pixel (row-major, 16
+/// per row), αᵢ per lane (zero in lanes that do not blend) and the transmittance Tᵢ before the
+/// blend. The blending weight of Gaussian i at a pixel is `alpha · t` (3DGS eq. 3). Returns the
+/// final transmittance per pixel (1 outside the image). `keys` is scratch space.
+pub fn blend_tile(
+    tile: &TileRect,
+    entries: &[u32],
+    splats: &[Splat2D],
+    keys: &mut Vec<u64>,
+    mut sink: impl FnMut(u32, &Splat2D, usize, f32x4, f32x4),
+) -> [f32; TILE_PIXELS] {
     // Depth sort. Depths are > near > 0, so their IEEE bits order like the values; the index in
     // the low half breaks ties the way a stable sort of index-ordered entries would.
     keys.clear();
@@ -53,28 +135,26 @@ pub fn render_tile(
     );
     keys.sort_unstable();
 
-    let x0 = tile_x * TILE_PX;
-    let y0 = tile_y * TILE_PX;
-    let x_end = (x0 + TILE_PX).min(width);
-    let y_end = (y0 + TILE_PX).min(height);
-    let mut alive = ((x_end - x0) * (y_end - y0)) as usize;
-
+    let TileRect {
+        x0,
+        y0,
+        x_end,
+        y_end,
+    } = *tile;
+    let mut alive = tile.cols() * tile.rows();
     let mut transmittance = [1.0f32; TILE_PIXELS];
-
-    let mut color_r = [0.0f32; TILE_PIXELS];
-    let mut color_g = [0.0f32; TILE_PIXELS];
-    let mut color_b = [0.0f32; TILE_PIXELS];
     // 1.0 while a pixel still blends, 0.0 once it has stopped (pixels outside the image are
     // never inside a splat's α box, so they stay 1.0 untouched).
     let mut live = [1.0f32; TILE_PIXELS];
     // Bit i of row_live[r] is set while pixel (i, r) of the tile still blends.
     let mut row_live = [0u32; TILE_PX as usize];
-    for bits in row_live.iter_mut().take((y_end - y0) as usize) {
-        *bits = (1u32 << (x_end - x0)) - 1;
+    for bits in row_live.iter_mut().take(tile.rows()) {
+        *bits = (1u32 << tile.cols()) - 1;
     }
 
     for &key in keys.iter() {
-        let s = &splats[(key & 0xffff_ffff) as usize];
+        let index = (key & 0xffff_ffff) as u32;
+        let s = &splats[index as usize];
         let [bx0, by0, bx1, by1] = s.alpha_box_px;
         let py0 = by0.max(y0 as i32);
         let py1 = (by1 + 1).min(y_end as i32);
@@ -125,11 +205,7 @@ pub fn render_tile(
                 [c0, c1],
                 &mut transmittance[row..row + TILE_PX as usize],
                 &mut live[row..row + TILE_PX as usize],
-                [
-                    &mut color_r[row..row + TILE_PX as usize],
-                    &mut color_g[row..row + TILE_PX as usize],
-                    &mut color_b[row..row + TILE_PX as usize],
-                ],
+                |first, alpha, t| sink(index, s, row + first, alpha, t),
             ) as usize;
             if stopped > 0 {
                 alive -= stopped;
@@ -144,20 +220,7 @@ pub fn render_tile(
             break;
         }
     }
-
-    let mut out = Box::new([[0.0f32; 3]; TILE_PIXELS]);
-    for py in 0..(y_end - y0) as usize {
-        for px in 0..(x_end - x0) as usize {
-            let p = py * TILE_PX as usize + px;
-            let t = transmittance[p];
-            out[p] = [
-                color_r[p] + t * background[0],
-                color_g[p] + t * background[1],
-                color_b[p] + t * background[2],
-            ];
-        }
-    }
-    out
+    transmittance
 }
 
 /// Lanes per group in [`blend_row`] (one SSE register of f32; 16 is a multiple).
@@ -165,7 +228,9 @@ const LANES: usize = 4;
 
 /// Blends splat `s` into the pixels `span[0]..span[1]` of one 16-pixel tile row (`dy` = centre
 /// − row, `dx_first` = centre − the row's first column), 4 lanes at a time with SIMD selects;
-/// lanes outside the span or already stopped are left unchanged. Returns how many pixels stopped.
+/// lanes outside the span or already stopped are left unchanged. Each group's α (zero where a
+/// lane does not blend) and transmittance before the blend go to `sink(first column, α, T)`.
+/// Returns how many pixels stopped.
 #[inline]
 fn blend_row(
     s: &Splat2D,
@@ -174,12 +239,10 @@ fn blend_row(
     span: [u32; 2],
     transmittance: &mut [f32],
     live: &mut [f32],
-    rgb: [&mut [f32]; 3],
+    mut sink: impl FnMut(usize, f32x4, f32x4),
 ) -> u32 {
     let [ca, cb, cc] = s.conic;
-    let [cr, cg, cbl] = s.color.map(f32x4::splat);
     let o = f32x4::splat(s.opacity);
-    let [red, green, blue] = rgb;
     let (lo, hi) = (f32x4::splat(span[0] as f32), f32x4::splat(span[1] as f32));
     let cc_dy2 = f32x4::splat(cc * dy * dy);
     let cb_dy = f32x4::splat(cb * dy);
@@ -211,12 +274,9 @@ fn blend_row(
         let stop = counts & low;
         let blend = counts & !low;
         let w = blend.select(alpha, zero);
-        let sum = load(&red[range.clone()]) + cr * w * t;
-        store(&mut red[range.clone()], sum);
-        let sum = load(&green[range.clone()]) + cg * w * t;
-        store(&mut green[range.clone()], sum);
-        let sum = load(&blue[range.clone()]) + cbl * w * t;
-        store(&mut blue[range.clone()], sum);
+        if blend.any() {
+            sink(range.start, w, t);
+        }
         store(&mut transmittance[range.clone()], blend.select(test_t, t));
         store(&mut live[range], stop.select(zero, l));
         stopped += stop.to_bitmask().count_ones();
