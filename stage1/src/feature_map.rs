@@ -49,40 +49,24 @@ impl FeatureMap {
             path: path.to_path_buf(),
             message,
         };
-        let bytes = std::fs::read(path).map_err(|source| FeatureMapError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| malformed(e.to_string()))?;
-        let shape = npy.shape().to_vec();
+        if !path.is_file() {
+            return Err(FeatureMapError::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+        let npy = splatphys_core::formats::npy::read_npy_f32(path).map_err(malformed)?;
+        let shape = npy.shape;
         if shape.len() != 3 || shape.contains(&0) {
             return Err(malformed(format!(
                 "expected a non-empty [H][W][D] array, shape {shape:?}"
             )));
         }
-        if npy.order() != npyz::Order::C {
-            return Err(malformed("Fortran-order arrays are not supported".into()));
-        }
-        let data: Vec<f32> = match npy.dtype().descr().as_str() {
-            "<f4" => npy
-                .into_vec::<f32>()
-                .map_err(|e| malformed(e.to_string()))?,
-            "<f2" => npy
-                .into_vec::<npyz::half::f16>()
-                .map_err(|e| malformed(e.to_string()))?
-                .into_iter()
-                .map(f32::from)
-                .collect(),
-            other => {
-                return Err(malformed(format!(
-                    "dtype {other} not supported (float16 or float32)"
-                )));
-            }
-        };
+        let data = npy.values;
         let map = Self {
-            height: shape[0] as usize,
-            width: shape[1] as usize,
-            dim: shape[2] as usize,
+            height: shape[0],
+            width: shape[1],
+            dim: shape[2],
             data,
         };
         if let Some(bad) = map.data.iter().position(|v| !v.is_finite()) {
@@ -95,6 +79,29 @@ impl FeatureMap {
             )));
         }
         Ok(map)
+    }
+
+    /// Writes the map as a float32 `.npy` `[H'][W'][D]`.
+    ///
+    /// # Errors
+    /// [`FeatureMapError::Io`] when the file cannot be written.
+    pub fn write(&self, path: &Path) -> Result<(), FeatureMapError> {
+        use npyz::WriterBuilder;
+        use std::io::Write;
+        let io = |source: std::io::Error| FeatureMapError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let mut buf = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+        let mut w = npyz::WriteOptions::new()
+            .default_dtype()
+            .shape(&[self.height as u64, self.width as u64, self.dim as u64])
+            .writer(&mut buf)
+            .begin_nd()
+            .map_err(io)?;
+        w.extend(self.data.iter().copied()).map_err(io)?;
+        w.finish().map_err(io)?;
+        buf.flush().map_err(io)
     }
 
     /// Replaces every pixel's feature f by `basis · f` (`basis` `[k][D]` row-major).

@@ -7,6 +7,7 @@
 
 pub mod compressed;
 pub mod inspect;
+pub mod npy;
 pub mod ply;
 pub mod splat;
 

@@ -141,36 +141,18 @@ impl QueryEmbeddings {
 /// # Errors
 /// [`SelectionError::File`] for unreadable files, other dtypes or shapes.
 pub fn read_npy_matrix(path: &Path) -> Result<(Vec<f32>, usize), SelectionError> {
-    let file = path.display().to_string();
     let ferr = |message: String| SelectionError::File {
-        file: file.clone(),
+        file: path.display().to_string(),
         message,
     };
-    let bytes = std::fs::read(path).map_err(|e| ferr(e.to_string()))?;
-    let npy = npyz::NpyFile::new(&bytes[..]).map_err(|e| ferr(e.to_string()))?;
-    let shape = npy.shape().to_vec();
-    if shape.len() != 2 || npy.order() != npyz::Order::C {
+    let npy = crate::formats::npy::read_npy_f32(path).map_err(ferr)?;
+    if npy.shape.len() != 2 {
         return Err(ferr(format!(
-            "expected a C-order 2-D array, shape {shape:?}"
+            "expected a 2-D array [rows][D], shape {:?}",
+            npy.shape
         )));
     }
-    let dim = shape[1] as usize;
-    let dtype = npy.dtype();
-    let values: Vec<f32> = match dtype.descr().as_str() {
-        "<f4" => npy.into_vec::<f32>().map_err(|e| ferr(e.to_string()))?,
-        "<f2" => npy
-            .into_vec::<npyz::half::f16>()
-            .map_err(|e| ferr(e.to_string()))?
-            .into_iter()
-            .map(f32::from)
-            .collect(),
-        other => {
-            return Err(ferr(format!(
-                "dtype {other} not supported (float32 or float16)"
-            )));
-        }
-    };
-    Ok((values, dim))
+    Ok((npy.values, npy.shape[1]))
 }
 
 fn cosine(a: &[f32], b: &[f32]) -> f32 {
