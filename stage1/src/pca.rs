@@ -2,7 +2,7 @@
 //! top-k eigenvectors of the second-moment matrix M = Σ_p F(p) F(p)ᵀ of feature-map pixels, so
 //! the reduction f' = B f is an orthogonal projection onto the subspace that carries most of the
 //! features' energy and dot products with text embeddings survive it (f·e = f'·(B e) for f in
-//! the subspace; see `splatphys_core::selection::semantic::lift_embedding` for how the
+//! the subspace; see `splatphys_core::selection::semantic::QueryEmbeddings::reduced` for how the
 //! selection compares reduced features with full embeddings). Feature Splatting distils 32
 //! channels (Qiu et al. 2024, §3.2).
 //!

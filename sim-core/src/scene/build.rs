@@ -338,9 +338,14 @@ fn select(
             .embeddings
             .as_ref()
             .ok_or_else(|| ctx.invalid(format!("{skey}.embeddings"), "required with `query`"))?;
-        let q = QueryEmbeddings::load(&base.join(emb_path), query, sel.negatives.as_deref())
+        let mut q = QueryEmbeddings::load(&base.join(emb_path), query, sel.negatives.as_deref())
             .map_err(sel_err)?;
-        let (feats, dim) = features(base, sel, sources, &flat).map_err(sel_err)?;
+        let (mut feats, mut dim) = features(base, sel, sources, &flat).map_err(sel_err)?;
+        if let Some(pca) = &sel.pca {
+            let (basis, full_dim) = semantic::read_npy_matrix(&base.join(pca)).map_err(sel_err)?;
+            q = q.reduced(pca, &basis, full_dim).map_err(sel_err)?;
+            (feats, dim) = semantic::pad_reduced_features(&feats, dim);
+        }
         let d = SemanticParams::default();
         let params = SemanticParams {
             temperature: sel.temperature.unwrap_or(d.temperature),

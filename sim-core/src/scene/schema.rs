@@ -151,6 +151,9 @@ pub struct SelectToml {
     pub features: Option<String>,
     /// Semantic: phrase embeddings (JSON or `.npy`).
     pub embeddings: Option<String>,
+    /// Semantic: PCA basis `.npy` `[k][D]` (from `splatphys uplift --pca k`) when the features
+    /// have k channels and the embeddings D.
+    pub pca: Option<String>,
     /// Semantic: negative phrases (default: all other phrases in the file).
     pub negatives: Option<Vec<String>>,
     /// Semantic: probability threshold (default 0.6).

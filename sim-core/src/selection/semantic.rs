@@ -136,6 +136,65 @@ impl QueryEmbeddings {
     }
 }
 
+impl QueryEmbeddings {
+    /// The embeddings for features reduced by a PCA basis `[k][D]` (row-major, `basis.len() =
+    /// k · full_dim`): each D-dimensional e becomes `[B e, sqrt(|e|² − |B e|²)]` (k + 1 values).
+    /// With features f' = B f padded by a zero ([`pad_reduced_features`]), cos(f'', e'') =
+    /// f'·(B e) / (|f'| |e|), which is exactly the cosine between the full embedding and the
+    /// reduced feature lifted back, Bᵀ f' (B has orthonormal rows), so the softmax sees the same
+    /// scores as without the reduction for features inside the subspace.
+    ///
+    /// # Errors
+    /// [`SelectionError::Shape`] when an embedding is not D long or the basis is not `[k][D]`.
+    pub fn reduced(
+        &self,
+        file: &str,
+        basis: &[f32],
+        full_dim: usize,
+    ) -> Result<Self, SelectionError> {
+        if full_dim == 0 || basis.is_empty() || !basis.len().is_multiple_of(full_dim) {
+            return Err(SelectionError::Shape {
+                what: format!("{file}: PCA basis [k][D]"),
+                expected: full_dim,
+                found: basis.len(),
+            });
+        }
+        let lift = |e: &Vec<f32>| -> Result<Vec<f32>, SelectionError> {
+            if e.len() != full_dim {
+                return Err(SelectionError::Shape {
+                    what: format!("embedding dimension against {file}"),
+                    expected: full_dim,
+                    found: e.len(),
+                });
+            }
+            let mut out: Vec<f32> = basis
+                .chunks_exact(full_dim)
+                .map(|b| b.iter().zip(e).map(|(x, y)| x * y).sum())
+                .collect();
+            let full: f32 = e.iter().map(|v| v * v).sum();
+            let kept: f32 = out.iter().map(|v| v * v).sum();
+            out.push((full - kept).max(0.0).sqrt());
+            Ok(out)
+        };
+        Ok(Self {
+            positive: lift(&self.positive)?,
+            canonical: self.canonical.iter().map(lift).collect::<Result<_, _>>()?,
+            negatives: self.negatives.iter().map(lift).collect::<Result<_, _>>()?,
+        })
+    }
+}
+
+/// Appends a zero channel to reduced features `[N][k]` (see [`QueryEmbeddings::reduced`]);
+/// returns the padded features and k + 1.
+pub fn pad_reduced_features(features: &[f32], k: usize) -> (Vec<f32>, usize) {
+    let mut out = Vec::with_capacity(features.len() / k.max(1) * (k + 1));
+    for f in features.chunks_exact(k.max(1)) {
+        out.extend_from_slice(f);
+        out.push(0.0);
+    }
+    (out, k + 1)
+}
+
 /// Reads a 2-D `.npy` of float32 or float16 as `(row-major values, columns)`.
 ///
 /// # Errors
