@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::ring_cameras;
+use common::{colour_rule, ring_cameras};
 use glam::Vec3;
 use splatphys_core::formats::read_gaussians;
 use splatphys_core::selection::semantic::{
@@ -17,38 +17,6 @@ use splatphys_render::{RenderSettings, Splats, render};
 use splatphys_stage1::{Accumulator, FeatureMap, ProjectedView, UpliftSettings};
 
 const DONUT: &str = "../../shared/data/v3dg_donut.ply";
-
-/// Hue in degrees, saturation and value of an RGB colour in [0, 1].
-fn hsv([r, g, b]: [f32; 3]) -> (f32, f32, f32) {
-    let max = r.max(g).max(b);
-    let min = r.min(g).min(b);
-    let c = max - min;
-    let h = if c <= 0.0 {
-        0.0
-    } else if max == r {
-        60.0 * ((g - b) / c).rem_euclid(6.0)
-    } else if max == g {
-        60.0 * ((b - r) / c + 2.0)
-    } else {
-        60.0 * ((r - g) / c + 4.0)
-    };
-    (h, if max > 0.0 { c / max } else { 0.0 }, max)
-}
-
-/// `[icing, dough]`: pink (hue 290°..360° or below 12°) is icing, orange-tan (12°..60°) is dough,
-/// anything dark, grey or blue (sprinkles) says nothing.
-fn colour_rule(rgb: [f32; 3]) -> [f32; 2] {
-    let (h, s, v) = hsv(rgb);
-    if s < 0.2 || v < 0.15 {
-        [0.0, 0.0]
-    } else if !(12.0..290.0).contains(&h) {
-        [1.0, 0.0]
-    } else if h < 60.0 {
-        [0.0, 1.0]
-    } else {
-        [0.0, 0.0]
-    }
-}
 
 #[test]
 fn icing_selected_by_colour_rule_is_the_top_of_the_donut() {

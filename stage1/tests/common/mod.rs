@@ -92,3 +92,59 @@ pub fn precision_recall(selected: &[usize], ids: &[usize], target: usize) -> (f6
         hits as f64 / truth.max(1) as f64,
     )
 }
+
+/// Hue in degrees, saturation and value of an RGB colour in [0, 1].
+pub fn hsv([r, g, b]: [f32; 3]) -> (f32, f32, f32) {
+    let max = r.max(g).max(b);
+    let min = r.min(g).min(b);
+    let c = max - min;
+    let h = if c <= 0.0 {
+        0.0
+    } else if max == r {
+        60.0 * ((g - b) / c).rem_euclid(6.0)
+    } else if max == g {
+        60.0 * ((b - r) / c + 2.0)
+    } else {
+        60.0 * ((r - g) / c + 4.0)
+    };
+    (h, if max > 0.0 { c / max } else { 0.0 }, max)
+}
+
+/// The donut's colour rule, `[icing, dough]`: pink (hue 290°..360° or below 12°) is icing,
+/// orange-tan (12°..60°) is dough, anything dark, grey or blue (sprinkles) says nothing.
+pub fn colour_rule(rgb: [f32; 3]) -> [f32; 2] {
+    let (h, s, v) = hsv(rgb);
+    if s < 0.2 || v < 0.15 {
+        [0.0, 0.0]
+    } else if !(12.0..290.0).contains(&h) {
+        [1.0, 0.0]
+    } else if h < 60.0 {
+        [0.0, 1.0]
+    } else {
+        [0.0, 0.0]
+    }
+}
+
+/// A transforms.json (OpenGL camera-to-world, `fl_x`/`fl_y`/`w`/`h` per frame) for `views`.
+pub fn transforms_json(views: &[TrainingView]) -> serde_json::Value {
+    let frames: Vec<serde_json::Value> = views
+        .iter()
+        .map(|v| {
+            let w = v.view.rotation.transpose(); // columns: right, down, forward
+            let cols = [w.x_axis, -w.y_axis, -w.z_axis, v.view.position];
+            let rows: Vec<Vec<f32>> = (0..3)
+                .map(|r| cols.iter().map(|c| c[r]).collect())
+                .chain([vec![0.0, 0.0, 0.0, 1.0]])
+                .collect();
+            serde_json::json!({
+                "file_path": format!("./train/{}.png", v.name),
+                "transform_matrix": rows,
+                "fl_x": v.view.focal_px[0],
+                "fl_y": v.view.focal_px[1],
+                "w": v.view.size_px[0],
+                "h": v.view.size_px[1],
+            })
+        })
+        .collect();
+    serde_json::json!({ "frames": frames })
+}
