@@ -2,15 +2,15 @@
 //! method: no NaN, no object-object interpenetration deeper than one grid cell and no particle
 //! deeper than one cell below a plane collider, checked after every frame.
 //!
-//! Interpenetration test on occupied cells (cell = dx): a particle of A lies deeper than one cell
-//! inside B when its cell is an interior cell of B (B occupies it and all 6 face neighbours).
-//! Touching surfaces only share boundary cells.
+//! Interpenetration test on occupied cells (cell = dx, `world::overlap`): a particle of A lies
+//! deeper than one cell inside B when its cell is an interior cell of B (B occupies it and all 6
+//! face neighbours). Touching surfaces only share boundary cells.
 
-use std::collections::HashSet;
 use std::path::Path;
 
 use splatphys_core::scene::load_scene_str;
 use splatphys_core::world::World;
+use splatphys_core::world::overlap::penetration;
 
 const SIMULATION: &str = r#"
 [simulation]
@@ -45,33 +45,14 @@ plane = { point_m = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }
 surface = "sticky"
 "#;
 
-type Cell = [i32; 3];
-
-fn cells(world: &World, k: usize, dx: f32) -> HashSet<Cell> {
-    world.bodies[k]
-        .particles
-        .x
-        .iter()
-        .map(|x| (*x / dx).floor().as_ivec3().to_array())
-        .collect()
-}
-
-/// Particles of body `a` in interior cells of body `b`.
+/// Particles of body `a` in interior cells of body `b` (at least a cell deep).
 fn deep_particles(world: &World, a: usize, b: usize, dx: f32) -> usize {
-    let cb = cells(world, b, dx);
-    let interior = |c: Cell| {
-        cb.contains(&c)
-            && [[1, 0, 0], [0, 1, 0], [0, 0, 1]].iter().all(|d| {
-                cb.contains(&[c[0] + d[0], c[1] + d[1], c[2] + d[2]])
-                    && cb.contains(&[c[0] - d[0], c[1] - d[1], c[2] - d[2]])
-            })
-    };
-    world.bodies[a]
-        .particles
-        .x
-        .iter()
-        .filter(|x| interior((**x / dx).floor().as_ivec3().to_array()))
-        .count()
+    penetration(
+        &world.bodies[a].particles.x,
+        &world.bodies[b].particles.x,
+        dx,
+    )
+    .deep_particles
 }
 
 /// Runs `text` to the end; after every frame asserts no deep interpenetration of any pair, no

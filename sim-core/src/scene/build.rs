@@ -149,6 +149,13 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
             "min must be below max on every axis",
         )?;
     }
+    if let Some(h) = s.physics_spacing_m {
+        ctx.check(
+            h.is_finite() && h > 0.0,
+            "simulation.physics_spacing_m",
+            "must be > 0",
+        )?;
+    }
     Ok(SimulationSettings {
         method: s.method,
         duration_s: s.duration_s,
@@ -160,6 +167,7 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
         gravity_m_s2: s.gravity_m_s2,
         domain_m: s.domain_m,
         seed: s.seed,
+        physics_spacing_m: s.physics_spacing_m,
     })
 }
 
@@ -424,6 +432,7 @@ fn object(
     o: &ObjectToml,
     sources: &mut [Placed],
     seed: u64,
+    default_physics_spacing_m: Option<f32>,
 ) -> Result<SceneObject, SceneError> {
     let key = format!("object[{i}]");
     ctx.check(
@@ -431,6 +440,20 @@ fn object(
         format!("{key}.name"),
         "must not be empty",
     )?;
+    if let Some(h) = o.physics_spacing_m {
+        let k = format!("{key}.physics_spacing_m");
+        ctx.check(h.is_finite() && h > 0.0, &k, "must be > 0")?;
+        ctx.check(
+            o.kind != ObjectKind::Static,
+            &k,
+            "static objects are not simulated (every Gaussian stays a collider particle)",
+        )?;
+    }
+    // Static objects never take the simulation-level default.
+    let physics_spacing_m = match o.kind {
+        ObjectKind::Static => None,
+        _ => o.physics_spacing_m.or(default_physics_spacing_m),
+    };
     let mat = match &o.material {
         Some(m) => material(ctx, m, &format!("{key}.material"))?,
         None => default_material(),
@@ -522,6 +545,7 @@ fn object(
         velocity_m_s: o.velocity_m_s,
         gaussians,
         visible,
+        physics_spacing_m,
     })
 }
 
@@ -661,7 +685,15 @@ pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene,
             format!("duplicate object name {:?}", o.name),
         )?;
         let seed = simulation.seed.wrapping_add(i as u64);
-        objects.push(object(&ctx, base_dir, i, o, &mut sources, seed)?);
+        objects.push(object(
+            &ctx,
+            base_dir,
+            i,
+            o,
+            &mut sources,
+            seed,
+            simulation.physics_spacing_m,
+        )?);
     }
     let mut background = GaussianCloud::default();
     for p in &sources {

@@ -48,6 +48,7 @@ impl Scene {
                 velocity_m_s: [0.0; 3],
                 visible: n_of(&table),
                 gaussians: table,
+                physics_spacing_m: None,
             },
             SceneObject {
                 name: "jelly".into(),
@@ -58,6 +59,7 @@ impl Scene {
                 velocity_m_s: [0.0; 3],
                 visible: n_of(&jelly),
                 gaussians: jelly,
+                physics_spacing_m: None,
             },
             SceneObject {
                 name: "snow".into(),
@@ -68,6 +70,7 @@ impl Scene {
                 velocity_m_s: [0.0; 3],
                 visible: n_of(&snow),
                 gaussians: snow,
+                physics_spacing_m: None,
             },
         ];
         Scene {
@@ -82,6 +85,7 @@ impl Scene {
                 gravity_m_s2: [0.0, 0.0, -9.81],
                 domain_m: Some([[-0.5, -0.5, -0.02], [0.5, 0.5, 0.8]]),
                 seed: 0,
+                physics_spacing_m: None,
             },
             objects,
             background: Default::default(),

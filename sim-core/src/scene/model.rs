@@ -129,6 +129,9 @@ pub struct SimulationSettings {
     pub domain_m: Option<[[f32; 3]; 2]>,
     /// Seed for every random choice in building the scene. Default 0.
     pub seed: u64,
+    /// Default physics-particle spacing of deformable and rigid objects, m (see
+    /// [`SceneObject::physics_spacing_m`]). Default `None`.
+    pub physics_spacing_m: Option<f32>,
 }
 
 /// One simulated (or static) object.
@@ -150,6 +153,10 @@ pub struct SceneObject {
     pub gaussians: GaussianCloud,
     /// `[N]`: false for interior fill particles (simulated, never published).
     pub visible: Vec<bool>,
+    /// Physics-particle spacing h, m (> 0): the object simulates one particle per occupied cube
+    /// of side h and carries its Gaussians along (`crate::world::carry`). `None` (the default,
+    /// and always for static objects): every Gaussian is a particle.
+    pub physics_spacing_m: Option<f32>,
 }
 
 /// Collider geometry.
@@ -289,7 +296,8 @@ impl Scene {
         self.objects.iter().position(|o| o.name == name)
     }
 
-    /// Total particles over all objects (fill included).
+    /// Total Gaussians over all objects (fill included): the particle count when no object sets
+    /// a physics-particle spacing.
     pub fn particle_count(&self) -> usize {
         self.objects.iter().map(|o| o.gaussians.len()).sum()
     }

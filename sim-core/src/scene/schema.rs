@@ -82,6 +82,8 @@ pub struct SimulationToml {
     /// RNG seed for jitter, RANSAC, subsampling.
     #[serde(default)]
     pub seed: u64,
+    /// Default physics-particle spacing of deformable and rigid objects, m.
+    pub physics_spacing_m: Option<f32>,
 }
 
 impl Default for SimulationToml {
@@ -97,6 +99,7 @@ impl Default for SimulationToml {
             gravity_m_s2: default_gravity(),
             domain_m: None,
             seed: 0,
+            physics_spacing_m: None,
         }
     }
 }
@@ -234,6 +237,8 @@ pub struct ObjectToml {
     pub velocity_m_s: [f32; 3],
     /// Interior filling.
     pub fill: Option<FillToml>,
+    /// Physics-particle spacing, m: one particle per occupied cube of this side.
+    pub physics_spacing_m: Option<f32>,
 }
 
 /// `fill = {...}` on an object.

@@ -1,6 +1,7 @@
-//! One object of the world: its particles (one per Gaussian, fill particles included), its
-//! material, its own MPM grid, its rest state for the Gaussian kinematics, and its object-level
-//! state (the paper's eq. 2: mass-weighted means).
+//! One object of the world: its particles (one per Gaussian, fill particles included, or a
+//! voxel subset that carries the Gaussians along, [`super::carry`]), its material, its own MPM
+//! grid, its rest state for the Gaussian kinematics, and its object-level state (the paper's
+//! eq. 2: mass-weighted means).
 //!
 //! Effective radius (the paper's eq. 3 bounding sphere): the largest distance of a particle from
 //! the COM, plus half a grid cell so that spheres touch when particles share cells.
@@ -190,14 +191,17 @@ pub struct Body {
     pub materials: Vec<Material>,
     /// Its own MPM grid.
     pub solver: MpmSolver,
-    /// The object's Gaussians (world frame at t = 0): SH, opacity, scales for publishing.
+    /// `[G]` the object's Gaussians (world frame at t = 0): SH, opacity, scales for publishing.
     pub gaussians: crate::gaussians::GaussianCloud,
-    /// `[N]` rest covariance Σ0 of each particle's Gaussian (m², world frame at t = 0).
+    /// `[G]` rest covariance Σ0 of each Gaussian (m², world frame at t = 0).
     pub sigma0: Vec<Mat3A>,
     /// `[N]` particle offsets from the COM in the rest pose (m), for rigid motion.
     pub rest_offsets: Vec<Vec3A>,
-    /// `[N]` whether each particle is a published Gaussian (false for fill particles).
+    /// `[G]` whether each Gaussian is published (false for fill particles).
     pub visible: Vec<bool>,
+    /// How the `[G]` Gaussians follow the `[N]` particles; `None`: G = N and Gaussian i is
+    /// particle i (no `physics_spacing_m`).
+    pub carry: Option<super::carry::Carry>,
     /// Rigid state (kept for every body; used when `kind` is rigid).
     pub rigid: RigidState,
     /// Asleep: skips all work until woken.
@@ -255,9 +259,20 @@ impl Body {
             mass_kg: s.mass_kg,
         };
         // The rigid pose restarts from the current shape: its deformation becomes the rest shape.
-        for (f, s0) in self.particles.f.iter_mut().zip(self.sigma0.iter_mut()) {
-            *s0 = *f * *s0 * f.transpose();
-            *f = Mat3A::IDENTITY;
+        match &mut self.carry {
+            Some(carry) => {
+                carry.rebase(&self.particles, &mut self.sigma0);
+                self.particles
+                    .f
+                    .iter_mut()
+                    .for_each(|f| *f = Mat3A::IDENTITY);
+            }
+            None => {
+                for (f, s0) in self.particles.f.iter_mut().zip(self.sigma0.iter_mut()) {
+                    *s0 = *f * *s0 * f.transpose();
+                    *f = Mat3A::IDENTITY;
+                }
+            }
         }
         self.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
     }

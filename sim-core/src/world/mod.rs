@@ -9,6 +9,10 @@
 //! 4. the impulse goes to the contact zone, then each object's momentum is made equal to its
 //!    object-level value ([`coherence`]).
 //!
+//! [`overlap`] measures how deep objects lie inside each other, on occupied cells; [`explain`]
+//! reports per object what the scene needed and what was modelled. An object with a
+//! `physics_spacing_m` simulates a voxel subset of its Gaussians and carries them ([`carry`]).
+//!
 //! Baseline `mpm`: all deformable objects share one grid (contact through the grid, which sticks).
 //! Baseline `multi-field` (Bardenhagen et al. 2000): each deformable object keeps its own field on
 //! the shared node lattice and fields meet through the multi-field contact rule
@@ -16,13 +20,15 @@
 //! involve a rigid or static object.
 
 pub mod body;
+pub mod carry;
 pub mod coherence;
 mod commands;
 pub mod contact;
+pub mod explain;
 mod output;
+pub mod overlap;
 pub mod rigid;
 
-use std::collections::HashMap;
 use std::time::Instant;
 
 use glam::{DVec3, Mat3A, Quat, Vec3A};
@@ -210,18 +216,6 @@ fn collider_from_spec(c: &scene::ColliderSpec) -> Result<Collider, WorldError> {
     })
 }
 
-/// Particle volumes (m³): each occupied cell of size `dx_m` split evenly among its particles, so a
-/// surface-only capture gets the volume of the shell of cells it occupies.
-fn particle_volumes(x: &[Vec3A], dx_m: f32) -> Vec<f32> {
-    let mut counts: HashMap<glam::IVec3, u32> = HashMap::new();
-    let cells: Vec<glam::IVec3> = x.iter().map(|p| (*p / dx_m).floor().as_ivec3()).collect();
-    for c in &cells {
-        *counts.entry(*c).or_default() += 1;
-    }
-    let v = dx_m * dx_m * dx_m;
-    cells.iter().map(|c| v / counts[c] as f32).collect()
-}
-
 impl World {
     /// Builds the world from a scene.
     ///
@@ -279,11 +273,11 @@ impl World {
             })?;
             let g = &o.gaussians;
             let x: Vec<Vec3A> = g.positions.iter().map(|p| Vec3A::from(*p)).collect();
-            let volumes = particle_volumes(&x, dx);
+            let phys = carry::physics_particles(&x, dx, o.physics_spacing_m);
             let rho = material.density_kg_m3();
             let mut particles = Particles::default();
             let v0 = Vec3A::from(o.velocity_m_s);
-            for (xi, vol) in x.iter().zip(&volumes) {
+            for (xi, vol) in phys.x.iter().zip(&phys.volume_m3) {
                 particles.push(
                     *xi,
                     v0,
@@ -311,6 +305,7 @@ impl World {
                 } else {
                     vec![true; g.len()]
                 },
+                carry: phys.carry,
                 rigid: RigidState {
                     orientation: Quat::IDENTITY,
                     com_m: DVec3::ZERO,

@@ -1,5 +1,5 @@
-//! What the world publishes: per-Gaussian state (kinematics), per-object summaries and
-//! conservation diagnostics.
+//! What the world publishes: per-Gaussian state (kinematics; carried along a particle subset
+//! when an object has one, [`super::carry`]), per-object summaries and conservation diagnostics.
 
 use glam::{DVec3, Mat3A, Quat};
 use rayon::prelude::*;
@@ -25,7 +25,7 @@ impl World {
     /// publishing order (the static part a renderer needs: SH, opacity, scales).
     pub fn for_each_published(&self, mut f: impl FnMut(Option<u32>, &GaussianCloud, usize)) {
         for (k, b) in self.bodies.iter().enumerate() {
-            for i in (0..b.particles.len()).filter(|&i| b.visible[i]) {
+            for i in (0..b.gaussian_count()).filter(|&i| b.visible[i]) {
                 f(Some(k as u32), &b.gaussians, i);
             }
         }
@@ -42,9 +42,10 @@ impl World {
             let n = b.visible.iter().filter(|v| **v).count().min(rest.len());
             let (mine, tail) = rest.split_at_mut(n);
             rest = tail;
-            let idx: Vec<usize> = (0..b.particles.len()).filter(|&i| b.visible[i]).collect();
+            let idx: Vec<usize> = (0..b.gaussian_count()).filter(|&i| b.visible[i]).collect();
             mine.par_iter_mut().zip(idx.par_iter()).for_each(|(o, &i)| {
-                *o = gaussian_state(b.particles.x[i], b.particles.f[i], b.sigma0[i]);
+                let (x, f) = b.gaussian_pose(i);
+                *o = gaussian_state(x, f, b.sigma0[i]);
             });
         }
         let n = self.background_state.len().min(rest.len());

@@ -6,10 +6,17 @@
 //! 9.8 m/s², timed over `steps` substeps after 5 warm-up substeps. `--domain-scale 4` puts the same
 //! cube in a domain 4× larger per axis: with the sparse grid the cost must not change.
 //!
+//! `--vs-taichi` then runs the Taichi reference of the same problem (`bench/taichi/mpm_cube.py`,
+//! through [`crate::bench_taichi`]) as a child process with the same arguments and prints its
+//! result and the ratio; without Taichi it says so and stops after our result.
+//!
 //! `bench ipc` ([`crate::bench_ipc`]) measures the shared-memory frame path against a Unix
 //! socket and the server under a command flood; `bench compare` ([`crate::bench_compare`]) the
-//! COM method against its baselines. Charts go through [`crate::chart`].
+//! COM method against its baselines; `bench stability` ([`crate::bench_stability`]) maps which
+//! E, nu, impact speed and time step each method and material survives. Charts go through
+//! [`crate::chart`].
 
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -20,12 +27,17 @@ use splatphys_core::collider::{BoxShape, Collider, Shape, Surface};
 use splatphys_core::material::Material;
 use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
 
+use crate::bench_taichi;
+
+/// Untimed substeps before the clock starts (the Taichi reference compiles its kernel there).
+const WARMUP_SUBSTEPS: u32 = 5;
+
 /// Benchmarks.
 #[derive(Subcommand, Debug)]
 pub enum BenchCommand {
     /// MLS-MPM throughput on the standard elastic-cube problem.
     #[command(
-        after_help = "Example:\n  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2"
+        after_help = "Examples:\n  splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2\n  splatphys bench mpm --vs-taichi    # also the Taichi reference (pip install taichi)"
     )]
     Mpm(MpmBenchArgs),
     /// Shared-memory frame latency and publish cost against a Unix socket, and stepping under a
@@ -41,6 +53,28 @@ pub enum BenchCommand {
         after_help = "Examples:\n  splatphys bench compare\n  splatphys bench compare --dx-m 0.02,0.01 --particles 10000,100000 --objects 2 --out-dir /tmp/cmp"
     )]
     Compare(crate::bench_compare::CompareBenchArgs),
+    /// The `mpm` baseline of `compare` (two elastic spheres head-on on one shared grid) at one
+    /// cell size: throughput and rebound, optionally against the Taichi reference.
+    #[command(after_help = "Example:\n  splatphys bench spheres --dx-m 0.02 --vs-taichi")]
+    Spheres(crate::bench_taichi::SpheresArgs),
+    /// The stability map: which E, nu, impact speed and forced CFL number each method survives
+    /// for every material model, on a two-sphere impact (heat maps and CSV in --out-dir).
+    #[command(
+        after_help = "Examples:\n  splatphys bench stability\n  splatphys bench stability --quick --out-dir /tmp/stab\n  splatphys bench stability --methods com --materials jelly,snow --threads 2"
+    )]
+    Stability(crate::bench_stability::StabilityBenchArgs),
+    /// Physics-particle subsets on a captured scene: COM and per-Gaussian error against the
+    /// full-particle run versus speed-up, ratios 1 to 1/64 (chart and CSV in --out-dir).
+    #[command(
+        after_help = "Examples:\n  splatphys bench subsets\n  splatphys bench subsets --scene scenes/guitar_topple.toml --ratios 1,4,16 --duration-s 0.5 --out-dir /tmp/sub"
+    )]
+    Subsets(crate::bench_subsets::SubsetsBenchArgs),
+    /// Real time: coarser grids with particles at half the cell size on captured scenes, error
+    /// in reference cells against simulated frames per wall second (chart and CSV in --out-dir).
+    #[command(
+        after_help = "Examples:\n  splatphys bench realtime\n  splatphys bench realtime --scenes scenes/donut_snow_push.toml --duration-s 0.6 --dx-m 0.005,0.01,0.02 --out-dir /tmp/rt"
+    )]
+    Realtime(crate::bench_realtime::RealtimeBenchArgs),
     /// A child process of `bench ipc` (subscriber, socket reader or command flood).
     #[command(hide = true)]
     IpcPeer(crate::bench_peer::PeerArgs),
@@ -64,6 +98,18 @@ pub struct MpmBenchArgs {
     /// Domain edge in metres (the cube stays where it is).
     #[arg(long, default_value_t = 1.0)]
     pub domain_scale: f32,
+    /// Then run the Taichi reference of the same problem (bench/taichi/mpm_cube.py, CPU backend,
+    /// dense grid) with the same arguments and print its result and the ratio; skipped with a
+    /// message when Taichi is not installed.
+    #[arg(long)]
+    pub vs_taichi: bool,
+    /// The Taichi script (default: bench/taichi/mpm_cube.py in the current directory or the
+    /// repository the executable was built in).
+    #[arg(long, requires = "vs_taichi")]
+    pub taichi_script: Option<PathBuf>,
+    /// Python interpreter for --vs-taichi.
+    #[arg(long, default_value = "python3", requires = "vs_taichi")]
+    pub python: String,
 }
 
 /// Runs a benchmark subcommand.
@@ -72,6 +118,10 @@ pub fn run(cmd: &BenchCommand) -> Result<()> {
         BenchCommand::Mpm(a) => mpm(a),
         BenchCommand::Ipc(a) => crate::bench_ipc::run(a),
         BenchCommand::Compare(a) => crate::bench_compare::run(a),
+        BenchCommand::Spheres(a) => crate::bench_taichi::spheres(a),
+        BenchCommand::Stability(a) => crate::bench_stability::run(a),
+        BenchCommand::Subsets(a) => crate::bench_subsets::run(a),
+        BenchCommand::Realtime(a) => crate::bench_realtime::run(a),
         BenchCommand::IpcPeer(a) => crate::bench_peer::run(a),
     }
 }
@@ -115,6 +165,15 @@ pub fn elastic_cube(particles_per_axis: u32, dx_m: f32, domain_m: f32) -> Result
 }
 
 fn mpm(a: &MpmBenchArgs) -> Result<()> {
+    // Resolved first: a broken checkout fails before the run, not after it.
+    let script = if a.vs_taichi {
+        Some(bench_taichi::find_script(
+            "mpm_cube.py",
+            a.taichi_script.as_deref(),
+        )?)
+    } else {
+        None
+    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads)
         .build()
@@ -124,7 +183,7 @@ fn mpm(a: &MpmBenchArgs) -> Result<()> {
         .context("--domain-scale too small")?;
     let count = sys.particles.len();
     let seconds = pool.install(|| -> Result<f64> {
-        for _ in 0..5 {
+        for _ in 0..WARMUP_SUBSTEPS {
             sys.substep(1.0)?;
         }
         let t = Instant::now();
@@ -134,18 +193,79 @@ fn mpm(a: &MpmBenchArgs) -> Result<()> {
         Ok(t.elapsed().as_secs_f64())
     })?;
     let rate = (count as f64 * a.steps as f64) / seconds;
+    let p = &sys.particles;
+    let mass: f64 = p.mass_kg.iter().map(|&m| m as f64).sum();
+    let com_z =
+        p.x.iter()
+            .zip(&p.mass_kg)
+            .map(|(x, &m)| x.z as f64 * m as f64)
+            .sum::<f64>()
+            / mass.max(f64::MIN_POSITIVE);
+    let momentum_z: f64 =
+        p.v.iter()
+            .zip(&p.mass_kg)
+            .map(|(v, &m)| v.z as f64 * m as f64)
+            .sum();
+    let ours = json!({
+        "bench": "mpm",
+        "impl": "splatphys",
+        "particles": count,
+        "steps": a.steps,
+        "threads": a.threads,
+        "grid": a.grid,
+        "domain_scale": a.domain_scale,
+        "grid_blocks": sys.last.grid_blocks,
+        "seconds": seconds,
+        "particle_substeps_per_s": rate,
+        "com_z_m": com_z,
+        "momentum_z_kg_m_s": momentum_z,
+    });
+    println!("{ours}");
+    match script {
+        Some(script) => vs_taichi(a, &script, &ours),
+        None => Ok(()),
+    }
+}
+
+/// Runs the Taichi reference with `a`'s arguments and prints its line and the comparison.
+fn vs_taichi(a: &MpmBenchArgs, script: &std::path::Path, ours: &serde_json::Value) -> Result<()> {
+    let args = [
+        ("--particles-per-axis", a.particles_per_axis.to_string()),
+        ("--grid", a.grid.to_string()),
+        ("--steps", a.steps.to_string()),
+        ("--threads", a.threads.to_string()),
+        ("--warmup", WARMUP_SUBSTEPS.to_string()),
+        ("--domain-scale", a.domain_scale.to_string()),
+    ];
+    let Some(theirs) = bench_taichi::run_reference(&a.python, script, &args)? else {
+        return Ok(());
+    };
+    if theirs["particles"] != ours["particles"] {
+        anyhow::bail!(
+            "the Taichi reference ran {} particles, splatphys {}: not the same problem",
+            theirs["particles"],
+            ours["particles"]
+        );
+    }
+    let key = "particle_substeps_per_s";
+    let ours_rate = bench_taichi::number(ours, key, "splatphys")?;
+    let taichi_rate = bench_taichi::number(&theirs, key, "Taichi")?;
+    let com_diff = bench_taichi::number(ours, "com_z_m", "splatphys")?
+        - bench_taichi::number(&theirs, "com_z_m", "Taichi")?;
+    let momentum_diff = bench_taichi::number(ours, "momentum_z_kg_m_s", "splatphys")?
+        - bench_taichi::number(&theirs, "momentum_z_kg_m_s", "Taichi")?;
     println!(
         "{}",
         json!({
-            "bench": "mpm",
-            "particles": count,
-            "steps": a.steps,
+            "bench": "mpm-vs-taichi",
+            "particles": ours["particles"],
             "threads": a.threads,
-            "grid": a.grid,
-            "domain_scale": a.domain_scale,
-            "grid_blocks": sys.last.grid_blocks,
-            "seconds": seconds,
-            "particle_substeps_per_s": rate,
+            "splatphys_per_s": ours_rate,
+            "taichi_per_s": taichi_rate,
+            "ratio": ours_rate / taichi_rate,
+            "com_z_diff_m": com_diff,
+            "momentum_z_diff_kg_m_s": momentum_diff,
+            "taichi_version": theirs["taichi_version"],
         })
     );
     Ok(())

@@ -95,8 +95,8 @@ fn bar(len: usize, what: &str) -> ProgressBar {
     pb
 }
 
-/// The head-on sphere pair of the accuracy runs.
-fn sphere_pair(method: &str, dx_m: f64, e: f64) -> String {
+/// The head-on sphere pair of the accuracy runs (also `bench spheres`).
+pub(crate) fn sphere_pair(method: &str, dx_m: f64, e: f64) -> String {
     format!(
         r#"
 [simulation]
@@ -128,7 +128,7 @@ velocity_m_s = [-1.0, 0.0, 0.0]
     )
 }
 
-fn world(text: &str) -> Result<World> {
+pub(crate) fn world(text: &str) -> Result<World> {
     let scene = load_scene_str(text, Path::new(".")).context("generated scene")?;
     Ok(World::from_scene(&scene)?)
 }
@@ -174,7 +174,7 @@ fn accuracy(a: &CompareBenchArgs) -> Result<()> {
     }
     pb.finish_and_clear();
     let stem = a.out_dir.join("compare_accuracy");
-    write_rows_csv(&stem.with_extension("csv"), &rows)?;
+    chart::write_rows_csv(&stem.with_extension("csv"), &rows)?;
     let series: Vec<Series> = METHODS
         .iter()
         .map(|m| Series {
@@ -270,7 +270,7 @@ fn scaling(a: &CompareBenchArgs) -> Result<()> {
     }
     pb.finish_and_clear();
     let stem = a.out_dir.join("compare_scaling");
-    write_rows_csv(&stem.with_extension("csv"), &rows)?;
+    chart::write_rows_csv(&stem.with_extension("csv"), &rows)?;
     let mut series = Vec::new();
     for &k in &a.objects {
         for m in METHODS {
@@ -299,31 +299,4 @@ fn scaling(a: &CompareBenchArgs) -> Result<()> {
         true,
     )?;
     Ok(())
-}
-
-/// Writes `rows` (flat JSON objects with the same keys) as CSV, columns in key order (text
-/// columns such as the method name are why [`chart::write_csv`], numbers only, is not used).
-fn write_rows_csv(path: &Path, rows: &[serde_json::Value]) -> Result<()> {
-    let Some(first) = rows.first().and_then(|r| r.as_object()) else {
-        return Ok(());
-    };
-    let keys: Vec<&String> = first.keys().collect();
-    let mut out = keys
-        .iter()
-        .map(|k| k.as_str())
-        .collect::<Vec<_>>()
-        .join(",");
-    out.push('\n');
-    for r in rows {
-        let line: Vec<String> = keys
-            .iter()
-            .map(|k| match &r[k.as_str()] {
-                serde_json::Value::String(s) => s.clone(),
-                v => v.to_string(),
-            })
-            .collect();
-        out.push_str(&line.join(","));
-        out.push('\n');
-    }
-    std::fs::write(path, out).with_context(|| format!("writing {}", path.display()))
 }

@@ -1,7 +1,9 @@
-//! Line charts and CSV tables for the `bench` subcommands (plotters, no system font library).
+//! Line charts, heat maps and CSV tables for the `bench` subcommands (plotters, no system font
+//! library).
 //!
 //! [`line_chart`] draws named series of (x, y) points, optionally on log axes, to `STEM.svg` and
-//! `STEM.png`. Text is laid out with plotters' `ab_glyph` backend from a TrueType file found at
+//! `STEM.png`; [`heat_map`] draws panels of categorical cells (one panel per method and
+//! material, say) with a shared legend. Text is laid out with plotters' `ab_glyph` backend from a TrueType file found at
 //! run time ([`FONT_ENV`] first, then [`FONT_PATHS`]); nothing links fontconfig. Without a font
 //! the SVG is still written (series, grid and legend colours, but no text: the numbers are in the
 //! CSV) and the PNG is skipped with a message naming the package to install.
@@ -13,7 +15,7 @@ use std::sync::OnceLock;
 
 use anyhow::{Context, Result, anyhow};
 use plotters::coord::Shift;
-use plotters::coord::ranged1d::ValueFormatter;
+use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
@@ -268,6 +270,300 @@ pub fn line_chart(
     })
 }
 
+/// One panel of a [`heat_map`]: a grid of cells, each a category index or empty.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeatPanel {
+    /// Panel caption.
+    pub title: String,
+    /// `cells[y][x]`: index into [`HeatMap::categories`], `None` for no data (drawn grey).
+    pub cells: Vec<Vec<Option<usize>>>,
+}
+
+/// A figure of [`HeatPanel`]s sharing axes and categories.
+#[derive(Debug, Clone, Copy)]
+pub struct HeatMap<'a> {
+    /// Figure title.
+    pub title: &'a str,
+    /// What the columns of every panel are.
+    pub x_label: &'a str,
+    /// What the rows of every panel are.
+    pub y_label: &'a str,
+    /// Column labels, left to right.
+    pub x_ticks: &'a [String],
+    /// Row labels, bottom to top.
+    pub y_ticks: &'a [String],
+    /// Legend entries and their colours.
+    pub categories: &'a [(String, RGBColor)],
+    /// Panels, row by row.
+    pub panels: &'a [HeatPanel],
+    /// Panels per row of the figure.
+    pub columns: usize,
+    /// A vertical line in every panel at the left edge of column `.0` (`.0` = number of columns
+    /// for the right edge), named `.1` in the legend.
+    pub x_line: Option<(usize, &'a str)>,
+}
+
+/// Panel size in pixels.
+const PANEL: (u32, u32) = (230, 215);
+/// Space above the panels for the title, axis note and legend (pixels).
+const HEAT_HEADER: u32 = 110;
+/// Colour of a cell without data.
+const NO_DATA: RGBColor = RGBColor(220, 220, 220);
+
+fn heat_size(map: &HeatMap<'_>) -> (u32, u32) {
+    let cols = map.columns.clamp(1, map.panels.len().max(1));
+    let rows = map.panels.len().div_ceil(cols).max(1);
+    (PANEL.0 * cols as u32, PANEL.1 * rows as u32 + HEAT_HEADER)
+}
+
+/// Every `step`-th label, so that labels of `n` cells fit in `pixels`.
+fn label_step(n: usize, pixels: u32) -> usize {
+    let fit = (pixels / 26).max(1) as usize;
+    n.div_ceil(fit).max(1)
+}
+
+/// A heat-map axis: `n` cells of width 1 covering [0, n], key points (labels) at every `step`-th
+/// cell centre.
+struct CellAxis {
+    n: usize,
+    step: usize,
+}
+
+impl Ranged for CellAxis {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        let f = value / self.n.max(1) as f64;
+        limit.0 + (f * (limit.1 - limit.0) as f64).round() as i32
+    }
+
+    fn key_points<H: KeyPointHint>(&self, _hint: H) -> Vec<f64> {
+        (0..self.n)
+            .step_by(self.step.max(1))
+            .map(|i| i as f64 + 0.5)
+            .collect()
+    }
+
+    fn range(&self) -> Range<f64> {
+        0.0..self.n as f64
+    }
+}
+
+fn draw_heat<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &HeatMap<'_>,
+    text: bool,
+) -> Result<()> {
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("drawing heat map: {e}");
+    root.fill(&WHITE).map_err(err)?;
+    let (header, body) = root.split_vertically(HEAT_HEADER);
+    let width = header.dim_in_pixel().0 as i32;
+    if text {
+        header
+            .draw_text(
+                map.title,
+                &("sans-serif", 24).into_font().color(&BLACK),
+                (12, 8),
+            )
+            .map_err(err)?;
+        let note = format!("in every panel: x = {}, y = {}", map.x_label, map.y_label);
+        header
+            .draw_text(
+                &note,
+                &("sans-serif", 15).into_font().color(&BLACK),
+                (12, 42),
+            )
+            .map_err(err)?;
+    }
+    let mut x = 12;
+    for (name, colour) in map.categories {
+        header
+            .draw(&Rectangle::new([(x, 72), (x + 18, 90)], colour.filled()))
+            .map_err(err)?;
+        x += 26;
+        if text {
+            header
+                .draw_text(name, &("sans-serif", 15).into_font().color(&BLACK), (x, 73))
+                .map_err(err)?;
+            x += 9 * name.chars().count() as i32 + 24;
+        }
+        if x > width {
+            break;
+        }
+    }
+    if let Some((_, name)) = map.x_line {
+        header
+            .draw(&PathElement::new(
+                vec![(x + 8, 70), (x + 8, 92)],
+                BLACK.stroke_width(3),
+            ))
+            .map_err(err)?;
+        if text {
+            header
+                .draw_text(
+                    name,
+                    &("sans-serif", 15).into_font().color(&BLACK),
+                    (x + 18, 73),
+                )
+                .map_err(err)?;
+        }
+    }
+    let cols = map.columns.clamp(1, map.panels.len().max(1));
+    let rows = map.panels.len().div_ceil(cols).max(1);
+    let (nx, ny) = (map.x_ticks.len().max(1), map.y_ticks.len().max(1));
+    let (x_step, y_step) = (label_step(nx, PANEL.0 - 50), label_step(ny, PANEL.1 - 60));
+    for (area, panel) in body.split_evenly((rows, cols)).iter().zip(map.panels) {
+        let mut builder = ChartBuilder::on(area);
+        builder.margin(6);
+        if text {
+            builder
+                .caption(&panel.title, ("sans-serif", 15))
+                .x_label_area_size(20)
+                .y_label_area_size(38);
+        }
+        // Cell (i, j) covers [i, i + 1] × [j, j + 1]; labels sit at cell centres.
+        let mut chart = builder
+            .build_cartesian_2d(
+                CellAxis {
+                    n: nx,
+                    step: x_step,
+                },
+                CellAxis {
+                    n: ny,
+                    step: y_step,
+                },
+            )
+            .map_err(err)?;
+        let label = |ticks: &[String], v: f64| {
+            let i = (v - 0.5).round();
+            if i >= 0.0 {
+                ticks.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        };
+        let x_label = |v: &f64| label(map.x_ticks, *v);
+        let y_label = |v: &f64| label(map.y_ticks, *v);
+        let mut mesh = chart.configure_mesh();
+        mesh.disable_mesh();
+        if text {
+            mesh.x_labels(nx)
+                .y_labels(ny)
+                .x_label_formatter(&x_label)
+                .y_label_formatter(&y_label)
+                .label_style(("sans-serif", 11));
+        } else {
+            mesh.x_labels(0).y_labels(0);
+        }
+        mesh.draw().map_err(err)?;
+        let mut rects = Vec::new();
+        for (iy, row) in panel.cells.iter().enumerate() {
+            for (ix, cell) in row.iter().enumerate() {
+                let colour = cell
+                    .and_then(|k| map.categories.get(k))
+                    .map_or(NO_DATA, |c| c.1);
+                let corners = [(ix as f64, iy as f64), (ix as f64 + 1.0, iy as f64 + 1.0)];
+                rects.push(Rectangle::new(corners, colour.filled()));
+                rects.push(Rectangle::new(corners, WHITE.stroke_width(1)));
+            }
+        }
+        chart.draw_series(rects).map_err(err)?;
+        if let Some((k, _)) = map.x_line {
+            let k = k.min(nx) as f64;
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(k, 0.0), (k, ny as f64)],
+                    BLACK.stroke_width(3),
+                )))
+                .map_err(err)?;
+        }
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Draws `map` to `STEM.svg` and `STEM.png` (panels in rows of `map.columns`, a legend of the
+/// categories above them). Creates the parent directory. Without a font the SVG has no text and
+/// the PNG is skipped with a message, as for [`line_chart`].
+///
+/// # Errors
+/// File system and drawing errors.
+pub fn heat_map(stem: &Path, map: &HeatMap<'_>) -> Result<ChartFiles> {
+    if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let font = font();
+    let size = heat_size(map);
+    let svg = stem.with_extension("svg");
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        draw_heat(&root, map, font.is_some())
+            .with_context(|| format!("writing {}", svg.display()))?;
+    }
+    if font.is_none() {
+        eprintln!(
+            "chart: no TrueType font found (tried {}): wrote {} without text and SKIPPED the \
+             PNG; {FONT_HINT}",
+            std::env::var(FONT_ENV).unwrap_or_else(|_| FONT_PATHS.join(", ")),
+            svg.display()
+        );
+        return Ok(ChartFiles { svg, png: None });
+    }
+    let png = stem.with_extension("png");
+    let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        draw_heat(&root, map, true).with_context(|| format!("drawing {}", png.display()))?;
+    }
+    image::save_buffer(&png, &rgb, size.0, size.1, image::ExtendedColorType::Rgb8)
+        .with_context(|| format!("writing {}", png.display()))?;
+    Ok(ChartFiles {
+        svg,
+        png: Some(png),
+    })
+}
+
+/// Writes `rows` (flat JSON objects with the same keys) as CSV, columns in the first row's key
+/// order (serde_json sorts them). See [`write_columns_csv`].
+///
+/// # Errors
+/// File system errors.
+pub fn write_rows_csv(path: &Path, rows: &[serde_json::Value]) -> Result<()> {
+    let Some(first) = rows.first().and_then(|r| r.as_object()) else {
+        return Ok(());
+    };
+    let keys: Vec<&str> = first.keys().map(String::as_str).collect();
+    write_columns_csv(path, &keys, rows)
+}
+
+/// Writes the fields `columns` of `rows` (flat JSON objects) as CSV in that order: strings as
+/// they are, `null` and missing fields empty, other values as JSON. Text columns such as a method
+/// name are why [`write_csv`], numbers only, does not do here. Creates the parent directory.
+///
+/// # Errors
+/// File system errors.
+pub fn write_columns_csv(path: &Path, columns: &[&str], rows: &[serde_json::Value]) -> Result<()> {
+    let mut out = columns.join(",");
+    out.push('\n');
+    for r in rows {
+        let line: Vec<String> = columns
+            .iter()
+            .map(|k| match &r[*k] {
+                serde_json::Value::String(s) => s.clone(),
+                serde_json::Value::Null => String::new(),
+                v => v.to_string(),
+            })
+            .collect();
+        out.push_str(&line.join(","));
+        out.push('\n');
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    std::fs::write(path, out).with_context(|| format!("writing {}", path.display()))
+}
+
 /// Writes a CSV table: `header` then one line per row (numbers in Rust's shortest round-trip
 /// form, so values read back exactly). Creates the parent directory.
 ///
@@ -321,6 +617,72 @@ mod tests {
         write_csv(&p, &["a", "b"], &[vec![1.0, 0.1]]).unwrap();
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "a,b\n1,0.1\n");
         assert!(write_csv(&p, &["a", "b"], &[vec![1.0]]).is_err());
+    }
+
+    #[test]
+    fn heat_maps_write_svg_and_png_when_a_font_exists() {
+        let dir = tempfile::tempdir().unwrap();
+        let stem = dir.path().join("heat");
+        let panels: Vec<HeatPanel> = (0..4)
+            .map(|k| HeatPanel {
+                title: format!("panel {k}"),
+                cells: vec![
+                    vec![Some(0), Some(1), None],
+                    vec![Some(1), Some(k % 2), Some(0)],
+                ],
+            })
+            .collect();
+        let ticks = |n: usize| (0..n).map(|i| i.to_string()).collect::<Vec<_>>();
+        let (x_ticks, y_ticks) = (ticks(3), ticks(2));
+        let categories = [
+            ("good".to_string(), RGBColor(0, 160, 0)),
+            ("bad".to_string(), RGBColor(200, 0, 0)),
+        ];
+        let map = HeatMap {
+            title: "t",
+            x_label: "x",
+            y_label: "y",
+            x_ticks: &x_ticks,
+            y_ticks: &y_ticks,
+            categories: &categories,
+            panels: &panels,
+            columns: 2,
+            x_line: Some((1, "line")),
+        };
+        let files = heat_map(&stem, &map).unwrap();
+        let svg = std::fs::read_to_string(&files.svg).unwrap();
+        // 6 cells per panel, each a filled rectangle of its category's colour.
+        assert!(
+            svg.contains("rgb(200,0,0)") || svg.contains("#C80000"),
+            "{svg:.400}"
+        );
+        match files.png {
+            Some(png) => {
+                let img = image::open(png).unwrap();
+                assert_eq!((img.width(), img.height()), heat_size(&map));
+            }
+            None => assert!(font().is_none()),
+        }
+    }
+
+    #[test]
+    fn row_csv_writes_text_and_leaves_nulls_empty() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("r.csv");
+        let rows = [
+            serde_json::json!({"m": "com", "v": 1.5, "f": null}),
+            serde_json::json!({"m": "mpm", "v": 2, "f": "nan"}),
+        ];
+        write_columns_csv(&p, &["m", "v", "f"], &rows).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&p).unwrap(),
+            "m,v,f\ncom,1.5,\nmpm,2,nan\n"
+        );
+        write_rows_csv(&p, &rows).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&p).unwrap(),
+            "f,m,v\n,com,1.5\nnan,mpm,2\n"
+        );
     }
 
     #[test]

@@ -8,11 +8,16 @@ mod bench_compare;
 mod bench_flood;
 mod bench_ipc;
 mod bench_peer;
+mod bench_realtime;
+mod bench_stability;
+mod bench_subsets;
+mod bench_taichi;
 mod chart;
 mod inspect;
 mod run;
 mod scene_arg;
 mod serve;
+mod uplift;
 
 /// splatphys: captured 3D Gaussian Splatting scenes made physical.
 ///
@@ -28,8 +33,11 @@ mod serve;
   splatphys run scenes/donut_drop.toml --out out/donut    # a captured donut on a table
   splatphys serve scenes/donut_drop.toml                  # the server alone
   splatphys inspect ../shared/data/v3dg_donut.ply
+  splatphys uplift --ply scene.ply --cameras transforms.json --features feats/ --out scene_feat.ply
   splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2
-  splatphys bench ipc --sizes 1000,10000,100000,1000000 --out-dir docs/bench"
+  splatphys bench mpm --vs-taichi                         # the same problem in Taichi, same run
+  splatphys bench ipc --sizes 1000,10000,100000,1000000 --out-dir docs/bench
+  splatphys bench stability --out-dir docs/bench"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -44,6 +52,9 @@ enum Command {
     Serve(serve::ServeArgs),
     /// Describe a 3DGS file.
     Inspect(inspect::InspectArgs),
+    /// Stage 1: lift 2-D feature maps of the training views into per-Gaussian features (runs
+    /// the splatphys-uplift executable; `splatphys uplift --help` for its options).
+    Uplift(uplift::UpliftArgs),
     /// Benchmarks (JSON lines).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -56,5 +67,6 @@ fn main() -> Result<()> {
         Command::Serve(args) => serve::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Bench(cmd) => bench::run(&cmd),
+        Command::Uplift(args) => uplift::run(&args),
     }
 }

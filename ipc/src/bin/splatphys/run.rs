@@ -15,6 +15,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 use splatphys_core::world::World;
+use splatphys_core::world::explain::Explanation;
 
 /// Arguments of `splatphys run`.
 #[derive(Args, Debug)]
@@ -22,7 +23,8 @@ use splatphys_core::world::World;
   splatphys run --out out/default                        # the built-in scene
   splatphys run scenes/donut_drop.toml --out out/donut   # a captured donut dropped on a table
   splatphys run scenes/guitar_topple.toml --out out/g --duration-s 0.5 --threads 2
-  splatphys run scenes/donut_drop.toml --out out/d --in-process   # simulation only")]
+  splatphys run scenes/donut_drop.toml --out out/d --in-process   # simulation only
+  splatphys run scenes/guitar_topple.toml --out out/g --explain   # what each object needed")]
 pub struct RunArgs {
     /// Scene file (TOML); the built-in default scene when absent.
     pub scene: Option<PathBuf>,
@@ -41,6 +43,10 @@ pub struct RunArgs {
     /// Service prefix (default `splatphys/run-<pid>`, so runs never cross-talk).
     #[arg(long)]
     pub prefix: Option<String>,
+    /// Print per object what was modelled (particles simulated and carried, grid blocks, substeps
+    /// slept, the dt limit and which material set it); also written to explain.txt.
+    #[arg(long)]
+    pub explain: bool,
     /// Seconds to wait for the clients to exit after the server has stopped.
     #[arg(long, default_value_t = 120.0)]
     pub client_timeout_s: f64,
@@ -132,9 +138,13 @@ fn in_process(args: &RunArgs) -> Result<()> {
         "stats": world.stats,
         "diagnostics_start": diag0,
         "diagnostics_end": world.diagnostics(),
+        "explain": world.explain(),
         "error": error.as_ref().map(|e| e.to_string()),
     });
     write_json(&args.out.join("summary.json"), &summary)?;
+    if args.explain {
+        explain(&args.out, &world.explain())?;
+    }
     eprintln!(
         "splatphys run: {} frames in {wall_s:.2} s; wrote {}",
         world.frame,
@@ -146,13 +156,21 @@ fn in_process(args: &RunArgs) -> Result<()> {
     Ok(())
 }
 
+/// Prints the `--explain` table and writes it to explain.txt.
+fn explain(out: &Path, report: &Explanation) -> Result<()> {
+    let table = report.to_table();
+    eprint!("{table}");
+    std::fs::write(out.join("explain.txt"), &table)
+        .with_context(|| format!("writing {}", out.join("explain.txt").display()))
+}
+
 fn write_json(path: &Path, v: &Value) -> Result<()> {
     std::fs::write(path, serde_json::to_string_pretty(v)?)
         .with_context(|| format!("writing {}", path.display()))
 }
 
 /// A sibling executable of this one (cargo puts every workspace binary in one folder).
-fn sibling(name: &str) -> Result<PathBuf> {
+pub(crate) fn sibling(name: &str) -> Result<PathBuf> {
     let me = std::env::current_exe().context("locating the splatphys executable")?;
     let path = me.with_file_name(name);
     if !path.exists() {
@@ -416,8 +434,14 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         "objects_csv_ok": export.success(),
         "stats": server_json["stats"],
         "diagnostics_end": server_json["diagnostics"],
+        "explain": server_json["explain"],
     });
     write_json(&args.out.join("summary.json"), &summary)?;
+    if args.explain {
+        let report: Explanation = serde_json::from_value(server_json["explain"].clone())
+            .context("the server's report has no explanation (see logs/server.log)")?;
+        explain(&args.out, &report)?;
+    }
     eprintln!(
         "splatphys run: {} frames simulated, {} rendered, in {wall_s:.1} s; wrote {}",
         server_json["frames_published"],

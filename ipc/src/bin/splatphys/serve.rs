@@ -143,6 +143,7 @@ fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
         "commands_rejected": report.commands_rejected,
         "stats": w.stats,
         "diagnostics": w.diagnostics(),
+        "explain": w.explain(),
     });
     if let Some(path) = &args.report {
         std::fs::write(path, serde_json::to_string_pretty(&json)?)

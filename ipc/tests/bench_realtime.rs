@@ -1,0 +1,107 @@
+//! `splatphys bench realtime` end to end (issue #7, part 3) on a tiny run: the validation
+//! free-fall sphere for 0.02 s at two grid cell sizes. Checked on the CSV it writes: one
+//! reference row with zero error plus one row per cell size, errors finite and in reference
+//! cells, coarser grid with fewer particles and substeps. Nothing here depends on wall-clock time.
+
+use std::collections::HashMap;
+use std::process::Command;
+
+fn read_csv(path: &std::path::Path) -> Vec<HashMap<String, String>> {
+    let text =
+        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    lines
+        .map(|l| {
+            let fields: Vec<&str> = l.split(',').collect();
+            assert_eq!(fields.len(), header.len(), "ragged row {l}");
+            header
+                .iter()
+                .zip(&fields)
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect()
+        })
+        .collect()
+}
+
+fn num(row: &HashMap<String, String>, key: &str) -> f64 {
+    row[key]
+        .parse()
+        .unwrap_or_else(|_| panic!("{key} = {:?} is not a number", row[key]))
+}
+
+#[test]
+fn realtime_sweep_writes_a_zero_error_reference_and_one_row_per_cell_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/validation_free_fall.toml"
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_splatphys"))
+        .args(["bench", "realtime", "--scenes", scene])
+        .args([
+            "--duration-s",
+            "0.02",
+            "--dx-m",
+            "0.01,0.02",
+            "--threads",
+            "2",
+        ])
+        .arg("--out-dir")
+        .arg(dir.path())
+        .output()
+        .expect("run splatphys bench realtime");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "exit {:?}\nstderr: {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value = stdout
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .find(|v| v["bench"] == "realtime-summary")
+        .expect("a summary line");
+    assert_eq!(
+        summary["error_unit"],
+        "cells of the reference grid, dx_ref = 10 mm"
+    );
+    let rows = read_csv(&dir.path().join("realtime.csv"));
+    assert_eq!(rows.len(), 3, "reference + 2 cell sizes: {rows:?}");
+    assert!(dir.path().join("realtime.svg").exists());
+    let reference = &rows[0];
+    assert_eq!(reference["setting"], "reference");
+    for key in [
+        "com_error_m",
+        "com_error_cells",
+        "com_initial_offset_cells",
+        "com_displacement_error_cells",
+        "gaussian_error_mean_cells",
+        "gaussian_error_p95_cells",
+        "gaussian_error_max_cells",
+    ] {
+        assert_eq!(num(reference, key), 0.0, "reference {key}");
+    }
+    assert_eq!(reference["passes"], "true");
+    for r in &rows {
+        assert_eq!(num(r, "dx_ref_m"), 0.01);
+        assert_eq!(num(r, "frames"), 2.0, "0.02 s at 100 frames/s");
+        assert_eq!(r["gaussians"], reference["gaussians"]);
+        for key in ["com_error_cells", "gaussian_error_p95_cells", "wall_s"] {
+            assert!(num(r, key).is_finite(), "{key} in {r:?}");
+        }
+        // Errors are in reference cells: m / dx_ref.
+        let cells = num(r, "com_error_m") / 0.01;
+        assert!((num(r, "com_error_cells") - cells).abs() <= 1e-12 * cells.max(1.0));
+    }
+    let (fine, coarse) = (&rows[1], &rows[2]);
+    assert_eq!((num(fine, "dx_m"), num(coarse, "dx_m")), (0.01, 0.02));
+    assert_eq!(num(coarse, "spacing_m"), 0.01, "spacing = dx / 2");
+    // Free fall at dx_ref with h = 5 mm (the sphere's own lattice): the reference again.
+    assert_eq!(fine["particles"], reference["particles"]);
+    assert!(num(coarse, "particles") < num(fine, "particles"));
+    assert!(num(coarse, "substeps") < num(fine, "substeps"));
+    // Free fall moves every particle alike: the coarse run stays well inside a cell.
+    assert!(num(coarse, "gaussian_error_p95_cells") < 0.1, "{coarse:?}");
+}

@@ -1,0 +1,90 @@
+//! `World::explain`: per object, what was modelled and which material sets the substep.
+
+use std::path::Path;
+
+use splatphys_core::scene::load_scene_str;
+use splatphys_core::world::World;
+
+const SCENE: &str = r#"
+[simulation]
+method = "com"
+duration_s = 0.02
+frame_rate_hz = 100.0
+grid_dx_m = 0.01
+cfl = 0.4
+
+[[object]]
+name = "soft"
+shape = { sphere = { center_m = [0.0, 0.0, 0.3], radius_m = 0.04 } }
+spacing_m = 0.005
+material = { model = "jelly", youngs_modulus_pa = 2e4, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
+
+[[object]]
+name = "stiff"
+shape = { sphere = { center_m = [0.5, 0.0, 0.3], radius_m = 0.04 } }
+spacing_m = 0.005
+material = { model = "snow", youngs_modulus_pa = 1.4e5, poisson_ratio = 0.2, density_kg_m3 = 400.0 }
+
+[[object]]
+name = "block"
+kind = "rigid"
+shape = { box = { min_m = [-0.5, -0.05, 0.0], max_m = [-0.4, 0.05, 0.1] } }
+spacing_m = 0.01
+material = { model = "jelly", youngs_modulus_pa = 1e9, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
+
+[[object]]
+name = "shelf"
+kind = "static"
+shape = { box = { min_m = [0.3, 0.3, 0.0], max_m = [0.4, 0.4, 0.1] } }
+spacing_m = 0.01
+material = { model = "jelly", youngs_modulus_pa = 1e9, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
+"#;
+
+#[test]
+fn explanation_names_what_was_modelled_and_what_sets_dt() {
+    let scene = load_scene_str(SCENE, Path::new(".")).unwrap();
+    let mut w = World::from_scene(&scene).unwrap();
+    while !w.is_finished() {
+        w.advance_frame().unwrap();
+    }
+    let e = w.explain();
+    println!("{}", e.to_table());
+    assert_eq!(e.method, "com");
+    assert_eq!(e.time_step, "cfl 0.4");
+    assert_eq!(e.objects.len(), 4);
+    let [soft, stiff, block, shelf] = [0, 1, 2, 3].map(|i| &e.objects[i]);
+    assert_eq!(
+        (soft.kind.as_str(), block.kind.as_str(), shelf.kind.as_str()),
+        ("deformable", "rigid", "static")
+    );
+    assert_eq!(soft.particles_simulated, soft.gaussians_carried);
+    assert!(soft.particles_simulated > 100);
+    assert_eq!(
+        (block.particles_simulated, shelf.particles_simulated),
+        (0, 0)
+    );
+    assert!(block.gaussians_carried > 0 && shelf.gaussians_carried > 0);
+    assert_eq!(shelf.substeps_slept, e.substeps);
+    assert_eq!(block.substeps_slept, e.substeps);
+    assert_eq!(soft.substeps_computed, e.substeps);
+    assert!(soft.grid_blocks > 0 && block.grid_blocks == 0);
+
+    // c_p = sqrt((λ + 2μ) / ρ); snow's bound uses its hardened moduli, so it is at least the
+    // unhardened value and far above the soft jelly's.
+    let cp = |e: f32, nu: f32, rho: f32| {
+        let mu = e / (2.0 * (1.0 + nu));
+        let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        ((lambda + 2.0 * mu) / rho).sqrt()
+    };
+    let soft_cp = soft.wave_speed_m_s.unwrap();
+    assert!((soft_cp - cp(2e4, 0.3, 1000.0)).abs() < 1e-3 * soft_cp);
+    assert!(stiff.wave_speed_m_s.unwrap() >= cp(1.4e5, 0.2, 400.0) * 0.999);
+    let want = 0.4 * 0.01 / (soft_cp + soft.max_speed_m_s);
+    assert!((soft.dt_limit_s.unwrap() - want).abs() < 1e-6 * want);
+    assert_eq!(e.limited_by.as_deref(), Some("stiff (snow)"));
+    assert!(block.dt_limit_s.is_none());
+    // No substep exceeded the stiffest material's limit at rest, C dx / c_p.
+    let rest_limit = 0.4 * 0.01 / stiff.wave_speed_m_s.unwrap();
+    assert!(e.dt_range_s[1] <= f64::from(rest_limit) * 1.0001);
+    assert!(e.to_table().contains("dt set by stiff (snow)"));
+}
