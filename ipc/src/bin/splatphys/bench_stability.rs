@@ -617,8 +617,17 @@ pub fn run(a: &StabilityBenchArgs) -> Result<()> {
         }
     }
     pb.finish_and_clear();
-    if !cstar.is_empty() {
-        chart::write_rows_csv(&a.out_dir.join("stability_cstar.csv"), &cstar)?;
+    if let Some(p) = planes.iter().find(|p| p.forced) {
+        let per_e: Vec<String> = p.y.1.iter().map(|e| cstar_key(*e)).collect();
+        let mut columns = vec![
+            "bench",
+            "method",
+            "material",
+            "c_last_stable",
+            "c_first_unstable",
+        ];
+        columns.extend(per_e.iter().map(String::as_str));
+        chart::write_columns_csv(&a.out_dir.join("stability_cstar.csv"), &columns, &cstar)?;
     }
     println!(
         "{}",
@@ -709,6 +718,11 @@ fn summarize(p: &Plane, runs: &[RunSpec], outcomes: &[Outcome]) -> Value {
     })
 }
 
+/// The C* column of Young's modulus `e_pa`: `c_first_unstable_e6` for 1e6 Pa.
+fn cstar_key(e_pa: f64) -> String {
+    format!("c_first_unstable_e{}", e_pa.log10().round())
+}
+
 /// C* per method × material (and per E): the smallest swept C at which a run is not stable, and
 /// the largest C below it (every E stable there).
 fn critical_cfl(
@@ -750,7 +764,7 @@ fn critical_cfl(
                 "c_first_unstable": all.map(|k| cs[k]),
             });
             for (e, c) in p.y.1.iter().zip(per_e) {
-                r[format!("c_first_unstable_e{}", e.log10().round())] = c;
+                r[cstar_key(*e)] = c;
             }
             out.push(r);
         }
