@@ -39,10 +39,10 @@ struct Args {
     /// transforms.json, or a COLMAP model folder (cameras/images .txt or .bin; sparse/0 is tried).
     #[arg(long)]
     cameras: PathBuf,
-    /// Folder of feature maps, one <image stem>.npy per view.
+    /// Folder of feature maps, one `<image stem>.npy` per view.
     #[arg(long)]
     features: PathBuf,
-    /// Output: .ply (scene + feat_* properties) or .npy ([N][D] float32).
+    /// Output: `.ply` (scene + `feat_*` properties) or `.npy` (`[N][D]` float32).
     #[arg(long)]
     out: PathBuf,
     /// Reduce the features to K channels by (uncentred) PCA.
