@@ -17,7 +17,7 @@
 //! Baseline `multi-field` (Bardenhagen et al. 2000): each deformable object keeps its own field on
 //! the shared node lattice and fields meet through the multi-field contact rule
 //! ([`crate::mpm::multi_field`]). In both baselines the COM layer still resolves contacts that
-//! involve a rigid or static object.
+//! involve a rigid or static object. The MPM part of a substep, per method, is in `mpm_step.rs`.
 
 pub mod body;
 pub mod carry;
@@ -25,6 +25,7 @@ pub mod coherence;
 mod commands;
 pub mod contact;
 pub mod explain;
+mod mpm_step;
 mod output;
 pub mod overlap;
 pub mod rigid;
@@ -40,9 +41,7 @@ use crate::collider::{BoxShape, Collider, Plane, Shape, Surface};
 use crate::gaussians::GaussianCloud;
 use crate::kinematics::{GaussianState, pack_symmetric};
 use crate::material::{ConstitutiveModel, Material, MaterialError};
-use crate::mpm::{
-    MpmError, MpmSolver, Particles, SubstepInput, TimeStepError, TimeStepPolicy, multi_field,
-};
+use crate::mpm::{MpmError, MpmSolver, Particles, TimeStepError, TimeStepPolicy};
 use crate::scene::{self, EventAction, EventSpec, Method, ObjectKind, Scene};
 
 /// Speed below which an object counts as still (m/s).
@@ -494,156 +493,6 @@ impl World {
         self.stats.dt_max_s = self.stats.dt_max_s.max(dt as f64);
         self.time_s += dt as f64;
         Ok(dt as f64)
-    }
-
-    fn solver_error(&self, object: &str, source: MpmError) -> WorldError {
-        WorldError::Solver {
-            object: object.to_string(),
-            substep: self.stats.substeps,
-            time_s: self.time_s,
-            source,
-        }
-    }
-
-    fn mpm_per_object_substep(&mut self, dt: f32) -> Result<(), WorldError> {
-        for k in 0..self.bodies.len() {
-            let b = &mut self.bodies[k];
-            if !(b.is_active() && b.kind == ObjectKind::Deformable) {
-                b.substeps_skipped += 1;
-                continue;
-            }
-            let input = SubstepInput {
-                materials: &b.materials,
-                colliders: &self.colliders,
-                gravity_m_s2: self.gravity_m_s2,
-                dt_s: dt,
-                time_s: self.time_s,
-            };
-            match b.solver.substep(&mut b.particles, &input) {
-                Ok(r) => {
-                    b.max_speed_m_s = r.max_speed_m_s;
-                    self.stats.mpm_particle_substeps += b.particles.len() as u64;
-                }
-                Err(e) => {
-                    let name = b.name.clone();
-                    return Err(self.solver_error(&name, e));
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// The multi-field baseline: per-object P2G and grid update, multi-field contact at shared
-    /// nodes, per-object G2P.
-    fn multi_field_substep(&mut self, dt: f32) -> Result<(), WorldError> {
-        let dx = self.dx_m();
-        let active = |b: &Body| b.is_active() && b.kind == ObjectKind::Deformable;
-        for k in 0..self.bodies.len() {
-            let b = &mut self.bodies[k];
-            if !active(b) {
-                b.substeps_skipped += 1;
-                continue;
-            }
-            let input = SubstepInput {
-                materials: &b.materials,
-                colliders: &self.colliders,
-                gravity_m_s2: self.gravity_m_s2,
-                dt_s: dt,
-                time_s: self.time_s,
-            };
-            if let Err(e) = b.solver.scatter_and_update(&b.particles, &input) {
-                let name = b.name.clone();
-                return Err(self.solver_error(&name, e));
-            }
-        }
-        let mut fields: Vec<multi_field::Field<'_>> = self
-            .bodies
-            .iter_mut()
-            .filter(|b| active(b))
-            .map(|b| {
-                let v_ref_m_s = b.solver.reference_velocity_m_s();
-                multi_field::Field {
-                    grid: b.solver.grid_mut(),
-                    v_ref_m_s,
-                    friction: b.friction,
-                }
-            })
-            .collect();
-        let r = multi_field::couple(&mut fields, dx, &self.colliders, self.time_s);
-        drop(fields);
-        self.stats.contact_nodes += r.corrected as u64;
-        for k in 0..self.bodies.len() {
-            let b = &mut self.bodies[k];
-            if !active(b) {
-                continue;
-            }
-            let input = SubstepInput {
-                materials: &b.materials,
-                colliders: &self.colliders,
-                gravity_m_s2: self.gravity_m_s2,
-                dt_s: dt,
-                time_s: self.time_s,
-            };
-            match b.solver.gather(&mut b.particles, &input) {
-                Ok(r) => {
-                    b.max_speed_m_s = r.max_speed_m_s;
-                    self.stats.mpm_particle_substeps += b.particles.len() as u64;
-                }
-                Err(e) => {
-                    let name = b.name.clone();
-                    return Err(self.solver_error(&name, e));
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// The baseline: every awake deformable object on one shared grid.
-    fn mpm_shared_substep(&mut self, dt: f32) -> Result<(), WorldError> {
-        let ids: Vec<usize> = (0..self.bodies.len())
-            .filter(|&k| {
-                self.bodies[k].is_active() && self.bodies[k].kind == ObjectKind::Deformable
-            })
-            .collect();
-        let mut all = Particles::default();
-        let mut materials = Vec::new();
-        for &k in &ids {
-            let b = &self.bodies[k];
-            let start = all.len();
-            all.extend_from(&b.particles);
-            all.material[start..]
-                .iter_mut()
-                .for_each(|m| *m = materials.len() as u16);
-            materials.push(b.materials[0].clone());
-        }
-        let input = SubstepInput {
-            materials: &materials,
-            colliders: &self.colliders,
-            gravity_m_s2: self.gravity_m_s2,
-            dt_s: dt,
-            time_s: self.time_s,
-        };
-        let r = self
-            .shared
-            .substep(&mut all, &input)
-            .map_err(|e| self.solver_error("shared grid", e))?;
-        self.stats.mpm_particle_substeps += all.len() as u64;
-        let mut start = 0;
-        for &k in &ids {
-            let b = &mut self.bodies[k];
-            let n = b.particles.len();
-            let end = start + n;
-            b.particles.x.copy_from_slice(&all.x[start..end]);
-            b.particles.v.copy_from_slice(&all.v[start..end]);
-            b.particles.c.copy_from_slice(&all.c[start..end]);
-            b.particles.f.copy_from_slice(&all.f[start..end]);
-            b.particles
-                .plastic
-                .copy_from_slice(&all.plastic[start..end]);
-            b.max_speed_m_s = r.max_speed_m_s;
-            start = end;
-        }
-        Ok(())
     }
 
     fn rigid_substep(&mut self, dt: f64) {
