@@ -5,7 +5,11 @@
 //! MLS-MPM, so here the grid is coarsened together with the particles. Per scene:
 //! - the **reference** is the scene as written (every Gaussian a particle, its own `grid_dx_m`,
 //!   called dx_ref);
-//! - each **candidate** sets `grid_dx_m = dx` (`--dx-factor` × dx_ref, or `--dx-m`) and the
+//! - one **rigid** candidate (unless `--no-rigid`, and only where the scene has deformable
+//!   objects) makes every deformable object rigid: the COM layer alone, no MPM, the coarsest
+//!   model of all (the "model no more than a scene needs"); it shows what the scene's
+//!   deformation is worth in position error;
+//! - each **grid** candidate sets `grid_dx_m = dx` (`--dx-factor` × dx_ref, or `--dx-m`) and the
 //!   physics-particle spacing of every moving object to `--spacing-per-dx` × dx (default 1/2:
 //!   about 2 particles per cell per axis, MPM's usual 8 per cell);
 //! - every run simulates the same time (the scene's duration, or `--duration-s`) on `--threads`
@@ -30,6 +34,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
+
+use splatphys_core::scene::{ObjectKind, Scene, SceneObject};
 
 use crate::bench_subsets::{Trace, moving, percentile, run_scene};
 use crate::chart::{self, Series};
@@ -59,6 +65,9 @@ pub struct RealtimeBenchArgs {
     /// particles per cell).
     #[arg(long, default_value_t = 0.5)]
     pub spacing_per_dx: f64,
+    /// Leave out the candidate that makes every deformable object rigid.
+    #[arg(long)]
+    pub no_rigid: bool,
     /// Simulated frames per wall second to reach.
     #[arg(long, default_value_t = 30.0)]
     pub target_fps: f64,
@@ -271,16 +280,18 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
         }
         scenes.push((name, scene));
     }
-    let candidates = if a.dx_m.is_empty() {
+    let grids = if a.dx_m.is_empty() {
         a.dx_factor.len()
     } else {
         a.dx_m.len()
-    };
+    } as u64;
     let total_frames: u64 = scenes
         .iter()
-        .map(|(_, s)| (s.simulation.duration_s * s.simulation.frame_rate_hz).round() as u64)
-        .sum::<u64>()
-        * (1 + candidates as u64);
+        .map(|(_, s)| {
+            let runs = 1 + grids + u64::from(rigid_variant(s, a).is_some());
+            runs * (s.simulation.duration_s * s.simulation.frame_rate_hz).round() as u64
+        })
+        .sum();
     let pb = ProgressBar::new(total_frames);
     pb.set_style(
         ProgressStyle::with_template("realtime {msg} [{bar:30}] {pos}/{len} frames {elapsed}")
@@ -331,6 +342,21 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
             pb.suspend(|| println!("{r}"));
             scene_rows.push(r);
         }
+        if let Some(s) = rigid_variant(scene, a) {
+            let setting = "rigid (COM layer only)";
+            pb.set_message(format!("{name} {setting}"));
+            let t = pool.install(|| run_scene(&s, &pb))?;
+            let r = row(
+                name,
+                setting,
+                (dx_ref, dx_ref, None),
+                run_info(frames),
+                &t,
+                &reference,
+            )?;
+            pb.suspend(|| println!("{r}"));
+            scene_rows.push(r);
+        }
         let s = summary(name, &scene_rows, a.target_fps);
         pb.suspend(|| println!("{s}"));
         summaries.push(s);
@@ -343,12 +369,26 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// `scene` with every deformable object made rigid, or `None` when it has none (or
+/// `--no-rigid`).
+fn rigid_variant(scene: &Scene, a: &RealtimeBenchArgs) -> Option<Scene> {
+    let deformable = |o: &SceneObject| o.kind == ObjectKind::Deformable;
+    if a.no_rigid || !scene.objects.iter().any(deformable) {
+        return None;
+    }
+    let mut s = scene.clone();
+    for o in s.objects.iter_mut().filter(|o| deformable(o)) {
+        o.kind = ObjectKind::Rigid;
+    }
+    Some(s)
+}
+
 /// Error (reference cells) against simulated frames per wall second, COM and Gaussian p95 per
 /// scene, with the 1-cell and target-fps lines drawn as two-point series (line_chart has no
 /// reference lines of its own).
 fn draw(
     stem: &std::path::Path,
-    scenes: &[(String, splatphys_core::scene::Scene)],
+    scenes: &[(String, Scene)],
     rows: &[Value],
     a: &RealtimeBenchArgs,
 ) -> Result<()> {

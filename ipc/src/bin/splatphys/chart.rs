@@ -550,7 +550,7 @@ pub fn write_columns_csv(path: &Path, columns: &[&str], rows: &[serde_json::Valu
         let line: Vec<String> = columns
             .iter()
             .map(|k| match &r[*k] {
-                serde_json::Value::String(s) => s.clone(),
+                serde_json::Value::String(s) => csv_field(s),
                 serde_json::Value::Null => String::new(),
                 v => v.to_string(),
             })
@@ -562,6 +562,16 @@ pub fn write_columns_csv(path: &Path, columns: &[&str], rows: &[serde_json::Valu
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     std::fs::write(path, out).with_context(|| format!("writing {}", path.display()))
+}
+
+/// `s` as one CSV field: quoted, with doubled quotes, when it holds a comma, a quote or a line
+/// break (RFC 4180); as is otherwise.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
 }
 
 /// Writes a CSV table: `header` then one line per row (numbers in Rust's shortest round-trip
@@ -617,6 +627,18 @@ mod tests {
         write_csv(&p, &["a", "b"], &[vec![1.0, 0.1]]).unwrap();
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "a,b\n1,0.1\n");
         assert!(write_csv(&p, &["a", "b"], &[vec![1.0]]).is_err());
+    }
+
+    #[test]
+    fn column_csv_quotes_text_with_commas_and_quotes() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.csv");
+        let rows = [serde_json::json!({"a": "x, y", "b": 2, "c": "say \"hi\""})];
+        write_columns_csv(&p, &["a", "b", "c", "d"], &rows).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&p).unwrap(),
+            "a,b,c,d\n\"x, y\",2,\"say \"\"hi\"\"\",\n"
+        );
     }
 
     #[test]
