@@ -4,32 +4,11 @@
 //! finite and in reference cells, coarser grid with fewer particles and substeps, the rigid run
 //! with no grid and free fall's closed-form agreement. Nothing here depends on wall-clock time.
 
-use std::collections::HashMap;
+mod common;
+
 use std::process::Command;
 
-fn read_csv(path: &std::path::Path) -> Vec<HashMap<String, String>> {
-    let text =
-        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
-    lines
-        .map(|l| {
-            let fields: Vec<&str> = l.split(',').collect();
-            assert_eq!(fields.len(), header.len(), "ragged row {l}");
-            header
-                .iter()
-                .zip(&fields)
-                .map(|(k, v)| (k.to_string(), v.to_string()))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(row: &HashMap<String, String>, key: &str) -> f64 {
-    row[key]
-        .parse()
-        .unwrap_or_else(|_| panic!("{key} = {:?} is not a number", row[key]))
-}
+use common::table::{num, read_csv};
 
 #[test]
 fn realtime_sweep_writes_a_zero_error_reference_one_row_per_cell_size_and_a_rigid_row() {
@@ -115,6 +94,9 @@ fn realtime_sweep_writes_a_zero_error_reference_one_row_per_cell_size_and_a_rigi
     // its much smaller CFL step, is within 1e-3 of a cell of it.
     let euler_cells = 9.81 * 0.01 * 0.02 / 2.0 / 0.01;
     for key in ["com_error_cells", "gaussian_error_p95_cells"] {
-        assert!((num(rigid, key) - euler_cells).abs() < 0.01, "{key}: {rigid:?}");
+        assert!(
+            (num(rigid, key) - euler_cells).abs() < 0.01,
+            "{key}: {rigid:?}"
+        );
     }
 }

@@ -4,46 +4,17 @@
 //! automatic time stepping, and at least one failure at the largest forced CFL number (so the
 //! failure detector fires). Nothing here depends on wall-clock time.
 
-use std::collections::HashMap;
-use std::path::Path;
+mod common;
+
 use std::process::Command;
+
+use common::table::{num, read_csv};
 
 /// Methods × materials of the default sweep.
 const COMBOS: usize = 3 * 7;
 /// Runs per method × material in the quick sweep: auto_speed 2 × 2, auto_poisson 2 × 2,
 /// forced_cfl 2 C values × 2 E values.
 const QUICK_RUNS_PER_COMBO: usize = 4 + 4 + 4;
-
-/// Parses a CSV written by the bench (no quoting: no field holds a comma) into rows of
-/// column -> value.
-fn read_csv(path: &Path) -> Vec<HashMap<String, String>> {
-    let text =
-        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .expect("header")
-        .split(',')
-        .map(str::to_string)
-        .collect();
-    lines
-        .map(|l| {
-            let fields: Vec<&str> = l.split(',').collect();
-            assert_eq!(fields.len(), header.len(), "ragged row {l}");
-            header
-                .iter()
-                .cloned()
-                .zip(fields.iter().map(|f| f.to_string()))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(row: &HashMap<String, String>, key: &str) -> f64 {
-    row[key]
-        .parse()
-        .unwrap_or_else(|_| panic!("{key} = {:?} is not a number", row[key]))
-}
 
 #[test]
 fn quick_stability_map_is_clean_with_automatic_dt_and_fails_at_the_largest_forced_cfl() {

@@ -8,7 +8,6 @@
 //! the SVG is still written (series, grid and legend colours, but no text: the numbers are in the
 //! CSV) and the PNG is skipped with a message naming the package to install.
 
-use std::fmt::Write as _;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -544,34 +543,25 @@ pub fn write_rows_csv(path: &Path, rows: &[serde_json::Value]) -> Result<()> {
 /// # Errors
 /// File system errors.
 pub fn write_columns_csv(path: &Path, columns: &[&str], rows: &[serde_json::Value]) -> Result<()> {
-    let mut out = columns.join(",");
-    out.push('\n');
+    let mut w = csv_writer(path)?;
+    w.write_record(columns)?;
     for r in rows {
-        let line: Vec<String> = columns
-            .iter()
-            .map(|k| match &r[*k] {
-                serde_json::Value::String(s) => csv_field(s),
-                serde_json::Value::Null => String::new(),
-                v => v.to_string(),
-            })
-            .collect();
-        out.push_str(&line.join(","));
-        out.push('\n');
+        w.write_record(columns.iter().map(|k| match &r[*k] {
+            serde_json::Value::String(s) => s.clone(),
+            serde_json::Value::Null => String::new(),
+            v => v.to_string(),
+        }))?;
     }
+    w.flush()
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// A CSV writer (RFC 4180 quoting) on a new file at `path`, its parent directory created.
+fn csv_writer(path: &Path) -> Result<csv::Writer<std::fs::File>> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    std::fs::write(path, out).with_context(|| format!("writing {}", path.display()))
-}
-
-/// `s` as one CSV field: quoted, with doubled quotes, when it holds a comma, a quote or a line
-/// break (RFC 4180); as is otherwise.
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
+    csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))
 }
 
 /// Writes a CSV table: `header` then one line per row (numbers in Rust's shortest round-trip
@@ -580,8 +570,6 @@ fn csv_field(s: &str) -> String {
 /// # Errors
 /// When a row's length differs from the header's, and on file system errors.
 pub fn write_csv(path: &Path, header: &[&str], rows: &[Vec<f64>]) -> Result<()> {
-    let mut out = header.join(",");
-    out.push('\n');
     for (i, row) in rows.iter().enumerate() {
         anyhow::ensure!(
             row.len() == header.len(),
@@ -590,16 +578,14 @@ pub fn write_csv(path: &Path, header: &[&str], rows: &[Vec<f64>]) -> Result<()> 
             row.len(),
             header.len()
         );
-        for (j, v) in row.iter().enumerate() {
-            let sep = if j == 0 { "" } else { "," };
-            write!(out, "{sep}{v}").expect("writing to a String cannot fail");
-        }
-        out.push('\n');
     }
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut w = csv_writer(path)?;
+    w.write_record(header)?;
+    for row in rows {
+        w.write_record(row.iter().map(f64::to_string))?;
     }
-    std::fs::write(path, out).with_context(|| format!("writing {}", path.display()))
+    w.flush()
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 #[cfg(test)]
