@@ -2,7 +2,7 @@
 
 use glam::{Mat3A, Vec3};
 use proptest::prelude::*;
-use splatphys_core::math::{polar, svd3};
+use splatphys_core::math::{polar, polar_rotation, svd3};
 
 fn mat() -> impl Strategy<Value = Mat3A> {
     prop::array::uniform9(-2.0f32..2.0).prop_map(|a| Mat3A::from_cols_array(&a))
@@ -81,6 +81,60 @@ proptest! {
 
     #[test]
     fn svd_is_robust_near_singular_and_inverted(a in hard_mat()) { check(a)?; }
+
+    #[test]
+    fn newton_polar_rotation_matches_svd_polar(a in mat()) { check_rotation(a)?; }
+
+    #[test]
+    fn newton_polar_rotation_is_robust_near_singular_and_inverted(a in hard_mat()) {
+        check_rotation(a)?;
+    }
+
+    #[test]
+    fn newton_polar_rotation_of_elastic_f_matches_svd_polar(
+        angles in prop::array::uniform3(-3.2f32..3.2),
+        strain in prop::array::uniform9(-0.3f32..0.3),
+    ) {
+        // F = R (I + E): the deformation gradients of an elastic body, where Newton is used.
+        let r = Mat3A::from_euler(glam::EulerRot::XYZ, angles[0], angles[1], angles[2]);
+        check_rotation(r * (Mat3A::IDENTITY + Mat3A::from_cols_array(&strain)))?;
+    }
+}
+
+/// [`polar_rotation`] is a proper rotation and agrees with the SVD's R = U Vᵀ.
+fn check_rotation(a: Mat3A) -> Result<(), TestCaseError> {
+    let r = polar_rotation(a);
+    let reference = polar(a).r;
+    prop_assert!(r.is_finite());
+    prop_assert!(
+        (r.determinant() - 1.0).abs() < 1e-4,
+        "det {}",
+        r.determinant()
+    );
+    let orthogonality = (r.transpose() * r - Mat3A::IDENTITY)
+        .to_cols_array()
+        .iter()
+        .fold(0.0f32, |m, v| m.max(v.abs()));
+    prop_assert!(orthogonality < 1e-5, "RᵀR - I = {orthogonality} for {a:?}");
+    // A perturbation δ of A moves R by up to 2 |δ| / (σ1 + σ2) (Higham 1986, theorem 2.3, σ1, σ2
+    // the two smallest): both methods' f32 rounding, about 1e-6 σ0, amplified by that. Where
+    // σ1 + σ2 vanishes R is not determined and only the checks above apply.
+    let s = svd3(a).sigma;
+    let gap = s.y + s.z;
+    if gap > 1e-3 * s.x {
+        let err = (r - reference)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f32, |m, v| m.max(v.abs()));
+        let tol = 2e-5 * (s.x / gap).max(1.0);
+        prop_assert!(err <= tol, "R differs by {err} (tol {tol}) for {a:?}");
+    }
+    Ok(())
+}
+
+#[test]
+fn newton_polar_rotation_of_identity_is_exact() {
+    assert_eq!(polar_rotation(Mat3A::IDENTITY), Mat3A::IDENTITY);
 }
 
 #[test]

@@ -2,12 +2,13 @@
 //! 2018) and PhysGaussian.
 //!
 //! ψ(F) = mu Σ(σ_i - 1)² + lambda/2 (J - 1)²;  P = 2 mu (F - R) + lambda (J - 1) J F⁻ᵀ;
-//! τ = P Fᵀ = 2 mu (F - R) Fᵀ + lambda (J - 1) J I, with R from the polar decomposition of F.
+//! τ = P Fᵀ = 2 mu (F - R) Fᵀ + lambda (J - 1) J I, with R from the polar decomposition of F
+//! ([`crate::math::polar_rotation`]).
 
 use glam::Mat3A;
 
 use super::{ConstitutiveModel, ElasticParams};
-use crate::math::polar;
+use crate::math::polar_rotation;
 
 /// Fixed-corotated elastic material.
 #[derive(Debug, Clone, PartialEq)]
@@ -26,7 +27,7 @@ impl Jelly {
 /// Fixed-corotated Kirchhoff stress with explicit Lamé parameters (shared by snow).
 #[inline]
 pub(crate) fn corotated_stress(f: Mat3A, mu: f32, lambda: f32) -> Mat3A {
-    let r = polar(f).r;
+    let r = polar_rotation(f);
     let j = f.determinant();
     (f - r) * f.transpose() * (2.0 * mu)
         + Mat3A::from_diagonal(glam::Vec3::splat(lambda * (j - 1.0) * j))

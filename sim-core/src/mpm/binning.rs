@@ -13,6 +13,9 @@ pub const BLOCK_NODES: usize = 64;
 pub const REGION: usize = 6;
 /// Nodes in that region.
 pub const REGION_NODES: usize = REGION * REGION * REGION;
+/// Length of the run of region indices (x fastest) from a particle's first 3³ stencil node to its
+/// last: the stencil read or written as one fixed-size window of its region.
+pub const STENCIL_SPAN: usize = 2 * REGION * REGION + 2 * REGION + 3;
 /// Block coordinates must satisfy |k| < 2^20 (a grid of 4M cells per axis).
 const KEY_LIMIT: i32 = 1 << 20;
 
@@ -38,6 +41,8 @@ pub struct Binning {
     pub block_of: Vec<u32>,
     /// Reused (key, particle) buffer.
     scratch: Vec<(u64, u32)>,
+    /// Reused buffer of the particles that changed blocks.
+    movers: Vec<(u64, u32)>,
 }
 
 /// Packs block coordinates into a u64 that sorts lexicographically by (x, y, z).
@@ -66,8 +71,9 @@ impl Binning {
     /// The smallest index of a particle whose position is not finite or out of range.
     pub fn rebuild(&mut self, x: &[Vec3A], inv_dx: f32) -> Result<(), usize> {
         // Keys in the previous substep's order: particles rarely change blocks between substeps,
-        // so the list is usually already sorted and the sort is skipped. (block, index) pairs are
-        // unique, so the sorted result never depends on the input order or the thread count.
+        // so the list is usually already sorted, or sorted but for the few particles that moved
+        // (see `sort_from_previous`). (block, index) pairs are unique, so the sorted result never
+        // depends on the input order, the method or the thread count.
         let n = x.len();
         let reuse = self.order.len() == n;
         // An invalid position gets the key u64::MAX (packed keys are < 2^63).
@@ -90,7 +96,13 @@ impl Binning {
             return Err(bad);
         }
         if !keyed.windows(2).all(|w| w[0] < w[1]) {
-            keyed.par_sort_unstable();
+            let covered = self.blocks.first().is_some_and(|b| b.start == 0)
+                && self.blocks.last().is_some_and(|b| b.end as usize == n);
+            if reuse && covered {
+                self.sort_from_previous(&mut keyed);
+            } else {
+                keyed.par_sort_unstable();
+            }
         }
         self.order.clear();
         self.blocks.clear();
@@ -117,5 +129,77 @@ impl Binning {
         }
         self.scratch = keyed;
         Ok(())
+    }
+
+    /// Sorts `keyed`, (key, particle) pairs listed in the previous [`Self::order`] that
+    /// [`Self::blocks`] still describes. The pairs whose key is their previous block's are still
+    /// in order; the others (the particles that changed blocks) are sorted apart and merged in,
+    /// in O(N) plus a sort of the movers.
+    fn sort_from_previous(&mut self, keyed: &mut [(u64, u32)]) {
+        let mut movers = std::mem::take(&mut self.movers);
+        movers.clear();
+        let mut stayed = 0;
+        for pb in &self.blocks {
+            let previous = pack(pb.key);
+            for i in pb.start as usize..pb.end as usize {
+                let entry = keyed[i];
+                if entry.0 == previous {
+                    keyed[stayed] = entry;
+                    stayed += 1;
+                } else {
+                    movers.push(entry);
+                }
+            }
+        }
+        movers.sort_unstable();
+        // Merge from the back, in place: keyed[..stayed] and movers into keyed.
+        let (mut i, mut j) = (stayed, movers.len());
+        while j > 0 {
+            let w = i + j - 1;
+            if i > 0 && keyed[i - 1] > movers[j - 1] {
+                keyed[w] = keyed[i - 1];
+                i -= 1;
+            } else {
+                keyed[w] = movers[j - 1];
+                j -= 1;
+            }
+        }
+        self.movers = movers;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Positions on a jittered lattice spanning several blocks (cell 0.1 m).
+    fn cloud(n: u32, shift: f32) -> Vec<Vec3A> {
+        (0..n)
+            .map(|i| {
+                let h = i.wrapping_mul(2_654_435_761);
+                let j = Vec3A::new(
+                    (h % 97) as f32,
+                    (h / 97 % 89) as f32,
+                    (h / 8633 % 83) as f32,
+                );
+                j * 0.031 + Vec3A::splat(shift * (i % 3) as f32)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn rebuild_after_moves_matches_a_fresh_sort() {
+        let inv_dx = 10.0;
+        let mut bins = Binning::default();
+        bins.rebuild(&cloud(5000, 0.0), inv_dx).expect("valid");
+        // A third of the particles move by up to a block; the merge path must give the fresh
+        // sort's order, blocks and block indices.
+        let moved = cloud(5000, 0.37);
+        bins.rebuild(&moved, inv_dx).expect("valid");
+        let mut fresh = Binning::default();
+        fresh.rebuild(&moved, inv_dx).expect("valid");
+        assert_eq!(bins.order, fresh.order);
+        assert_eq!(bins.blocks, fresh.blocks);
+        assert_eq!(bins.block_of, fresh.block_of);
     }
 }

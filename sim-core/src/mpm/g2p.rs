@@ -6,9 +6,10 @@
 use glam::{Mat3A, Vec3A};
 use rayon::prelude::*;
 
-use super::binning::{BLOCK, BLOCK_NODES, Binning, REGION, REGION_NODES};
+use super::binning::{BLOCK, BLOCK_NODES, Binning, REGION, REGION_NODES, STENCIL_SPAN};
 use super::bspline::Stencil;
 use super::grid::SparseGrid;
+use super::p2g::region_index;
 use super::particles::Particles;
 use crate::material::{ConstitutiveModel, Material};
 
@@ -76,43 +77,51 @@ pub fn gather(
             let s = Stencil::new(*x, inv_dx);
             let origin = bins.blocks[b as usize].key * BLOCK;
             let local = (s.base - origin).as_uvec3();
-            let region = &regions[b as usize];
+            let first = region_index(local.x as usize, local.y as usize, local.z as usize);
+            // The particle's 3³ nodes as one fixed-size window: one bounds check, not 27.
+            let nodes: &[Vec3A; STENCIL_SPAN] = regions[b as usize][first..first + STENCIL_SPAN]
+                .try_into()
+                .expect("window length is STENCIL_SPAN");
             let v_old = *v - v_ref;
             // With u = vi - v_old and d = (i, j, k) - fx (cells): v = v_old + Σ w u and
             // C ∝ Σ w u dᵀ. Σ w d = 0, so subtracting the particle's previous velocity changes
             // nothing in exact arithmetic but keeps a uniform translation from leaking rounding
-            // noise into C (and F). Per axis, wd = w · (offset - fx) is formed once, and the sums
-            // run per row of 3 nodes along x, then per (j, k) weight, without cancellation.
+            // noise into C (and F). The weights are separable, so the sums contract one axis at a
+            // time: along x per row of 3 nodes (with w and with w d), then along y per (k), then
+            // along z, always in the same order.
             let wd = [
                 s.w[0] * (Vec3A::ZERO - s.fx),
                 s.w[1] * (Vec3A::ONE - s.fx),
                 s.w[2] * (Vec3A::splat(2.0) - s.fx),
             ];
-            let mut sum_v = Vec3A::ZERO;
-            let mut col = [Vec3A::ZERO; 3];
+            // Per k: Σ_j wy (Σ_i wx u), Σ_j wdy (Σ_i wx u), Σ_j wy (Σ_i wdx u).
+            let mut plane_w = [Vec3A::ZERO; 3];
+            let mut plane_dy = [Vec3A::ZERO; 3];
+            let mut plane_dx = [Vec3A::ZERO; 3];
             for k in 0..3usize {
                 for j in 0..3usize {
-                    let row = local.x as usize
-                        + REGION * (local.y as usize + j)
-                        + REGION * REGION * (local.z as usize + k);
+                    let row = region_index(0, j, k);
                     let u = [
-                        region[row] - v_old,
-                        region[row + 1] - v_old,
-                        region[row + 2] - v_old,
+                        nodes[row] - v_old,
+                        nodes[row + 1] - v_old,
+                        nodes[row + 2] - v_old,
                     ];
                     let row_w = u[0] * s.w[0].x + u[1] * s.w[1].x + u[2] * s.w[2].x;
-                    let row_v = region[row] * s.w[0].x
-                        + region[row + 1] * s.w[1].x
-                        + region[row + 2] * s.w[2].x;
                     let row_d = u[0] * wd[0].x + u[1] * wd[1].x + u[2] * wd[2].x;
-                    let wjk = s.w[j].y * s.w[k].z;
-                    sum_v += row_v * wjk;
-                    col[0] += row_d * wjk;
-                    col[1] += row_w * (wd[j].y * s.w[k].z);
-                    col[2] += row_w * (s.w[j].y * wd[k].z);
+                    plane_w[k] += row_w * s.w[j].y;
+                    plane_dy[k] += row_w * wd[j].y;
+                    plane_dx[k] += row_d * s.w[j].y;
                 }
             }
-            let new_v = sum_v;
+            let mut sum_u = Vec3A::ZERO;
+            let mut col = [Vec3A::ZERO; 3];
+            for k in 0..3usize {
+                sum_u += plane_w[k] * s.w[k].z;
+                col[0] += plane_dx[k] * s.w[k].z;
+                col[1] += plane_dy[k] * s.w[k].z;
+                col[2] += plane_w[k] * wd[k].z;
+            }
+            let new_v = v_old + sum_u;
             let new_c = Mat3A::from_cols(col[0], col[1], col[2]);
             let new_v = new_v + v_ref;
             // d above is in cells: (4/dx²) · dx = 4/dx.
@@ -121,12 +130,13 @@ pub fn gather(
             let mut new_plastic = *plastic;
             materials[*mat as usize].project(&mut new_f, &mut new_plastic, dt_s);
             let new_x = *x + new_v * dt_s;
-            let ok = new_x.is_finite()
-                && new_v.is_finite()
-                && new_c.is_finite()
-                && new_f.is_finite()
-                && new_plastic.is_finite();
-            if !ok {
+            // x · 0 is ±0 for finite x and NaN otherwise, so a sum of such products is zero
+            // exactly when every component is finite (one test instead of one per vector).
+            let probe = (new_x * 0.0 + new_v * 0.0)
+                + (new_c.x_axis * 0.0 + new_c.y_axis * 0.0 + new_c.z_axis * 0.0)
+                + (new_f.x_axis * 0.0 + new_f.y_axis * 0.0 + new_f.z_axis * 0.0)
+                + Vec3A::splat(new_plastic * 0.0);
+            if probe != Vec3A::ZERO {
                 return (0.0f32, p);
             }
             *x = new_x;

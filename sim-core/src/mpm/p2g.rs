@@ -6,7 +6,7 @@
 use glam::{Mat3A, Vec4};
 use rayon::prelude::*;
 
-use super::binning::{BLOCK, Binning, REGION, REGION_NODES};
+use super::binning::{BLOCK, Binning, REGION, REGION_NODES, STENCIL_SPAN};
 use super::bspline::Stencil;
 use super::particles::Particles;
 use crate::material::{ConstitutiveModel, Material};
@@ -29,6 +29,29 @@ pub fn scatter(
     let inv_dx = 1.0 / dx_m;
     let d_inv = 4.0 * inv_dx * inv_dx;
     scratch.resize(bins.blocks.len(), [Vec4::ZERO; REGION_NODES]);
+    // Every array cut to the same length N, so one bounds check per particle covers them all.
+    let n = particles.len();
+    let Particles {
+        x,
+        v,
+        c,
+        f,
+        plastic,
+        mass_kg,
+        volume0_m3,
+        material,
+        ..
+    } = particles;
+    let (x, v, c, f, plastic, mass_kg, volume0_m3, material) = (
+        &x[..n],
+        &v[..n],
+        &c[..n],
+        &f[..n],
+        &plastic[..n],
+        &mass_kg[..n],
+        &volume0_m3[..n],
+        &material[..n],
+    );
     scratch
         .par_iter_mut()
         .zip(bins.blocks.par_iter())
@@ -37,18 +60,15 @@ pub fn scatter(
             let origin = pb.key * BLOCK;
             for &p in &bins.order[pb.start as usize..pb.end as usize] {
                 let p = p as usize;
-                let x = particles.x[p];
-                let m = particles.mass_kg[p];
-                let material = &materials[particles.material[p] as usize];
-                let tau = material.kirchhoff_stress(particles.f[p], particles.plastic[p]);
-                let affine: Mat3A =
-                    tau * (-dt_s * particles.volume0_m3[p] * d_inv) + particles.c[p] * m;
+                let m = mass_kg[p];
+                let tau = materials[material[p] as usize].kirchhoff_stress(f[p], plastic[p]);
+                let affine: Mat3A = tau * (-dt_s * volume0_m3[p] * d_inv) + c[p] * m;
                 // Momentum at offset o: w (m v + affine (o - fx) dx) = w (q + A o) with A = affine dx.
                 // Carried as Vec4 with the mass in w (the A columns have w = 0), so one product
                 // per node gives (momentum, mass) · weight.
-                let s = Stencil::new(x, inv_dx);
+                let s = Stencil::new(x[p], inv_dx);
                 let a = affine * dx_m;
-                let q = (particles.v[p] - v_ref) * m - a * s.fx;
+                let q = (v[p] - v_ref) * m - a * s.fx;
                 let q4 = Vec4::from((q, m));
                 let (ax, ay, az) = (
                     Vec4::from((a.x_axis, 0.0)),
@@ -56,16 +76,19 @@ pub fn scatter(
                     Vec4::from((a.z_axis, 0.0)),
                 );
                 let local = (s.base - origin).as_uvec3();
+                let first = region_index(local.x as usize, local.y as usize, local.z as usize);
+                // The particle's 3³ nodes as one fixed-size window: one bounds check, not 27.
+                let nodes: &mut [Vec4; STENCIL_SPAN] = (&mut region[first..first + STENCIL_SPAN])
+                    .try_into()
+                    .expect("window length is STENCIL_SPAN");
                 for k in 0..3 {
                     for j in 0..3 {
                         let wjk = s.w[j].y * s.w[k].z;
                         let qjk = q4 + ay * j as f32 + az * k as f32;
-                        let row = (local.x as usize)
-                            + REGION * (local.y as usize + j)
-                            + REGION * REGION * (local.z as usize + k);
-                        region[row] += qjk * (s.w[0].x * wjk);
-                        region[row + 1] += (qjk + ax) * (s.w[1].x * wjk);
-                        region[row + 2] += (qjk + ax * 2.0) * (s.w[2].x * wjk);
+                        let row = region_index(0, j, k);
+                        nodes[row] += qjk * (s.w[0].x * wjk);
+                        nodes[row + 1] += (qjk + ax) * (s.w[1].x * wjk);
+                        nodes[row + 2] += (qjk + ax * 2.0) * (s.w[2].x * wjk);
                     }
                 }
             }
