@@ -437,8 +437,10 @@ fn draw(
     chart::line_chart(
         stem,
         &format!(
-            "Real time, {} threads: error vs speed, dx swept with h = {} dx",
-            a.threads, a.spacing_per_dx
+            "Real time, {} threads: error vs speed, dx swept with h = {} dx{}",
+            a.threads,
+            a.spacing_per_dx,
+            if a.no_rigid { "" } else { ", plus rigid" }
         ),
         &format!(
             "simulated frames per wall second (runs of {})",
