@@ -7,11 +7,11 @@
 //! as in Taichi's reference implementation, so a fully crushed or stretched particle stays stable.
 //!
 //! The return is the closest point of the box in the elastic energy norm
-//! ‖d‖² = 2μ Σ dᵢ² + λ (Σ dᵢ)² of the principal strains d = σ - 1 (the metric of the linearised
-//! fixed-corotated energy; the closest-point return mapping of Simo & Hughes 1998,
-//! "Computational Inelasticity"), not eq. 11's clamp of each σᵢ on its own. Both agree when
-//! lambda = 0 (nu = 0). The paper's clamp turns part of a volume-preserving shear into a volume change, which
-//! at nu -> 0.5 (lambda ≫ mu) raises the stored energy at every projection: `splatphys bench
+//! ‖d‖² = 2μ Σ dᵢ² + λ (Σ dᵢ)² of the principal strains d = σ - 1, the metric of the linearised
+//! fixed-corotated energy (the closest-point return mapping of Simo & Hughes 1998, "Computational
+//! Inelasticity"), not eq. 11's clamp of each σᵢ on its own. Both agree when lambda = 0 (nu = 0).
+//! The paper's clamp turns part of a volume-preserving shear into a volume change, which at
+//! nu -> 0.5 (lambda ≫ mu) raises the stored energy at every projection: `splatphys bench
 //! stability` measured 19–437 % energy growth for nu ≥ 0.45 with it. A projection in the energy
 //! norm onto a convex set that holds the rest state never lengthens the strain in that norm, so
 //! the return itself never adds elastic energy (to first order in the strain).
