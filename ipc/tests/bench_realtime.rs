@@ -6,9 +6,7 @@
 
 mod common;
 
-use std::process::Command;
-
-use common::table::{num, read_csv};
+use common::table::{num, read_csv, run_bench};
 
 #[test]
 fn realtime_sweep_writes_a_zero_error_reference_one_row_per_cell_size_and_a_rigid_row() {
@@ -17,27 +15,18 @@ fn realtime_sweep_writes_a_zero_error_reference_one_row_per_cell_size_and_a_rigi
         env!("CARGO_MANIFEST_DIR"),
         "/../scenes/validation_free_fall.toml"
     );
-    let out = Command::new(env!("CARGO_BIN_EXE_splatphys"))
-        .args(["bench", "realtime", "--scenes", scene])
-        .args([
-            "--duration-s",
-            "0.02",
-            "--dx-m",
-            "0.01,0.02",
-            "--threads",
-            "2",
-        ])
-        .arg("--out-dir")
-        .arg(dir.path())
-        .output()
-        .expect("run splatphys bench realtime");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstderr: {}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let args = [
+        "realtime",
+        "--scenes",
+        scene,
+        "--duration-s",
+        "0.02",
+        "--dx-m",
+        "0.01,0.02",
+        "--threads",
+        "2",
+    ];
+    let stdout = run_bench(&args, dir.path());
     let summary: serde_json::Value = stdout
         .lines()
         .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())

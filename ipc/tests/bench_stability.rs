@@ -6,9 +6,7 @@
 
 mod common;
 
-use std::process::Command;
-
-use common::table::{num, read_csv};
+use common::table::{num, read_csv, run_bench};
 
 /// Methods × materials of the default sweep.
 const COMBOS: usize = 3 * 7;
@@ -19,25 +17,7 @@ const QUICK_RUNS_PER_COMBO: usize = 4 + 4 + 4;
 #[test]
 fn quick_stability_map_is_clean_with_automatic_dt_and_fails_at_the_largest_forced_cfl() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_splatphys"))
-        .args([
-            "bench",
-            "stability",
-            "--quick",
-            "--threads",
-            "2",
-            "--out-dir",
-        ])
-        .arg(dir.path())
-        .output()
-        .expect("run splatphys bench stability");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "exit {:?}\nstderr: {}",
-        out.status,
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = run_bench(&["stability", "--quick", "--threads", "2"], dir.path());
     let plan: serde_json::Value = stdout
         .lines()
         .find(|l| l.contains("\"stability_plan\""))

@@ -1,8 +1,27 @@
-//! CSV files the bench commands write, read back as rows of column -> text (RFC 4180 quoting,
-//! through the `csv` crate).
+//! `splatphys bench ...` run as a process, and the CSV files it writes read back as rows of
+//! column -> text (RFC 4180 quoting, through the `csv` crate).
 
 use std::collections::HashMap;
 use std::path::Path;
+
+/// Runs `splatphys bench <args> --out-dir <out_dir>` and returns its stdout; panics with its
+/// stderr when it fails.
+pub fn run_bench(args: &[&str], out_dir: &Path) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_splatphys"))
+        .arg("bench")
+        .args(args)
+        .arg("--out-dir")
+        .arg(out_dir)
+        .output()
+        .unwrap_or_else(|e| panic!("run splatphys bench {args:?}: {e}"));
+    assert!(
+        out.status.success(),
+        "splatphys bench {args:?}: exit {:?}\nstderr: {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
 
 /// One CSV row: column name -> field text.
 pub type Row = HashMap<String, String>;

@@ -28,6 +28,15 @@ struct Step<'a> {
 }
 
 impl<'a> Step<'a> {
+    fn new(colliders: &'a [Collider], gravity_m_s2: Vec3A, dt_s: f32, time_s: f64) -> Self {
+        Self {
+            colliders,
+            gravity_m_s2,
+            dt_s,
+            time_s,
+        }
+    }
+
     /// The solver input for `materials`.
     fn input(self, materials: &'a [Material]) -> SubstepInput<'a> {
         SubstepInput {
@@ -66,12 +75,7 @@ impl<'a> Step<'a> {
 impl World {
     /// Method `com`: every awake deformable object runs a whole substep on its own grid.
     pub(super) fn mpm_per_object_substep(&mut self, dt_s: f32) -> Result<(), WorldError> {
-        let step = Step {
-            colliders: &self.colliders,
-            gravity_m_s2: self.gravity_m_s2,
-            dt_s,
-            time_s: self.time_s,
-        };
+        let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
         for b in &mut self.bodies {
             if !simulated(b) {
                 b.substeps_skipped += 1;
@@ -89,12 +93,7 @@ impl World {
     /// nodes, per-object G2P.
     pub(super) fn multi_field_substep(&mut self, dt_s: f32) -> Result<(), WorldError> {
         let dx_m = self.dx_m();
-        let step = Step {
-            colliders: &self.colliders,
-            gravity_m_s2: self.gravity_m_s2,
-            dt_s,
-            time_s: self.time_s,
-        };
+        let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
         for b in &mut self.bodies {
             if !simulated(b) {
                 b.substeps_skipped += 1;
@@ -143,12 +142,7 @@ impl World {
             all.material[start..].fill(materials.len() as u16);
             materials.push(b.materials[0].clone());
         }
-        let step = Step {
-            colliders: &self.colliders,
-            gravity_m_s2: self.gravity_m_s2,
-            dt_s,
-            time_s: self.time_s,
-        };
+        let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
         let r = self
             .shared
             .substep(&mut all, &step.input(&materials))

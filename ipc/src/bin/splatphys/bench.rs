@@ -50,7 +50,7 @@ pub enum BenchCommand {
     /// restitution law versus wall time, and time per substep versus particle count (charts and
     /// CSV in --out-dir).
     #[command(
-        after_help = "Examples:\n  splatphys bench compare\n  splatphys bench compare --dx-m 0.02,0.01 --particles 10000,100000 --objects 2 --out-dir /tmp/cmp"
+        after_help = "Examples:\n  splatphys bench compare\n  splatphys bench compare --dx-m 0.02,0.01 --particles 10000,100000 --objects 2 --out-dir out/cmp"
     )]
     Compare(crate::bench_compare::CompareBenchArgs),
     /// The `mpm` baseline of `compare` (two elastic spheres head-on on one shared grid) at one
@@ -60,19 +60,19 @@ pub enum BenchCommand {
     /// The stability map: which E, nu, impact speed and forced CFL number each method survives
     /// for every material model, on a two-sphere impact (heat maps and CSV in --out-dir).
     #[command(
-        after_help = "Examples:\n  splatphys bench stability\n  splatphys bench stability --quick --out-dir /tmp/stab\n  splatphys bench stability --methods com --materials jelly,snow --threads 2"
+        after_help = "Examples:\n  splatphys bench stability\n  splatphys bench stability --quick --out-dir out/stab\n  splatphys bench stability --methods com --materials jelly,snow --threads 2"
     )]
     Stability(crate::bench_stability::StabilityBenchArgs),
     /// Physics-particle subsets on a captured scene: COM and per-Gaussian error against the
     /// full-particle run versus speed-up, ratios 1 to 1/64 (chart and CSV in --out-dir).
     #[command(
-        after_help = "Examples:\n  splatphys bench subsets\n  splatphys bench subsets --scene scenes/guitar_topple.toml --ratios 1,4,16 --duration-s 0.5 --out-dir /tmp/sub"
+        after_help = "Examples:\n  splatphys bench subsets\n  splatphys bench subsets --scene scenes/guitar_topple.toml --ratios 1,4,16 --duration-s 0.5 --out-dir out/sub"
     )]
     Subsets(crate::bench_subsets::SubsetsBenchArgs),
     /// Real time: coarser grids with particles at half the cell size on captured scenes, error
     /// in reference cells against simulated frames per wall second (chart and CSV in --out-dir).
     #[command(
-        after_help = "Examples:\n  splatphys bench realtime\n  splatphys bench realtime --scenes scenes/donut_snow_push.toml --duration-s 0.6 --dx-m 0.005,0.01,0.02 --out-dir /tmp/rt"
+        after_help = "Examples:\n  splatphys bench realtime\n  splatphys bench realtime --scenes scenes/donut_snow_push.toml --duration-s 0.6 --dx-m 0.005,0.01,0.02 --out-dir out/rt"
     )]
     Realtime(crate::bench_realtime::RealtimeBenchArgs),
     /// A child process of `bench ipc` (subscriber, socket reader or command flood).
@@ -164,6 +164,17 @@ pub fn elastic_cube(particles_per_axis: u32, dx_m: f32, domain_m: f32) -> Result
     Ok(sys)
 }
 
+/// A rayon pool of `threads` workers for one bench (results never depend on the count).
+///
+/// # Errors
+/// When the pool cannot be built.
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("thread pool")
+}
+
 fn mpm(a: &MpmBenchArgs) -> Result<()> {
     // Resolved first: a broken checkout fails before the run, not after it.
     let script = if a.vs_taichi {
@@ -174,10 +185,7 @@ fn mpm(a: &MpmBenchArgs) -> Result<()> {
     } else {
         None
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()
-        .context("thread pool")?;
+    let pool = thread_pool(a.threads)?;
     let dx = 1.0 / a.grid.max(1) as f32;
     let mut sys = elastic_cube(a.particles_per_axis, dx, a.domain_scale)
         .context("--domain-scale too small")?;

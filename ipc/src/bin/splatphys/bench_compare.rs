@@ -75,10 +75,7 @@ pub fn run(a: &CompareBenchArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()
-        .context("thread pool")?;
+    let pool = crate::bench::thread_pool(a.threads)?;
     pool.install(|| {
         accuracy(a)?;
         scaling(a)

@@ -37,7 +37,7 @@ use serde_json::{Value, json};
 
 use splatphys_core::scene::{ObjectKind, Scene, SceneObject};
 
-use crate::bench_subsets::{Trace, moving, percentile, run_scene};
+use crate::bench_subsets::{Trace, gaussian_errors_cells, max_distance, moving, run_scene};
 use crate::chart::{self, Series};
 use crate::scene_arg;
 
@@ -119,14 +119,6 @@ const COLUMNS: [&str; 33] = [
 /// Errors below this (in reference cells) are drawn at it on the log axis.
 const CHART_FLOOR_CELLS: f64 = 1e-4;
 
-/// Largest distance (m) between matching points of two `[frame][object]` tracks.
-fn max_distance(a: &[Vec<glam::DVec3>], b: &[Vec<glam::DVec3>]) -> f64 {
-    a.iter()
-        .zip(b)
-        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (*x - *y).length()))
-        .fold(0.0, f64::max)
-}
-
 /// The comparison of `t` against `reference` as a JSON row (`setting`, `dx`, `spacing` named by
 /// the caller). Errors in cells of `dx_ref`.
 fn row(
@@ -161,15 +153,7 @@ fn row(
             .collect()
     };
     let displacement_m = max_distance(&displacement(t), &displacement(reference));
-    let mut errors: Vec<f64> = t
-        .gaussians
-        .iter()
-        .zip(&reference.gaussians)
-        .map(|(p, q)| (*p - *q).length() as f64 / dx_ref)
-        .collect();
-    let mean = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
-    let p95 = percentile(&mut errors, 0.95);
-    let max = errors.last().copied().unwrap_or(0.0);
+    let (mean, p95, max) = gaussian_errors_cells(t, reference, dx_ref);
     let e = &t.explain;
     let limit = e
         .objects
@@ -267,10 +251,7 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()
-        .context("thread pool")?;
+    let pool = crate::bench::thread_pool(a.threads)?;
     let mut scenes = Vec::new();
     for (i, path) in a.scenes.iter().enumerate() {
         let duration = a.duration_s.get(i).or(a.duration_s.first()).copied();
@@ -307,19 +288,21 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
             a.dx_m.clone()
         };
         let sim = &scene.simulation;
-        let run_info = |frames: usize| (sim.duration_s, frames, a.threads);
-        pb.set_message(format!("{name} reference"));
-        let reference = pool.install(|| run_scene(scene, &pb))?;
-        let frames = reference.com.len();
-        let r = row(
-            name,
-            "reference",
-            (dx_ref, dx_ref, None),
-            run_info(frames),
-            &reference,
-            &reference,
-        )?;
-        pb.suspend(|| println!("{r}"));
+        // Runs `s` and prints and returns its row against `reference` (itself when `None`).
+        let run = |s: &Scene,
+                   setting: &str,
+                   dxs: (f64, Option<f64>),
+                   reference: Option<&Trace>|
+         -> Result<(Trace, Value)> {
+            pb.set_message(format!("{name} {setting}"));
+            let t = pool.install(|| run_scene(s, &pb))?;
+            let reference = reference.unwrap_or(&t);
+            let info = (sim.duration_s, reference.com.len(), a.threads);
+            let r = row(name, setting, (dxs.0, dx_ref, dxs.1), info, &t, reference)?;
+            pb.suspend(|| println!("{r}"));
+            Ok((t, r))
+        };
+        let (reference, r) = run(scene, "reference", (dx_ref, None), None)?;
         let mut scene_rows = vec![r];
         for &dx in &dxs {
             let mut s = scene.clone();
@@ -329,33 +312,11 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
                 s.objects[k].physics_spacing_m = Some(h as f32);
             }
             let setting = format!("dx {:.1} mm / h {:.2} mm", dx * 1e3, h * 1e3);
-            pb.set_message(format!("{name} {setting}"));
-            let t = pool.install(|| run_scene(&s, &pb))?;
-            let r = row(
-                name,
-                &setting,
-                (dx, dx_ref, Some(h)),
-                run_info(frames),
-                &t,
-                &reference,
-            )?;
-            pb.suspend(|| println!("{r}"));
-            scene_rows.push(r);
+            scene_rows.push(run(&s, &setting, (dx, Some(h)), Some(&reference))?.1);
         }
         if let Some(s) = rigid_variant(scene, a) {
             let setting = "rigid (COM layer only)";
-            pb.set_message(format!("{name} {setting}"));
-            let t = pool.install(|| run_scene(&s, &pb))?;
-            let r = row(
-                name,
-                setting,
-                (dx_ref, dx_ref, None),
-                run_info(frames),
-                &t,
-                &reference,
-            )?;
-            pb.suspend(|| println!("{r}"));
-            scene_rows.push(r);
+            scene_rows.push(run(&s, setting, (dx_ref, None), Some(&reference))?.1);
         }
         let s = summary(name, &scene_rows, a.target_fps);
         pb.suspend(|| println!("{s}"));

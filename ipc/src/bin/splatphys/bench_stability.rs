@@ -654,10 +654,7 @@ fn run_all(runs: &[RunSpec], threads: usize, pb: &ProgressBar) -> Result<Vec<Out
         let workers: Vec<_> = (0..threads.max(1))
             .map(|_| {
                 scope.spawn(|| -> Result<Vec<(usize, Outcome)>> {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(1)
-                        .build()
-                        .context("thread pool")?;
+                    let pool = crate::bench::thread_pool(1)?;
                     let mut mine = Vec::new();
                     loop {
                         let k = next.fetch_add(1, Ordering::Relaxed);

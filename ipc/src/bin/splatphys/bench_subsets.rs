@@ -178,6 +178,29 @@ fn process_cpu_s() -> Option<f64> {
     Some(ticks as f64 / 100.0)
 }
 
+/// Largest distance (m) between matching points of two `[frame][object]` tracks.
+pub(crate) fn max_distance(a: &[Vec<DVec3>], b: &[Vec<DVec3>]) -> f64 {
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| p.iter().zip(q).map(|(x, y)| (*x - *y).length()))
+        .fold(0.0, f64::max)
+}
+
+/// Mean, 95th percentile and largest distance between `t`'s and `reference`'s final Gaussian
+/// positions, in cells of side `cell_m`.
+pub(crate) fn gaussian_errors_cells(t: &Trace, reference: &Trace, cell_m: f64) -> (f64, f64, f64) {
+    let mut errors: Vec<f64> = t
+        .gaussians
+        .iter()
+        .zip(&reference.gaussians)
+        .map(|(p, q)| (*p - *q).length() as f64 / cell_m)
+        .collect();
+    let mean = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
+    let p95 = percentile(&mut errors, 0.95);
+    let max = errors.last().copied().unwrap_or(0.0);
+    (mean, p95, max)
+}
+
 /// Nearest-rank percentile `q` in 0..=1 of `v` (sorted in place); 0 when empty.
 pub(crate) fn percentile(v: &mut [f64], q: f64) -> f64 {
     if v.is_empty() {
@@ -212,10 +235,7 @@ pub fn run(a: &SubsetsBenchArgs) -> Result<()> {
     ratios.dedup();
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()
-        .context("thread pool")?;
+    let pool = crate::bench::thread_pool(a.threads)?;
     let frames = (scene.simulation.duration_s * scene.simulation.frame_rate_hz).round() as u64;
     let pb = ProgressBar::new(frames * ratios.len() as u64);
     pb.set_style(
@@ -238,21 +258,8 @@ pub fn run(a: &SubsetsBenchArgs) -> Result<()> {
         pb.set_message(format!("1/{r}"));
         let trace = pool.install(|| run_scene(&s, &pb))?;
         let full = reference.as_ref().unwrap_or(&trace);
-        let com_error_m = trace
-            .com
-            .iter()
-            .zip(&full.com)
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(p, q)| (*p - *q).length()))
-            .fold(0.0f64, f64::max);
-        let mut errors: Vec<f64> = trace
-            .gaussians
-            .iter()
-            .zip(&full.gaussians)
-            .map(|(p, q)| (*p - *q).length() as f64 / dx)
-            .collect();
-        let mean = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
-        let p95 = percentile(&mut errors, 0.95);
-        let max = errors.last().copied().unwrap_or(0.0);
+        let com_error_m = max_distance(&trace.com, &full.com);
+        let (mean, p95, max) = gaussian_errors_cells(&trace, full, dx);
         let row = json!({
             "bench": "subsets",
             "scene": name,

@@ -53,10 +53,7 @@ pub fn spheres(a: &SpheresArgs) -> Result<()> {
     } else {
         None
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()
-        .context("thread pool")?;
+    let pool = crate::bench::thread_pool(a.threads)?;
     let scene = crate::bench_compare::sphere_pair("mpm", a.dx_m, 0.5).replacen(
         "[simulation]\n",
         &format!("[simulation]\nseed = {}\n", a.seed),
