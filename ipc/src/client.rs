@@ -447,7 +447,7 @@ impl Connection {
         let sequence = self.next_sequence;
         self.next_sequence += 1;
         let pending = client
-            .send_copy(cmd.to_msg(sequence))
+            .send_copy(crate::command::encode(cmd, sequence))
             .map_err(|e| IpcError::iox("send command", &self.names.name("command"), e))?;
         Ok((sequence, pending))
     }

@@ -45,147 +45,7 @@ pub const FIELD_RESTITUTION: u32 = 32;
 /// [`CommandMsg::fields`]: `friction` is present.
 pub const FIELD_FRICTION: u32 = 64;
 
-/// Constitutive models an object can be switched to (DESIGN.md, "Materials").
-#[repr(u32)]
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MaterialModel {
-    /// Fixed-corotated elastic ("jelly").
-    FixedCorotated = 0,
-    /// Neo-Hookean elastic.
-    NeoHookean = 1,
-    /// Snow (Stomakhin 2013).
-    Snow = 2,
-    /// Sand (Drucker-Prager, Klár 2016).
-    Sand = 3,
-    /// Metal (von Mises on Hencky strain).
-    Metal = 4,
-    /// Plasticine.
-    Plasticine = 5,
-    /// Foam.
-    Foam = 6,
-}
-
-impl MaterialModel {
-    /// Decodes a wire code.
-    pub fn from_code(code: u32) -> Option<Self> {
-        use MaterialModel::*;
-        [
-            FixedCorotated,
-            NeoHookean,
-            Snow,
-            Sand,
-            Metal,
-            Plasticine,
-            Foam,
-        ]
-        .into_iter()
-        .find(|m| *m as u32 == code)
-    }
-
-    /// Parses a CLI/TOML name (`jelly`, `fixed-corotated`, `neo-hookean`, `snow`, ...).
-    pub fn from_name(name: &str) -> Option<Self> {
-        use MaterialModel::*;
-        Some(match name.to_ascii_lowercase().replace('_', "-").as_str() {
-            "jelly" | "fixed-corotated" | "corotated" => FixedCorotated,
-            "neo-hookean" | "neohookean" => NeoHookean,
-            "snow" => Snow,
-            "sand" => Sand,
-            "metal" => Metal,
-            "plasticine" => Plasticine,
-            "foam" => Foam,
-            _ => return None,
-        })
-    }
-}
-
-/// How an object moves.
-#[repr(u32)]
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ObjectKind {
-    /// Per-object MPM.
-    Deformable = 0,
-    /// Rigid body.
-    Rigid = 1,
-    /// Static collider.
-    Static = 2,
-}
-
-impl ObjectKind {
-    /// Decodes a wire code.
-    pub fn from_code(code: u32) -> Option<Self> {
-        match code {
-            0 => Some(Self::Deformable),
-            1 => Some(Self::Rigid),
-            2 => Some(Self::Static),
-            _ => None,
-        }
-    }
-}
-
-/// A material edit: `None` keeps the current value.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct MaterialEdit {
-    /// New constitutive model.
-    pub model: Option<MaterialModel>,
-    /// Young's modulus E, pascals (> 0).
-    pub youngs_modulus_pa: Option<f64>,
-    /// Poisson ratio nu, in (-1, 0.5).
-    pub poisson_ratio: Option<f64>,
-    /// Density, kg/m³ (> 0).
-    pub density_kg_m3: Option<f64>,
-    /// Coefficient of restitution e, in [0, 1].
-    pub restitution: Option<f64>,
-    /// Coulomb friction coefficient (>= 0).
-    pub friction: Option<f64>,
-}
-
-/// A command a client sends to the server.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Command {
-    /// Apply an impulse (N·s, world) to an object, at a point (m, world) or at its COM.
-    Impulse {
-        /// Target object id.
-        object: u32,
-        /// Impulse, N·s.
-        impulse_n_s: [f64; 3],
-        /// Point of application, metres; `None` = centre of mass.
-        point_m: Option<[f64; 3]>,
-    },
-    /// Set an object's COM velocity, m/s.
-    SetVelocity {
-        /// Target object id.
-        object: u32,
-        /// Velocity, m/s.
-        velocity_m_s: [f64; 3],
-    },
-    /// Edit an object's material.
-    EditMaterial {
-        /// Target object id.
-        object: u32,
-        /// The fields to change.
-        edit: MaterialEdit,
-    },
-    /// Change how an object moves.
-    SetKind {
-        /// Target object id.
-        object: u32,
-        /// New kind.
-        kind: ObjectKind,
-    },
-    /// Stop stepping (frames and status keep flowing).
-    Pause,
-    /// Resume stepping.
-    Resume,
-    /// While paused, advance this many published frames.
-    Step {
-        /// Frames to advance (>= 1).
-        count: u64,
-    },
-    /// Reset the scene to its initial state (bumps the scene generation).
-    Reset,
-    /// Ask the server to shut down cleanly.
-    Shutdown,
-}
+pub use splatphys_types::{Command, MaterialEdit, MaterialModel, ObjectKind, UnknownName};
 
 /// Why a command message could not be decoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -210,14 +70,13 @@ pub enum DecodeError {
     },
 }
 
-impl Command {
-    /// Encodes to the wire form with the given sequence number.
-    pub fn to_msg(&self, sequence: u64) -> CommandMsg {
+/// Encodes `command` to the wire form with the given sequence number.
+pub fn encode(command: &Command, sequence: u64) -> CommandMsg {
         let mut m = CommandMsg {
             sequence,
             ..Default::default()
         };
-        match *self {
+        match *command {
             Command::Impulse {
                 object,
                 impulse_n_s,
@@ -254,14 +113,14 @@ impl Command {
                 set(FIELD_RESTITUTION, edit.restitution, &mut m.restitution);
                 set(FIELD_FRICTION, edit.friction, &mut m.friction);
                 if let Some(model) = edit.model {
-                    m.code = model as u32;
+                    m.code = model.code();
                     m.fields |= FIELD_MODEL;
                 }
             }
             Command::SetKind { object, kind } => {
                 m.kind = CommandKind::SetKind as u32;
                 m.object_id = object;
-                m.code = kind as u32;
+                m.code = kind.code();
             }
             Command::Pause => m.kind = CommandKind::Pause as u32,
             Command::Resume => m.kind = CommandKind::Resume as u32,
@@ -275,8 +134,11 @@ impl Command {
         m
     }
 
-    /// Decodes the wire form. Values are not checked here; see [`crate::validate`].
-    pub fn from_msg(m: &CommandMsg) -> Result<Self, DecodeError> {
+/// Decodes the wire form. Values are not checked here; see [`crate::validate`].
+///
+/// # Errors
+/// [`DecodeError`] for an unknown command kind, material model or object kind code.
+pub fn decode(m: &CommandMsg) -> Result<Command, DecodeError> {
         let opt = |flag: u32, v: f64| (m.fields & flag != 0).then_some(v);
         Ok(match m.kind {
             1 => Command::Impulse {
@@ -319,18 +181,6 @@ impl Command {
             kind => return Err(DecodeError::UnknownKind { kind }),
         })
     }
-
-    /// The object this command targets, if any.
-    pub fn object(&self) -> Option<u32> {
-        match *self {
-            Command::Impulse { object, .. }
-            | Command::SetVelocity { object, .. }
-            | Command::EditMaterial { object, .. }
-            | Command::SetKind { object, .. } => Some(object),
-            _ => None,
-        }
-    }
-}
 
 /// Wire codes of [`ReplyMsg::reject_code`].
 #[repr(u32)]
@@ -465,9 +315,9 @@ mod tests {
             Command::Shutdown,
         ];
         for (i, c) in cmds.iter().enumerate() {
-            let m = c.to_msg(i as u64);
+            let m = encode(c, i as u64);
             assert_eq!(m.sequence, i as u64);
-            assert_eq!(Command::from_msg(&m).unwrap(), *c);
+            assert_eq!(decode(&m).unwrap(), *c);
         }
     }
 
@@ -478,7 +328,7 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(
-            Command::from_msg(&m),
+            decode(&m),
             Err(DecodeError::UnknownKind { kind: 99 })
         );
         let m = CommandMsg {
@@ -487,7 +337,7 @@ mod tests {
             ..Default::default()
         };
         assert!(matches!(
-            Command::from_msg(&m),
+            decode(&m),
             Err(DecodeError::UnknownObjectKind { code: 17 })
         ));
     }

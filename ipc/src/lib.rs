@@ -1,4 +1,5 @@
 //! splatphys_ipc: the wire contract over iceoryx2, the co-simulation server and client helpers.
+//! The protocol alone: it does not depend on the simulation core.
 //!
 //! - [`wire`]: every type that crosses a process boundary (`#[repr(C)]` POD);
 //! - [`services`]: every service's name and settings, defined once for servers and clients;
@@ -17,7 +18,6 @@ pub mod services;
 pub mod simulation;
 pub mod validate;
 pub mod wire;
-pub mod world_sim;
 
 pub use error::IpcError;
 pub use simulation::{Advance, Simulation, SimulationError};

@@ -398,7 +398,7 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
             };
             report.commands_received += 1;
             let msg = *request.payload();
-            let reply = match Command::from_msg(&msg) {
+            let reply = match crate::command::decode(&msg) {
                 Err(e) => Reply::Rejected {
                     code: RejectCode::Malformed,
                     reason: e.to_string(),

@@ -75,3 +75,56 @@ pub trait Simulation {
     /// Whether the simulation reached its configured end.
     fn is_finished(&self) -> bool;
 }
+
+/// A boxed simulation is a simulation (what lets an application hand the server a
+/// `Box<dyn Simulation + Send>` it chose at run time).
+impl<S: Simulation + ?Sized> Simulation for Box<S> {
+    fn scene_name(&self) -> &str {
+        (**self).scene_name()
+    }
+    fn scene_generation(&self) -> u32 {
+        (**self).scene_generation()
+    }
+    fn gaussian_count(&self) -> usize {
+        (**self).gaussian_count()
+    }
+    fn object_count(&self) -> usize {
+        (**self).object_count()
+    }
+    fn object_name(&self, id: u32) -> Option<&str> {
+        (**self).object_name(id)
+    }
+    fn sh_degree(&self) -> u32 {
+        (**self).sh_degree()
+    }
+    fn frame_dt_s(&self) -> f64 {
+        (**self).frame_dt_s()
+    }
+    fn step(&self) -> u64 {
+        (**self).step()
+    }
+    fn time_s(&self) -> f64 {
+        (**self).time_s()
+    }
+    fn substeps(&self) -> u64 {
+        (**self).substeps()
+    }
+    fn write_scene(&self, out: &mut [SceneGaussian]) {
+        (**self).write_scene(out);
+    }
+    fn advance(&mut self) -> Result<Advance, SimulationError> {
+        (**self).advance()
+    }
+    fn write_frame(&self, out: &mut [FrameGaussian]) {
+        (**self).write_frame(out);
+    }
+    fn write_objects(&self, out: &mut [ObjectState]) {
+        (**self).write_objects(out);
+    }
+    fn apply(&mut self, command: &Command) -> Result<u64, String> {
+        (**self).apply(command)
+    }
+    fn is_finished(&self) -> bool {
+        (**self).is_finished()
+    }
+}

@@ -58,7 +58,7 @@ fn norm(v: &[f64; 3]) -> f64 {
 /// # Errors
 /// The rejection [`Reply`] to send back.
 pub fn validate(cmd: &Command, object_count: u32, limits: &Limits) -> Result<(), Reply> {
-    if let Some(object) = cmd.object()
+    if let Some(&object) = cmd.object()
         && object >= object_count
     {
         return reject(

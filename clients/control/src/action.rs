@@ -85,10 +85,10 @@ pub fn parse_vec3(input: &str) -> Result<[f64; 3], ControlError> {
 /// # Errors
 /// [`ControlError::UnknownName`].
 pub fn parse_model(input: &str) -> Result<MaterialModel, ControlError> {
-    MaterialModel::from_name(input.trim()).ok_or_else(|| ControlError::UnknownName {
-        what: "material model",
-        input: input.to_owned(),
-        expected: "jelly, fixed-corotated, neo-hookean, snow, sand, metal, plasticine, foam",
+    input.parse().map_err(|e: splatphys_ipc::command::UnknownName| ControlError::UnknownName {
+        what: e.what,
+        input: e.name,
+        expected: e.expected,
     })
 }
 
@@ -98,13 +98,14 @@ pub fn parse_model(input: &str) -> Result<MaterialModel, ControlError> {
 /// [`ControlError::UnknownName`].
 pub fn parse_kind(input: &str) -> Result<ObjectKind, ControlError> {
     match input.trim().to_ascii_lowercase().as_str() {
-        "deformable" | "mpm" => Ok(ObjectKind::Deformable),
-        "rigid" => Ok(ObjectKind::Rigid),
-        "static" | "fixed" => Ok(ObjectKind::Static),
-        _ => Err(ControlError::UnknownName {
-            what: "object kind",
-            input: input.to_owned(),
-            expected: "deformable, rigid, static",
+        "mpm" => Ok(ObjectKind::Deformable),
+        "fixed" => Ok(ObjectKind::Static),
+        _ => input.parse().map_err(|e: splatphys_ipc::command::UnknownName| {
+            ControlError::UnknownName {
+                what: e.what,
+                input: e.name,
+                expected: e.expected,
+            }
         }),
     }
 }

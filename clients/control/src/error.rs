@@ -38,7 +38,7 @@ pub enum ControlError {
         /// The text given.
         input: String,
         /// The accepted names.
-        expected: &'static str,
+        expected: String,
     },
     /// A timeline file could not be read or parsed.
     #[error("timeline {path}: {detail}")]

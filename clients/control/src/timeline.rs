@@ -325,7 +325,7 @@ pub fn run_timeline(
                     in_flight.push_back(Pending {
                         index: next,
                         sent_at_s: now_s,
-                        object: cmd.object(),
+                        object: cmd.object().copied(),
                         pending,
                         deadline: Instant::now() + reply_timeout,
                     });

@@ -17,6 +17,7 @@ mod neo_hookean;
 mod plasticine;
 mod sand;
 pub mod snow;
+mod spec;
 
 pub use elastic::ElasticParams;
 pub use foam::Foam;
@@ -26,6 +27,8 @@ pub use neo_hookean::NeoHookean;
 pub use plasticine::Plasticine;
 pub use sand::Sand;
 pub use snow::Snow;
+pub use spec::{MaterialSpec, defaults};
+pub use splatphys_types::MaterialModel;
 
 use glam::Mat3A;
 
@@ -44,21 +47,7 @@ pub enum MaterialError {
         /// The admissible range in words.
         range: &'static str,
     },
-    /// An unknown model name.
-    #[error("unknown material model {0:?} (expected one of: {models})", models = MODEL_NAMES.join(", "))]
-    UnknownModel(String),
 }
-
-/// The model names accepted by [`Material::from_spec`].
-pub const MODEL_NAMES: [&str; 7] = [
-    "jelly",
-    "neo-hookean",
-    "snow",
-    "sand",
-    "metal",
-    "plasticine",
-    "foam",
-];
 
 /// What every constitutive model provides.
 pub trait ConstitutiveModel {
@@ -82,52 +71,6 @@ pub trait ConstitutiveModel {
     /// (snow hardens, so its bound uses the hardened moduli at the compression limit).
     fn max_wave_speed_m_s(&self) -> f32 {
         self.elastic().dilational_wave_speed_m_s()
-    }
-}
-
-/// Parameters of any model as plain data, as a scene file or a command gives them.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct MaterialSpec {
-    /// One of [`MODEL_NAMES`].
-    pub model: String,
-    /// Young's modulus E in Pa (> 0).
-    pub youngs_modulus_pa: f64,
-    /// Poisson's ratio nu in (-1, 0.5).
-    pub poisson_ratio: f64,
-    /// Density in kg/m³ (> 0).
-    pub density_kg_m3: f64,
-    /// Sand: friction angle in degrees (default 30).
-    pub friction_angle_deg: Option<f64>,
-    /// Metal and plasticine: yield stress in Pa (default E / 100 for metal, E / 50 for plasticine).
-    pub yield_stress_pa: Option<f64>,
-    /// Plasticine: fraction of the yield stress lost per unit accumulated plastic strain (default 2).
-    pub softening: Option<f64>,
-    /// Foam: viscosity of the viscoplastic flow in Pa·s (default 10).
-    pub viscosity_pa_s: Option<f64>,
-    /// Snow: hardening coefficient ξ (default 10).
-    pub hardening: Option<f64>,
-    /// Snow: critical compression θc (default 2.5e-2).
-    pub critical_compression: Option<f64>,
-    /// Snow: critical stretch θs (default 4.5e-3).
-    pub critical_stretch: Option<f64>,
-}
-
-impl From<&crate::scene::MaterialSpec> for MaterialSpec {
-    fn from(s: &crate::scene::MaterialSpec) -> Self {
-        let f = |v: Option<f32>| v.map(f64::from);
-        Self {
-            model: s.model.clone(),
-            youngs_modulus_pa: s.youngs_modulus_pa as f64,
-            poisson_ratio: s.poisson_ratio as f64,
-            density_kg_m3: s.density_kg_m3 as f64,
-            friction_angle_deg: f(s.friction_angle_deg),
-            yield_stress_pa: f(s.yield_stress_pa),
-            softening: f(s.softening),
-            viscosity_pa_s: f(s.viscosity_pa_s),
-            hardening: f(s.hardening),
-            critical_compression: f(s.critical_compression),
-            critical_stretch: f(s.critical_stretch),
-        }
     }
 }
 
@@ -194,44 +137,90 @@ impl Material {
     /// Builds a material from plain parameters.
     ///
     /// # Errors
-    /// [`MaterialError::UnknownModel`] for a name not in [`MODEL_NAMES`];
     /// [`MaterialError::OutOfRange`] naming the model and value for E <= 0, nu outside (-1, 0.5),
     /// density <= 0, a non-finite value, or a model parameter outside its range.
     pub fn from_spec(spec: &MaterialSpec) -> Result<Self, MaterialError> {
-        let model: &'static str = MODEL_NAMES
-            .iter()
-            .find(|m| **m == spec.model)
-            .ok_or_else(|| MaterialError::UnknownModel(spec.model.clone()))?;
+        let model = spec.model;
         let e = ElasticParams::new(
-            model,
+            model.name(),
             spec.youngs_modulus_pa,
             spec.poisson_ratio,
             spec.density_kg_m3,
         )?;
+        let yield_stress = |fraction: f64| {
+            spec.yield_stress_pa
+                .unwrap_or(spec.youngs_modulus_pa * fraction)
+        };
         Ok(match model {
-            "jelly" => Material::Jelly(Jelly::new(e)),
-            "neo-hookean" => Material::NeoHookean(NeoHookean::new(e)),
-            "snow" => Material::Snow(
-                Snow::new(e, spec.hardening.unwrap_or(10.0))?.with_thresholds(
-                    spec.critical_compression.unwrap_or(snow::THETA_C as f64),
-                    spec.critical_stretch.unwrap_or(snow::THETA_S as f64),
+            MaterialModel::FixedCorotated => Material::Jelly(Jelly::new(e)),
+            MaterialModel::NeoHookean => Material::NeoHookean(NeoHookean::new(e)),
+            MaterialModel::Snow => Material::Snow(
+                Snow::new(e, spec.hardening.unwrap_or(defaults::HARDENING))?.with_thresholds(
+                    spec.critical_compression
+                        .unwrap_or(defaults::CRITICAL_COMPRESSION),
+                    spec.critical_stretch.unwrap_or(defaults::CRITICAL_STRETCH),
                 )?,
             ),
-            "sand" => Material::Sand(Sand::new(e, spec.friction_angle_deg.unwrap_or(30.0))?),
-            "metal" => {
-                let y = spec
-                    .yield_stress_pa
-                    .unwrap_or(spec.youngs_modulus_pa / 100.0);
-                Material::Metal(Metal::new(e, y)?)
+            MaterialModel::Sand => Material::Sand(Sand::new(
+                e,
+                spec.friction_angle_deg
+                    .unwrap_or(defaults::FRICTION_ANGLE_DEG),
+            )?),
+            MaterialModel::Metal => {
+                Material::Metal(Metal::new(e, yield_stress(defaults::METAL_YIELD_OVER_E))?)
             }
-            "plasticine" => {
-                let y = spec
-                    .yield_stress_pa
-                    .unwrap_or(spec.youngs_modulus_pa / 50.0);
-                Material::Plasticine(Plasticine::new(e, y, spec.softening.unwrap_or(2.0))?)
-            }
-            _ => Material::Foam(Foam::new(e, spec.viscosity_pa_s.unwrap_or(10.0))?),
+            MaterialModel::Plasticine => Material::Plasticine(Plasticine::new(
+                e,
+                yield_stress(defaults::PLASTICINE_YIELD_OVER_E),
+                spec.softening.unwrap_or(defaults::SOFTENING),
+            )?),
+            MaterialModel::Foam => Material::Foam(Foam::new(
+                e,
+                spec.viscosity_pa_s.unwrap_or(defaults::VISCOSITY_PA_S),
+            )?),
         })
+    }
+
+    /// The spec this material was built from, every model parameter filled in (what an edit
+    /// starts from, so it changes only the fields it names). Values round-trip through the
+    /// solver's f32.
+    pub fn spec(&self) -> MaterialSpec {
+        let e = self.elastic();
+        let mut s = MaterialSpec::new(
+            self.model(),
+            f64::from(e.youngs_modulus_pa),
+            f64::from(e.poisson_ratio),
+            f64::from(e.density_kg_m3),
+        );
+        match self {
+            Material::Jelly(_) | Material::NeoHookean(_) => {}
+            Material::Snow(m) => {
+                s.hardening = Some(f64::from(m.hardening));
+                s.critical_compression = Some(f64::from(m.theta_c));
+                s.critical_stretch = Some(f64::from(m.theta_s));
+            }
+            Material::Sand(m) => s.friction_angle_deg = Some(f64::from(m.friction_angle_deg)),
+            Material::Metal(m) => s.yield_stress_pa = Some(f64::from(m.yield_stress_pa)),
+            Material::Plasticine(m) => {
+                s.yield_stress_pa = Some(f64::from(m.yield_stress_pa));
+                s.softening = Some(f64::from(m.softening));
+            }
+            Material::Foam(m) => s.viscosity_pa_s = Some(f64::from(m.viscosity_pa_s)),
+        }
+        s
+    }
+
+    /// The constitutive model.
+    pub fn model(&self) -> MaterialModel {
+        match self {
+            Material::Jelly(_) => MaterialModel::FixedCorotated,
+            Material::NeoHookean(_) => MaterialModel::NeoHookean,
+            Material::Snow(_) => MaterialModel::Snow,
+            Material::Sand(_) => MaterialModel::Sand,
+            Material::Metal(_) => MaterialModel::Metal,
+            Material::Plasticine(_) => MaterialModel::Plasticine,
+            Material::Foam(_) => MaterialModel::Foam,
+        }
     }
 
     /// Jelly (fixed-corotated) with the given E (Pa), nu and density (kg/m³).
@@ -243,13 +232,11 @@ impl Material {
         poisson_ratio: f64,
         density_kg_m3: f64,
     ) -> Result<Self, MaterialError> {
-        Self::from_spec(&MaterialSpec {
-            model: "jelly".into(),
+        Self::from_spec(&MaterialSpec::jelly(
             youngs_modulus_pa,
             poisson_ratio,
             density_kg_m3,
-            ..Default::default()
-        })
+        ))
     }
 
     /// Density in kg/m³.

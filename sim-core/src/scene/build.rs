@@ -20,7 +20,7 @@ use crate::selection::{SelectionError, geometric};
 
 /// Default material when an object gives none: jelly, E = 1e5 Pa, ν = 0.3, ρ = 1000 kg/m³.
 pub fn default_material() -> MaterialSpec {
-    MaterialSpec::new("jelly", 1e5, 0.3, 1000.0)
+    MaterialSpec::default()
 }
 
 struct Ctx<'a> {
@@ -62,15 +62,6 @@ struct Placed {
 /// Validates and converts a material table.
 fn material(ctx: &Ctx, m: &MaterialToml, key: &str) -> Result<MaterialSpec, SceneError> {
     ctx.check(
-        MATERIAL_MODELS.contains(&m.model.as_str()),
-        format!("{key}.model"),
-        format!(
-            "unknown model {:?} (expected one of {})",
-            m.model,
-            MATERIAL_MODELS.join(", ")
-        ),
-    )?;
-    ctx.check(
         m.youngs_modulus_pa.is_finite() && m.youngs_modulus_pa > 0.0,
         format!("{key}.youngs_modulus_pa"),
         "must be > 0",
@@ -103,19 +94,7 @@ fn material(ctx: &Ctx, m: &MaterialToml, key: &str) -> Result<MaterialSpec, Scen
             )?;
         }
     }
-    Ok(MaterialSpec {
-        model: m.model.clone(),
-        youngs_modulus_pa: m.youngs_modulus_pa,
-        poisson_ratio: m.poisson_ratio,
-        density_kg_m3: m.density_kg_m3,
-        friction_angle_deg: m.friction_angle_deg,
-        yield_stress_pa: m.yield_stress_pa,
-        softening: m.softening,
-        viscosity_pa_s: m.viscosity_pa_s,
-        hardening: m.hardening,
-        critical_compression: m.critical_compression,
-        critical_stretch: m.critical_stretch,
-    })
+    Ok(m.clone())
 }
 
 fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> {

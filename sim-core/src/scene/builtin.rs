@@ -3,6 +3,7 @@
 //! All procedural (see [`crate::procedural`]), about 9 000 particles.
 
 use super::model::*;
+use crate::material::MaterialModel;
 use crate::procedural::{Shape, shape_gaussians};
 
 impl Scene {
@@ -42,7 +43,7 @@ impl Scene {
             SceneObject {
                 name: "table".into(),
                 kind: ObjectKind::Static,
-                material: MaterialSpec::new("jelly", 1e7, 0.3, 800.0),
+                material: MaterialSpec::new(MaterialModel::FixedCorotated, 1e7, 0.3, 800.0),
                 restitution: 0.3,
                 friction: 0.5,
                 velocity_m_s: [0.0; 3],
@@ -53,7 +54,7 @@ impl Scene {
             SceneObject {
                 name: "jelly".into(),
                 kind: ObjectKind::Deformable,
-                material: MaterialSpec::new("jelly", 2e5, 0.3, 1000.0),
+                material: MaterialSpec::new(MaterialModel::FixedCorotated, 2e5, 0.3, 1000.0),
                 restitution: 0.5,
                 friction: 0.3,
                 velocity_m_s: [0.0; 3],
@@ -64,7 +65,7 @@ impl Scene {
             SceneObject {
                 name: "snow".into(),
                 kind: ObjectKind::Deformable,
-                material: MaterialSpec::new("snow", 1.4e5, 0.2, 400.0),
+                material: MaterialSpec::new(MaterialModel::Snow, 1.4e5, 0.2, 400.0),
                 restitution: 0.1,
                 friction: 0.5,
                 velocity_m_s: [0.0; 3],

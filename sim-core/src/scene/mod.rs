@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 
 pub use build::build_scene;
 pub use model::{
-    CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MATERIAL_MODELS, MaterialSpec,
+    CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MaterialSpec,
     Method, ObjectKind, Scene, SceneObject, SimulationSettings, Surface,
 };
 
@@ -158,4 +158,34 @@ pub fn load_scene_str(text: &str, base_dir: &Path) -> Result<Scene, SceneError> 
     let file = Path::new("<scene>");
     let parsed = parse_scene_toml(file, text)?;
     build_scene(file, base_dir, &parsed)
+}
+
+/// Loads the scene file at `path`, or the built-in default scene when `path` is `None`, and
+/// applies a duration override. Returns the scene's name (the file stem, or `"default"`) and the
+/// scene: what every command that takes an optional scene argument does.
+///
+/// # Errors
+/// Any [`SceneError`] of [`load_scene`]; [`SceneError::Invalid`] at `simulation.duration_s` when
+/// `duration_s` is not a positive number of seconds.
+pub fn load_named(path: Option<&Path>, duration_s: Option<f64>) -> Result<(String, Scene), SceneError> {
+    let (name, mut scene) = match path {
+        Some(p) => {
+            let name = p
+                .file_stem()
+                .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+            (name, load_scene(p)?)
+        }
+        None => ("default".to_string(), Scene::builtin_default()),
+    };
+    if let Some(d) = duration_s {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(SceneError::Invalid {
+                file: path.map_or_else(|| PathBuf::from("<default>"), Path::to_path_buf),
+                key_path: "simulation.duration_s".into(),
+                message: format!("duration override {d} must be a positive number of seconds"),
+            });
+        }
+        scene.simulation.duration_s = d;
+    }
+    Ok((name, scene))
 }

@@ -18,18 +18,7 @@ pub enum Method {
     MultiField,
 }
 
-/// How an object moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ObjectKind {
-    /// MPM-simulated.
-    #[default]
-    Deformable,
-    /// Rigid body (skips MPM).
-    Rigid,
-    /// Does not move; acts as a collider.
-    Static,
-}
+pub use splatphys_types::ObjectKind;
 
 /// Collider surface condition (PhysGaussian's boundary conditions).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -44,67 +33,8 @@ pub enum Surface {
     Separate,
 }
 
-/// Material model names accepted in `material.model`.
-pub const MATERIAL_MODELS: [&str; 7] = [
-    "jelly",
-    "neo-hookean",
-    "snow",
-    "sand",
-    "metal",
-    "plasticine",
-    "foam",
-];
+pub use crate::material::MaterialSpec;
 
-/// A material as plain data; the simulation maps `model` to its constitutive model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MaterialSpec {
-    /// One of [`MATERIAL_MODELS`].
-    pub model: String,
-    /// Young's modulus E, Pa (> 0).
-    pub youngs_modulus_pa: f32,
-    /// Poisson ratio ν, in (-1, 0.5).
-    pub poisson_ratio: f32,
-    /// Density ρ, kg/m³ (> 0).
-    pub density_kg_m3: f32,
-    /// Sand: Drucker-Prager friction angle, degrees.
-    pub friction_angle_deg: Option<f32>,
-    /// Metal / plasticine: yield stress, Pa.
-    pub yield_stress_pa: Option<f32>,
-    /// Plasticine / foam: softening factor.
-    pub softening: Option<f32>,
-    /// Viscosity, Pa·s.
-    pub viscosity_pa_s: Option<f32>,
-    /// Snow: hardening coefficient ξ (Stomakhin 2013 default 10).
-    pub hardening: Option<f32>,
-    /// Snow: critical compression θc (default 2.5e-2).
-    pub critical_compression: Option<f32>,
-    /// Snow: critical stretch θs (default 7.5e-3).
-    pub critical_stretch: Option<f32>,
-}
-
-impl MaterialSpec {
-    /// A material with only the three common parameters.
-    pub fn new(
-        model: &str,
-        youngs_modulus_pa: f32,
-        poisson_ratio: f32,
-        density_kg_m3: f32,
-    ) -> Self {
-        Self {
-            model: model.to_string(),
-            youngs_modulus_pa,
-            poisson_ratio,
-            density_kg_m3,
-            friction_angle_deg: None,
-            yield_stress_pa: None,
-            softening: None,
-            viscosity_pa_s: None,
-            hardening: None,
-            critical_compression: None,
-            critical_stretch: None,
-        }
-    }
-}
 
 /// Simulation settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

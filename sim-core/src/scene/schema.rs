@@ -181,33 +181,8 @@ pub struct SphereToml {
     pub radius_m: f32,
 }
 
-/// `material = {...}`.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MaterialToml {
-    /// Model name.
-    pub model: String,
-    /// Young's modulus, Pa.
-    pub youngs_modulus_pa: f32,
-    /// Poisson ratio.
-    pub poisson_ratio: f32,
-    /// Density, kg/m³.
-    pub density_kg_m3: f32,
-    /// Sand friction angle, degrees.
-    pub friction_angle_deg: Option<f32>,
-    /// Metal / plasticine yield stress, Pa.
-    pub yield_stress_pa: Option<f32>,
-    /// Softening factor (plasticine, foam).
-    pub softening: Option<f32>,
-    /// Viscosity, Pa·s.
-    pub viscosity_pa_s: Option<f32>,
-    /// Snow hardening coefficient ξ.
-    pub hardening: Option<f32>,
-    /// Snow critical compression θc.
-    pub critical_compression: Option<f32>,
-    /// Snow critical stretch θs.
-    pub critical_stretch: Option<f32>,
-}
+/// `material = {...}`: the material spec itself (unknown keys refused).
+pub use crate::material::MaterialSpec as MaterialToml;
 
 /// `[[object]]`.
 #[derive(Debug, Clone, Deserialize)]

@@ -264,7 +264,7 @@ impl World {
         }
         let mut bodies = Vec::with_capacity(scene.objects.len());
         for (k, o) in scene.objects.iter().enumerate() {
-            let material = Material::from_spec(&(&o.material).into()).map_err(|source| {
+            let material = Material::from_spec(&o.material).map_err(|source| {
                 WorldError::Material {
                     object: o.name.clone(),
                     source,
@@ -446,7 +446,7 @@ impl World {
                     let id = self
                         .object_index(&object)
                         .ok_or(WorldError::UnknownObject(object))?;
-                    let spec = material.as_ref().map(crate::material::MaterialSpec::from);
+                    let spec = material.clone();
                     self.set_material(id, spec.as_ref(), restitution, friction)?;
                 }
             }

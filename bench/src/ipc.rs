@@ -18,7 +18,7 @@
 //! Then, with `--command-flood-hz`, the server runs for `--flood-seconds` with and without a
 //! controller process sending that many impulse commands per second, on each of
 //! `--flood-sims`; the ratio of the step rates is reported (issue: a 10,000/s flood may not
-//! slow stepping by more than 10 %). See [`crate::bench_flood`].
+//! slow stepping by more than 10 %). See [`crate::flood`].
 //!
 //! Output: one JSON line per size and one for the flood on stdout; `ipc.csv`, `ipc.svg` and
 //! `ipc.png` in `--out-dir`.
@@ -38,7 +38,7 @@ use splatphys_ipc::server::frame_publisher;
 use splatphys_ipc::services::{Role, ServiceNames, create_node, frame_service};
 use splatphys_ipc::wire::{FrameGaussian, FrameHeader, LAYOUT_VERSION};
 
-use crate::bench_peer::now_s;
+use crate::peer::now_s;
 use crate::chart::{Series, line_chart, write_csv};
 
 /// Arguments of `bench ipc`.
@@ -70,7 +70,7 @@ pub struct IpcBenchArgs {
         value_delimiter = ',',
         default_value = "default,fake"
     )]
-    pub flood_sims: Vec<crate::bench_flood::FloodSim>,
+    pub flood_sims: Vec<crate::flood::FloodSim>,
     /// Wall-clock seconds of stepping per flood run (each run starts from the same state).
     #[arg(long, default_value_t = 8.0)]
     pub flood_seconds: f64,
@@ -297,7 +297,7 @@ fn socket_run(a: &IpcBenchArgs, bytes: &[u8], epoch_ns: u64) -> Result<Vec<f64>>
 fn step_us(n: usize) -> Result<(usize, f64)> {
     let per_axis = (n as f64).cbrt().round().max(1.0) as u32;
     let dx = 2.0 * 0.3 / per_axis as f32;
-    let mut sys = crate::bench::elastic_cube(per_axis, dx, 1.0)?;
+    let mut sys = crate::elastic_cube(per_axis, dx, 1.0)?;
     sys.substep(1.0)?; // warm-up: grid allocation
     let mut times = Vec::new();
     let t0 = Instant::now();
@@ -310,7 +310,7 @@ fn step_us(n: usize) -> Result<(usize, f64)> {
 }
 
 /// Runs `bench ipc`.
-pub fn run(a: &IpcBenchArgs) -> Result<()> {
+pub fn run(a: &IpcBenchArgs, world: crate::WorldSimFactory) -> Result<()> {
     ensure!(a.samples > 0, "--samples must be at least 1");
     ensure!(!a.sizes.is_empty(), "--sizes is empty");
     let epoch_ns = SystemTime::now()
@@ -404,7 +404,7 @@ pub fn run(a: &IpcBenchArgs) -> Result<()> {
     if a.command_flood_hz > 0.0 {
         for &sim in &a.flood_sims {
             let line =
-                crate::bench_flood::run(sim, a.command_flood_hz, a.flood_seconds, a.flood_repeats)?;
+                crate::flood::run(sim, world, a.command_flood_hz, a.flood_seconds, a.flood_repeats)?;
             println!("{line}");
         }
     }

@@ -25,10 +25,10 @@ use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::command::{Command, Reply};
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, ServerReport, serve};
-use splatphys_ipc::world_sim::WorldSim;
 use splatphys_ipc::{IpcError, Simulation};
 
-use crate::bench_ipc::Peer;
+use crate::WorldSimFactory;
+use crate::ipc::Peer;
 
 /// What the server steps during a flood run.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,7 +54,11 @@ struct RunResult {
 
 /// A fresh simulation of `kind` and the object the flood pushes (the first one that is not
 /// static).
-fn start_server(kind: FloodSim, cfg: ServerConfig) -> Result<(u32, ServerThread)> {
+fn start_server(
+    kind: FloodSim,
+    cfg: ServerConfig,
+    world: WorldSimFactory,
+) -> Result<(u32, ServerThread)> {
     fn spawn<S: Simulation + Send + 'static>(mut sim: S, cfg: ServerConfig) -> ServerThread {
         std::thread::spawn(move || {
             let report = serve(&mut sim, &cfg);
@@ -63,14 +67,13 @@ fn start_server(kind: FloodSim, cfg: ServerConfig) -> Result<(u32, ServerThread)
     }
     Ok(match kind {
         FloodSim::Default => {
-            let (name, scene) = crate::scene_arg::load(None, Some(1e6))?;
-            let sim = WorldSim::new(&name, &scene).context("building the default scene")?;
-            let object = sim
-                .world
-                .bodies
+            let (name, scene) = splatphys_core::scene::load_named(None, Some(1e6))?;
+            let object = scene
+                .objects
                 .iter()
-                .position(|b| b.kind != ObjectKind::Static)
+                .position(|o| o.kind != ObjectKind::Static)
                 .context("the default scene has no movable object")?;
+            let sim = world(&name, &scene).context("building the default scene")?;
             (object as u32, spawn(sim, cfg))
         }
         FloodSim::Fake => {
@@ -80,7 +83,13 @@ fn start_server(kind: FloodSim, cfg: ServerConfig) -> Result<(u32, ServerThread)
     })
 }
 
-fn one_run(kind: FloodSim, prefix: &str, hz: f64, seconds: f64) -> Result<RunResult> {
+fn one_run(
+    kind: FloodSim,
+    world: WorldSimFactory,
+    prefix: &str,
+    hz: f64,
+    seconds: f64,
+) -> Result<RunResult> {
     let stop = Arc::new(AtomicBool::new(false));
     let cfg = ServerConfig {
         prefix: Some(prefix.to_owned()),
@@ -88,7 +97,7 @@ fn one_run(kind: FloodSim, prefix: &str, hz: f64, seconds: f64) -> Result<RunRes
         stop: stop.clone(),
         ..ServerConfig::default()
     };
-    let (object, server) = start_server(kind, cfg)?;
+    let (object, server) = start_server(kind, cfg, world)?;
     let mut opts = ClientOptions::new(prefix);
     opts.node_name = "splatphys-bench".into();
     opts.frames = false;
@@ -153,7 +162,13 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Runs `repeats` quiet and flood runs of `seconds` each on `kind`; returns the JSON line.
-pub fn run(kind: FloodSim, hz: f64, seconds: f64, repeats: u32) -> Result<Value> {
+pub fn run(
+    kind: FloodSim,
+    world: WorldSimFactory,
+    hz: f64,
+    seconds: f64,
+    repeats: u32,
+) -> Result<Value> {
     ensure!(
         seconds > 0.0 && repeats > 0,
         "--flood-seconds and --flood-repeats must be positive"
@@ -168,8 +183,8 @@ pub fn run(kind: FloodSim, hz: f64, seconds: f64, repeats: u32) -> Result<Value>
                 std::process::id()
             )
         };
-        quiet.push(one_run(kind, &prefix("quiet"), 0.0, seconds)?.steps_per_s);
-        let f = one_run(kind, &prefix("flood"), hz, seconds)?;
+        quiet.push(one_run(kind, world, &prefix("quiet"), 0.0, seconds)?.steps_per_s);
+        let f = one_run(kind, world, &prefix("flood"), hz, seconds)?;
         flooded.push(f.steps_per_s);
         let c = f.flood.unwrap_or_default();
         for (total, key) in counts

@@ -1,17 +1,17 @@
-//! `splatphys-uplift` (also `splatphys uplift`): per-Gaussian features from 2-D feature maps of
+//! `splatphys uplift`: stage 1, per-Gaussian features from 2-D feature maps of
 //! the training views. See the `splatphys_stage1` crate docs and docs/stage1.md.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::Parser;
+use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use splatphys_core::formats::read_gaussians;
 use splatphys_render::Splats;
 use splatphys_stage1::output::{write_feature_ply, write_npy_matrix};
-use splatphys_stage1::{Job, UpliftSettings, read_cameras, run};
+use splatphys_stage1::{Job, UpliftSettings, read_cameras};
 
 /// Lift 2-D feature maps of the training views into one feature per Gaussian.
 ///
@@ -19,10 +19,8 @@ use splatphys_stage1::{Job, UpliftSettings, read_cameras, run};
 /// with the rasterizer's own weights αT (learning-free uplift), optionally reduced by PCA and
 /// refined by the rendered-feature cosine loss. The cameras must be in the PLY's frame (as the
 /// 3DGS training used them).
-#[derive(Parser, Debug)]
+#[derive(Args, Debug)]
 #[command(
-    name = "splatphys uplift",
-    version,
     after_help = "Examples:
   splatphys uplift --ply scene.ply --cameras transforms.json --features feats/ --out scene_feat.ply
   splatphys uplift --ply point_cloud.ply --cameras colmap/sparse/0 --features feats/ --out scene_feat.ply --pca 32 --refine 5
@@ -32,7 +30,7 @@ Feature maps: FEATURES/<image stem>.npy, shape [H'][W'][D], float16 or float32, 
 Output: .ply adds feat_0..feat_{D-1} and uplift_weight; .npy writes [N][D] float32. With --pca K
 the basis [K][D] is written beside the output as <stem>.pca.npy (scene files name it in `pca`)."
 )]
-struct Args {
+pub struct UpliftArgs {
     /// The trained 3DGS scene (INRIA PLY, .splat or compressed PLY).
     #[arg(long)]
     ply: PathBuf,
@@ -88,8 +86,11 @@ fn parse_size(s: &str) -> Result<[u32; 2], String> {
     Ok([parse(w)?, parse(h)?])
 }
 
-fn main() -> Result<()> {
-    let args = Args::parse();
+/// Runs the uplift.
+///
+/// # Errors
+/// Unreadable inputs, cameras that do not match the feature maps, an unwritable output.
+pub fn run(args: &UpliftArgs) -> Result<()> {
     if !(args.downscale >= 1.0 && args.downscale.is_finite()) {
         bail!("--downscale {} must be >= 1", args.downscale);
     }
@@ -138,7 +139,7 @@ fn main() -> Result<()> {
     );
     let view = splats.view()?;
     let (uplifted, report) = pool.install(|| {
-        run(&view, &cameras.views, &job, &mut |stage, done, total| {
+        splatphys_stage1::run(&view, &cameras.views, &job, &mut |stage, done, total| {
             bar.set_length(total as u64);
             bar.set_message(stage.to_string());
             bar.set_position(done as u64);

@@ -8,7 +8,7 @@ use clap::Args;
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
 use splatphys_ipc::validate::Limits;
-use splatphys_ipc::world_sim::WorldSim;
+use splatphys::world_sim::WorldSim;
 
 /// Arguments of `splatphys serve`.
 #[derive(Args, Debug)]
@@ -105,7 +105,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
 
 /// Serves the scene file (or the built-in default scene) with the real simulation.
 fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
-    let (name, scene) = crate::scene_arg::load(args.scene.as_deref(), args.duration_s)?;
+    let (name, scene) = splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
     let mut sim =
         WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
     sim.progress = args.progress;

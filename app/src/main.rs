@@ -3,19 +3,8 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
-mod bench;
-mod bench_compare;
-mod bench_flood;
-mod bench_ipc;
-mod bench_peer;
-mod bench_realtime;
-mod bench_stability;
-mod bench_subsets;
-mod bench_taichi;
-mod chart;
 mod inspect;
 mod run;
-mod scene_arg;
 mod serve;
 mod uplift;
 
@@ -52,12 +41,11 @@ enum Command {
     Serve(serve::ServeArgs),
     /// Describe a 3DGS file.
     Inspect(inspect::InspectArgs),
-    /// Stage 1: lift 2-D feature maps of the training views into per-Gaussian features (runs
-    /// the splatphys-uplift executable; `splatphys uplift --help` for its options).
+    /// Stage 1: lift 2-D feature maps of the training views into per-Gaussian features.
     Uplift(uplift::UpliftArgs),
     /// Benchmarks (JSON lines).
     #[command(subcommand)]
-    Bench(bench::BenchCommand),
+    Bench(splatphys_bench::BenchCommand),
 }
 
 fn main() -> Result<()> {
@@ -66,7 +54,7 @@ fn main() -> Result<()> {
         Command::Run(args) => run::run(&args),
         Command::Serve(args) => serve::run(&args),
         Command::Inspect(args) => inspect::run(&args),
-        Command::Bench(cmd) => bench::run(&cmd),
+        Command::Bench(cmd) => splatphys_bench::run(&cmd, splatphys::world_sim::boxed),
         Command::Uplift(args) => uplift::run(&args),
     }
 }

@@ -32,7 +32,6 @@ use splatphys_core::world::carry::subset_count;
 use splatphys_core::world::explain::Explanation;
 
 use crate::chart::{self, Series};
-use crate::scene_arg;
 
 /// Arguments of `bench subsets`.
 #[derive(Args, Debug)]
@@ -55,7 +54,7 @@ pub struct SubsetsBenchArgs {
     pub out_dir: PathBuf,
 }
 
-/// What one run leaves for the comparison (also used by [`crate::bench_realtime`]).
+/// What one run leaves for the comparison (also used by [`crate::realtime`]).
 pub(crate) struct Trace {
     /// `[frame][moving object]` COM (m), after each frame.
     pub(crate) com: Vec<Vec<DVec3>>,
@@ -219,7 +218,7 @@ pub fn run(a: &SubsetsBenchArgs) -> Result<()> {
             a.ratios
         );
     }
-    let (name, scene) = scene_arg::load(Some(&a.scene), a.duration_s)?;
+    let (name, scene) = splatphys_core::scene::load_named(Some(&a.scene), a.duration_s)?;
     let ids = moving(&scene);
     if ids.is_empty() {
         bail!(
@@ -235,7 +234,7 @@ pub fn run(a: &SubsetsBenchArgs) -> Result<()> {
     ratios.dedup();
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let pool = crate::bench::thread_pool(a.threads)?;
+    let pool = crate::thread_pool(a.threads)?;
     let frames = (scene.simulation.duration_s * scene.simulation.frame_rate_hz).round() as u64;
     let pb = ProgressBar::new(frames * ratios.len() as u64);
     pb.set_style(

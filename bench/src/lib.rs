@@ -1,4 +1,5 @@
-//! `splatphys bench`: benchmarks printed as JSON lines (never timed tests).
+//! splatphys-bench: every benchmark and experiment behind `splatphys bench`, printed as JSON
+//! lines (never timed tests), with their charts and the Taichi references in `bench/taichi/`.
 //!
 //! `bench mpm` is the standard CPU problem Taichi MLS-MPM users run: an elastic cube of n³
 //! particles (side 0.3 m, corner (0.35, 0.35, 0.3) m) moving at 1 m/s towards the floor of a 1 m
@@ -7,14 +8,24 @@
 //! cube in a domain 4× larger per axis: with the sparse grid the cost must not change.
 //!
 //! `--vs-taichi` then runs the Taichi reference of the same problem (`bench/taichi/mpm_cube.py`,
-//! through [`crate::bench_taichi`]) as a child process with the same arguments and prints its
+//! through [`crate::taichi`]) as a child process with the same arguments and prints its
 //! result and the ratio; without Taichi it says so and stops after our result.
 //!
-//! `bench ipc` ([`crate::bench_ipc`]) measures the shared-memory frame path against a Unix
-//! socket and the server under a command flood; `bench compare` ([`crate::bench_compare`]) the
-//! COM method against its baselines; `bench stability` ([`crate::bench_stability`]) maps which
+//! `bench ipc` ([`crate::ipc`]) measures the shared-memory frame path against a Unix
+//! socket and the server under a command flood; `bench compare` ([`crate::compare`]) the
+//! COM method against its baselines; `bench stability` ([`crate::stability`]) maps which
 //! E, nu, impact speed and time step each method and material survives. Charts go through
 //! [`crate::chart`].
+
+pub mod chart;
+pub mod compare;
+pub mod flood;
+pub mod ipc;
+pub mod peer;
+pub mod realtime;
+pub mod stability;
+pub mod subsets;
+pub mod taichi;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -27,7 +38,9 @@ use splatphys_core::collider::{BoxShape, Collider, Shape, Surface};
 use splatphys_core::material::Material;
 use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
 
-use crate::bench_taichi;
+use splatphys_core::scene::Scene;
+use splatphys_ipc::Simulation;
+
 
 /// Untimed substeps before the clock starts (the Taichi reference compiles its kernel there).
 const WARMUP_SUBSTEPS: u32 = 5;
@@ -45,39 +58,39 @@ pub enum BenchCommand {
     #[command(
         after_help = "Example:\n  splatphys bench ipc --sizes 1000,10000,100000,1000000 --samples 200 --out-dir docs/bench"
     )]
-    Ipc(crate::bench_ipc::IpcBenchArgs),
+    Ipc(crate::ipc::IpcBenchArgs),
     /// The COM method against the `mpm` and `multi-field` baselines: error against the
     /// restitution law versus wall time, and time per substep versus particle count (charts and
     /// CSV in --out-dir).
     #[command(
         after_help = "Examples:\n  splatphys bench compare\n  splatphys bench compare --dx-m 0.02,0.01 --particles 10000,100000 --objects 2 --out-dir out/cmp"
     )]
-    Compare(crate::bench_compare::CompareBenchArgs),
+    Compare(crate::compare::CompareBenchArgs),
     /// The `mpm` baseline of `compare` (two elastic spheres head-on on one shared grid) at one
     /// cell size: throughput and rebound, optionally against the Taichi reference.
     #[command(after_help = "Example:\n  splatphys bench spheres --dx-m 0.02 --vs-taichi")]
-    Spheres(crate::bench_taichi::SpheresArgs),
+    Spheres(crate::taichi::SpheresArgs),
     /// The stability map: which E, nu, impact speed and forced CFL number each method survives
     /// for every material model, on a two-sphere impact (heat maps and CSV in --out-dir).
     #[command(
         after_help = "Examples:\n  splatphys bench stability\n  splatphys bench stability --quick --out-dir out/stab\n  splatphys bench stability --methods com --materials jelly,snow --threads 2"
     )]
-    Stability(crate::bench_stability::StabilityBenchArgs),
+    Stability(crate::stability::StabilityBenchArgs),
     /// Physics-particle subsets on a captured scene: COM and per-Gaussian error against the
     /// full-particle run versus speed-up, ratios 1 to 1/64 (chart and CSV in --out-dir).
     #[command(
         after_help = "Examples:\n  splatphys bench subsets\n  splatphys bench subsets --scene scenes/guitar_topple.toml --ratios 1,4,16 --duration-s 0.5 --out-dir out/sub"
     )]
-    Subsets(crate::bench_subsets::SubsetsBenchArgs),
+    Subsets(crate::subsets::SubsetsBenchArgs),
     /// Real time: coarser grids with particles at half the cell size on captured scenes, error
     /// in reference cells against simulated frames per wall second (chart and CSV in --out-dir).
     #[command(
         after_help = "Examples:\n  splatphys bench realtime\n  splatphys bench realtime --scenes scenes/donut_snow_push.toml --duration-s 0.6 --dx-m 0.005,0.01,0.02 --out-dir out/rt"
     )]
-    Realtime(crate::bench_realtime::RealtimeBenchArgs),
+    Realtime(crate::realtime::RealtimeBenchArgs),
     /// A child process of `bench ipc` (subscriber, socket reader or command flood).
     #[command(hide = true)]
-    IpcPeer(crate::bench_peer::PeerArgs),
+    IpcPeer(crate::peer::PeerArgs),
 }
 
 /// Arguments of `bench mpm`.
@@ -112,17 +125,25 @@ pub struct MpmBenchArgs {
     pub python: String,
 }
 
-/// Runs a benchmark subcommand.
-pub fn run(cmd: &BenchCommand) -> Result<()> {
+/// Builds the real simulation of a scene as a server-ready [`Simulation`] (the app's sim-core ↔
+/// ipc adapter). The bench crate takes it as an argument so that it needs neither the app nor a
+/// copy of the adapter; `bench ipc --flood-sim default` serves it.
+pub type WorldSimFactory = fn(name: &str, scene: &Scene) -> Result<Box<dyn Simulation + Send>>;
+
+/// Runs a benchmark subcommand; `world` builds the real simulation where a bench serves one.
+///
+/// # Errors
+/// Whatever the benchmark reports (bad arguments, a failed run, an unwritable output folder).
+pub fn run(cmd: &BenchCommand, world: WorldSimFactory) -> Result<()> {
     match cmd {
         BenchCommand::Mpm(a) => mpm(a),
-        BenchCommand::Ipc(a) => crate::bench_ipc::run(a),
-        BenchCommand::Compare(a) => crate::bench_compare::run(a),
-        BenchCommand::Spheres(a) => crate::bench_taichi::spheres(a),
-        BenchCommand::Stability(a) => crate::bench_stability::run(a),
-        BenchCommand::Subsets(a) => crate::bench_subsets::run(a),
-        BenchCommand::Realtime(a) => crate::bench_realtime::run(a),
-        BenchCommand::IpcPeer(a) => crate::bench_peer::run(a),
+        BenchCommand::Ipc(a) => crate::ipc::run(a, world),
+        BenchCommand::Compare(a) => crate::compare::run(a),
+        BenchCommand::Spheres(a) => crate::taichi::spheres(a),
+        BenchCommand::Stability(a) => crate::stability::run(a),
+        BenchCommand::Subsets(a) => crate::subsets::run(a),
+        BenchCommand::Realtime(a) => crate::realtime::run(a),
+        BenchCommand::IpcPeer(a) => crate::peer::run(a),
     }
 }
 
@@ -178,7 +199,7 @@ pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
 fn mpm(a: &MpmBenchArgs) -> Result<()> {
     // Resolved first: a broken checkout fails before the run, not after it.
     let script = if a.vs_taichi {
-        Some(bench_taichi::find_script(
+        Some(taichi::find_script(
             "mpm_cube.py",
             a.taichi_script.as_deref(),
         )?)
@@ -245,7 +266,7 @@ fn vs_taichi(a: &MpmBenchArgs, script: &std::path::Path, ours: &serde_json::Valu
         ("--warmup", WARMUP_SUBSTEPS.to_string()),
         ("--domain-scale", a.domain_scale.to_string()),
     ];
-    let Some(theirs) = bench_taichi::run_reference(&a.python, script, &args)? else {
+    let Some(theirs) = taichi::run_reference(&a.python, script, &args)? else {
         return Ok(());
     };
     if theirs["particles"] != ours["particles"] {
@@ -256,12 +277,12 @@ fn vs_taichi(a: &MpmBenchArgs, script: &std::path::Path, ours: &serde_json::Valu
         );
     }
     let key = "particle_substeps_per_s";
-    let ours_rate = bench_taichi::number(ours, key, "splatphys")?;
-    let taichi_rate = bench_taichi::number(&theirs, key, "Taichi")?;
-    let com_diff = bench_taichi::number(ours, "com_z_m", "splatphys")?
-        - bench_taichi::number(&theirs, "com_z_m", "Taichi")?;
-    let momentum_diff = bench_taichi::number(ours, "momentum_z_kg_m_s", "splatphys")?
-        - bench_taichi::number(&theirs, "momentum_z_kg_m_s", "Taichi")?;
+    let ours_rate = taichi::number(ours, key, "splatphys")?;
+    let taichi_rate = taichi::number(&theirs, key, "Taichi")?;
+    let com_diff = taichi::number(ours, "com_z_m", "splatphys")?
+        - taichi::number(&theirs, "com_z_m", "Taichi")?;
+    let momentum_diff = taichi::number(ours, "momentum_z_kg_m_s", "splatphys")?
+        - taichi::number(&theirs, "momentum_z_kg_m_s", "Taichi")?;
     println!(
         "{}",
         json!({

@@ -1,21 +1,28 @@
 //! The real simulation behind the server: sim-core's [`World`] as a [`Simulation`].
 //!
 //! Frames are written straight into the loaned shared-memory slice: sim-core's
-//! `GaussianState` has the exact layout of [`FrameGaussian`] (asserted below), so the slice is
+//! `GaussianState` has the exact layout of [`FrameGaussian`] (every field's offset, the size and
+//! the alignment are asserted below at compile time, so swapping two same-size fields does not
+//! compile), so the slice is
 //! reinterpreted in place with bytemuck and filled in parallel. Background Gaussians (claimed by
 //! no object) carry `object_id = u32::MAX`.
 
 use splatphys_core::kinematics::GaussianState;
-use splatphys_core::material::{ConstitutiveModel, MaterialSpec};
-use splatphys_core::scene::{ObjectKind as CoreKind, Scene};
+use splatphys_core::scene::Scene;
 use splatphys_core::world::{World, WorldError};
 
-use crate::command::{Command, MaterialModel, ObjectKind};
-use crate::simulation::{Advance, Simulation, SimulationError};
-use crate::wire::{FrameGaussian, ObjectState, SceneGaussian};
+use splatphys_ipc::command::Command;
+use splatphys_ipc::simulation::{Advance, Simulation, SimulationError};
+use splatphys_ipc::wire::{FrameGaussian, ObjectState, SceneGaussian};
 
-const _: () = assert!(size_of::<GaussianState>() == size_of::<FrameGaussian>());
-const _: () = assert!(align_of::<GaussianState>() == align_of::<FrameGaussian>());
+const _: () = {
+    use std::mem::offset_of;
+    assert!(size_of::<GaussianState>() == size_of::<FrameGaussian>());
+    assert!(align_of::<GaussianState>() == align_of::<FrameGaussian>());
+    assert!(offset_of!(GaussianState, position_m) == offset_of!(FrameGaussian, position_m));
+    assert!(offset_of!(GaussianState, covariance_m2) == offset_of!(FrameGaussian, covariance_m2));
+    assert!(offset_of!(GaussianState, rotation_wxyz) == offset_of!(FrameGaussian, rotation_wxyz));
+};
 
 /// Object id of background Gaussians in [`SceneGaussian::object_id`].
 pub const BACKGROUND_OBJECT: u32 = u32::MAX;
@@ -54,18 +61,6 @@ impl WorldSim {
             substeps: 0,
             progress: false,
         })
-    }
-}
-
-fn model_name(m: MaterialModel) -> &'static str {
-    match m {
-        MaterialModel::FixedCorotated => "jelly",
-        MaterialModel::NeoHookean => "neo-hookean",
-        MaterialModel::Snow => "snow",
-        MaterialModel::Sand => "sand",
-        MaterialModel::Metal => "metal",
-        MaterialModel::Plasticine => "plasticine",
-        MaterialModel::Foam => "foam",
     }
 }
 
@@ -186,38 +181,18 @@ impl Simulation for WorldSim {
                 let Some(b) = w.bodies.get(object as usize) else {
                     return Err(format!("unknown object {object}"));
                 };
-                let cur = b.materials[0].elastic();
-                let material_changed = edit.model.is_some()
-                    || edit.youngs_modulus_pa.is_some()
-                    || edit.poisson_ratio.is_some()
-                    || edit.density_kg_m3.is_some();
-                let spec = MaterialSpec {
-                    model: edit.model.map_or_else(
-                        || b.materials[0].name().to_string(),
-                        |m| model_name(m).into(),
-                    ),
-                    youngs_modulus_pa: edit
-                        .youngs_modulus_pa
-                        .unwrap_or(cur.youngs_modulus_pa as f64),
-                    poisson_ratio: edit.poisson_ratio.unwrap_or(cur.poisson_ratio as f64),
-                    density_kg_m3: edit.density_kg_m3.unwrap_or(cur.density_kg_m3 as f64),
-                    ..Default::default()
-                };
+                // Start from the object's own spec so only the named fields change.
+                let spec = edit
+                    .changes_material()
+                    .then(|| b.materials[0].spec().edited(&edit));
                 w.set_material(
                     object as usize,
-                    material_changed.then_some(&spec),
+                    spec.as_ref(),
                     edit.restitution.map(|v| v as f32),
                     edit.friction.map(|v| v as f32),
                 )
             }
-            Command::SetKind { object, kind } => w.set_kind(
-                object as usize,
-                match kind {
-                    ObjectKind::Deformable => CoreKind::Deformable,
-                    ObjectKind::Rigid => CoreKind::Rigid,
-                    ObjectKind::Static => CoreKind::Static,
-                },
-            ),
+            Command::SetKind { object, kind } => w.set_kind(object as usize, kind),
             Command::Reset => {
                 w.reset();
                 self.substeps = 0;
@@ -231,4 +206,12 @@ impl Simulation for WorldSim {
     fn is_finished(&self) -> bool {
         self.world.is_finished()
     }
+}
+
+/// Builds the world of `scene` as a boxed [`Simulation`] (what `bench ipc` serves).
+///
+/// # Errors
+/// [`WorldError`] as [`World::from_scene`].
+pub fn boxed(name: &str, scene: &Scene) -> anyhow::Result<Box<dyn Simulation + Send>> {
+    Ok(Box::new(WorldSim::new(name, scene)?))
 }

@@ -53,13 +53,13 @@ pub fn spheres(a: &SpheresArgs) -> Result<()> {
     } else {
         None
     };
-    let pool = crate::bench::thread_pool(a.threads)?;
-    let scene = crate::bench_compare::sphere_pair("mpm", a.dx_m, 0.5).replacen(
+    let pool = crate::thread_pool(a.threads)?;
+    let scene = crate::compare::sphere_pair("mpm", a.dx_m, 0.5).replacen(
         "[simulation]\n",
         &format!("[simulation]\nseed = {}\n", a.seed),
         1,
     );
-    let mut w = crate::bench_compare::world(&scene)?;
+    let mut w = crate::compare::world(&scene)?;
     let particles = w.particle_count();
     let seconds = pool.install(|| -> Result<f64> {
         let t = Instant::now();

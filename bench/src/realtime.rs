@@ -37,9 +37,8 @@ use serde_json::{Value, json};
 
 use splatphys_core::scene::{ObjectKind, Scene, SceneObject};
 
-use crate::bench_subsets::{Trace, gaussian_errors_cells, max_distance, moving, run_scene};
+use crate::subsets::{Trace, gaussian_errors_cells, max_distance, moving, run_scene};
 use crate::chart::{self, Series};
-use crate::scene_arg;
 
 /// Arguments of `bench realtime`.
 #[derive(Args, Debug)]
@@ -251,11 +250,11 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let pool = crate::bench::thread_pool(a.threads)?;
+    let pool = crate::thread_pool(a.threads)?;
     let mut scenes = Vec::new();
     for (i, path) in a.scenes.iter().enumerate() {
         let duration = a.duration_s.get(i).or(a.duration_s.first()).copied();
-        let (name, scene) = scene_arg::load(Some(path), duration)?;
+        let (name, scene) = splatphys_core::scene::load_named(Some(path), duration)?;
         if moving(&scene).is_empty() {
             bail!("{}: no deformable or rigid object", path.display());
         }

@@ -75,7 +75,7 @@ pub fn run(a: &CompareBenchArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let pool = crate::bench::thread_pool(a.threads)?;
+    let pool = crate::thread_pool(a.threads)?;
     pool.install(|| {
         accuracy(a)?;
         scaling(a)

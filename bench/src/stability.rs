@@ -357,13 +357,12 @@ material = {material}
 
 /// The model's largest dilational wave speed (m/s), as the automatic policy sees it.
 fn wave_speed(s: &RunSpec) -> Result<f64> {
-    let m = Material::from_spec(&material::MaterialSpec {
-        model: s.material.to_string(),
-        youngs_modulus_pa: s.youngs_modulus_pa,
-        poisson_ratio: s.poisson_ratio,
-        density_kg_m3: DENSITY_KG_M3,
-        ..Default::default()
-    })?;
+    let m = Material::from_spec(&material::MaterialSpec::new(
+        s.material.parse()?,
+        s.youngs_modulus_pa,
+        s.poisson_ratio,
+        DENSITY_KG_M3,
+    ))?;
     Ok(m.max_wave_speed_m_s() as f64)
 }
 
@@ -528,13 +527,9 @@ fn names(a: &StabilityBenchArgs) -> Result<(Vec<&'static str>, Vec<&'static str>
     }
     let mut materials = Vec::new();
     for m in &a.materials {
-        match material::MODEL_NAMES.iter().find(|k| **k == m.as_str()) {
-            Some(k) => materials.push(*k),
-            None => bail!(
-                "--materials: unknown model {m:?} (expected one of {:?})",
-                material::MODEL_NAMES
-            ),
-        }
+        let model: material::MaterialModel =
+            m.parse().map_err(|e| anyhow::anyhow!("--materials: {e}"))?;
+        materials.push(model.name());
     }
     if methods.is_empty() || materials.is_empty() {
         bail!("--methods and --materials need at least one name each");
@@ -654,7 +649,7 @@ fn run_all(runs: &[RunSpec], threads: usize, pb: &ProgressBar) -> Result<Vec<Out
         let workers: Vec<_> = (0..threads.max(1))
             .map(|_| {
                 scope.spawn(|| -> Result<Vec<(usize, Outcome)>> {
-                    let pool = crate::bench::thread_pool(1)?;
+                    let pool = crate::thread_pool(1)?;
                     let mut mine = Vec::new();
                     loop {
                         let k = next.fetch_add(1, Ordering::Relaxed);

@@ -81,7 +81,7 @@ fn in_process(args: &RunArgs) -> Result<()> {
             .build_global()
             .context("setting --threads")?;
     }
-    let (name, scene) = crate::scene_arg::load(args.scene.as_deref(), args.duration_s)?;
+    let (name, scene) = splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
     let mut world =
         World::from_scene(&scene).with_context(|| format!("building scene {name:?}"))?;
     let csv_path = args.out.join("objects.csv");
@@ -237,7 +237,7 @@ impl Drop for Proc {
 
 fn multi_process(args: &RunArgs) -> Result<()> {
     // Validate the scene here first, for a clear error before any process starts.
-    let (name, scene) = crate::scene_arg::load(args.scene.as_deref(), args.duration_s)?;
+    let (name, scene) = splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
     let world = World::from_scene(&scene).with_context(|| format!("building scene {name:?}"))?;
     let total_frames = world.total_frames();
     drop(world);

@@ -1,0 +1,7 @@
+//! splatphys: the application around the simulation core. The `splatphys` command (run, serve,
+//! inspect, uplift, bench) lives in `src/main.rs`; this library holds what its subcommands share:
+//!
+//! - [`world_sim`]: the adapter that makes a sim-core [`World`](splatphys_core::world::World) a
+//!   server-ready [`Simulation`](splatphys_ipc::Simulation).
+
+pub mod world_sim;

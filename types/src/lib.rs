@@ -1,0 +1,18 @@
+//! splatphys-types: the one vocabulary the simulation core (`splatphys-core`) and the protocol
+//! (`splatphys-ipc`) share, as plain types with no solver and no IPC in them:
+//!
+//! - [`MaterialModel`]: the constitutive models, with their scene-file names and wire codes;
+//! - [`ObjectKind`]: how an object moves;
+//! - [`MaterialEdit`]: a change of an object's material that names only what it changes;
+//! - [`Command`]: what scene `[[event]]`s, control timelines and wire commands all become.
+//!
+//! Every table of names in the workspace derives from these enums (`ALL`, `name()`), so a new
+//! variant cannot be forgotten in one spelling.
+
+mod command;
+mod material;
+mod object;
+
+pub use command::Command;
+pub use material::{MaterialEdit, MaterialModel, UnknownName};
+pub use object::ObjectKind;
