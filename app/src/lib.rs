@@ -2,6 +2,10 @@
 //! inspect, uplift, bench) lives in `src/main.rs`; this library holds what its subcommands share:
 //!
 //! - [`world_sim`]: the adapter that makes a sim-core [`World`](splatphys_core::world::World) a
-//!   server-ready [`Simulation`](splatphys_ipc::Simulation).
+//!   server-ready [`Simulation`](splatphys_ipc::Simulation);
+//! - [`plan`]: what the parent of `splatphys run` reads from the scene, once;
+//! - [`report`]: `server.json` and `summary.json` as typed reports.
 
+pub mod plan;
+pub mod report;
 pub mod world_sim;

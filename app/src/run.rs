@@ -1,11 +1,11 @@
 //! `splatphys run`: the main job. Starts the server, the recorder and the renderer as separate
 //! processes, shows a progress bar of simulated time, waits for the end, and leaves frames, an
-//! animation, a recording, `objects.csv` and `summary.json` in the output folder.
-//! `--in-process` runs the simulation alone (no IPC, no rendering) and writes the same CSV and
-//! summary: what validation and benchmarks use.
+//! animation, a recording, `objects.csv` and `summary.json` in the output folder. The progress
+//! bar follows the server's `status` service. `--in-process` runs the simulation alone (no IPC,
+//! no rendering) and writes the same CSV and summary keys: what validation and benchmarks use.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufWriter, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -13,9 +13,16 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use serde_json::{Value, json};
-use splatphys_core::world::World;
+use splatphys::plan::RunPlan;
+use splatphys::report::{RunSummary, ServerJson, read_json, write_json};
+use splatphys::world_sim::WorldSim;
 use splatphys_core::world::explain::Explanation;
+use splatphys_ipc::Simulation;
+use splatphys_ipc::client::{ClientOptions, Connection};
+use splatphys_ipc::wire::ObjectState;
+use splatphys_record::objects_csv::ObjectsCsv;
+use splatphys_record::read::{messages, objects_csv, read_file};
+use splatphys_render::report::RenderReport;
 
 /// Arguments of `splatphys run`.
 #[derive(Args, Debug)]
@@ -53,6 +60,9 @@ pub struct RunArgs {
 }
 
 /// Runs the main job.
+///
+/// # Errors
+/// A bad scene, a process that could not start or failed, an unwritable output folder.
 pub fn run(args: &RunArgs) -> Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
@@ -74,6 +84,14 @@ fn progress_bar(total_frames: u64) -> ProgressBar {
     pb
 }
 
+/// `objects.csv` in the run folder.
+fn create_objects_csv(out: &Path, names: Vec<String>) -> Result<ObjectsCsv<BufWriter<File>>> {
+    let path = out.join("objects.csv");
+    let file = File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+    ObjectsCsv::new(BufWriter::new(file), names)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
 fn in_process(args: &RunArgs) -> Result<()> {
     if let Some(n) = args.threads {
         rayon::ThreadPoolBuilder::new()
@@ -81,73 +99,43 @@ fn in_process(args: &RunArgs) -> Result<()> {
             .build_global()
             .context("setting --threads")?;
     }
-    let (name, scene) = splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
-    let mut world =
-        World::from_scene(&scene).with_context(|| format!("building scene {name:?}"))?;
-    let csv_path = args.out.join("objects.csv");
-    let mut csv = std::io::BufWriter::new(
-        File::create(&csv_path).with_context(|| format!("creating {}", csv_path.display()))?,
-    );
-    writeln!(
-        csv,
-        "step,time_s,object,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg"
-    )?;
-    let write_rows = |csv: &mut std::io::BufWriter<File>, w: &World| -> Result<()> {
-        for o in w.objects() {
-            let (p, v) = (o.com_m, o.velocity_m_s);
-            writeln!(
-                csv,
-                "{},{},{},{},{},{},{},{},{},{}",
-                w.frame, w.time_s, o.id, p[0], p[1], p[2], v[0], v[1], v[2], o.mass_kg
-            )?;
-        }
-        Ok(())
+    let (plan, scene) = RunPlan::new(args.scene.as_deref(), args.duration_s, None)?;
+    let mut sim = WorldSim::new(&plan.name, &scene)
+        .with_context(|| format!("building scene {:?}", plan.name))?;
+    let mut csv = create_objects_csv(&args.out, plan.object_names.clone())?;
+    let mut objects = vec![ObjectState::default(); sim.object_count()];
+    let mut write_rows = |sim: &WorldSim, csv: &mut ObjectsCsv<_>| -> Result<()> {
+        sim.write_objects(&mut objects);
+        csv.write_frame(sim.step(), sim.time_s(), &objects)
+            .context("writing objects.csv")
     };
-    write_rows(&mut csv, &world)?;
-    let diag0 = world.diagnostics();
-    let pb = progress_bar(world.total_frames());
+    write_rows(&sim, &mut csv)?;
+    let pb = progress_bar(plan.total_frames);
     let started = Instant::now();
     let mut error = None;
-    while !world.is_finished() {
-        if let Err(e) = world.advance_frame() {
+    while !sim.is_finished() {
+        if let Err(e) = sim.advance() {
             error = Some(e);
             break;
         }
-        write_rows(&mut csv, &world)?;
-        pb.set_position(world.frame);
-        pb.set_message(format!("t = {:.3} s", world.time_s));
+        write_rows(&sim, &mut csv)?;
+        pb.set_position(sim.step());
+        pb.set_message(format!("t = {:.3} s", sim.time_s()));
     }
     pb.finish_and_clear();
-    csv.flush()?;
+    let rows = csv.rows();
+    csv.finish().context("writing objects.csv")?;
     let wall_s = started.elapsed().as_secs_f64();
-    let summary = json!({
-        "mode": "in-process",
-        "scene": name,
-        "method": format!("{:?}", world.settings.method).to_lowercase(),
-        "particles": world.particle_count(),
-        "gaussians": world.published_count(),
-        "objects": world.bodies.len(),
-        "substeps": world.stats.substeps,
-        "frames": world.frame,
-        "simulated_s": world.time_s,
-        "wall_s": wall_s,
-        "particle_substeps_per_s": world.stats.mpm_particle_substeps as f64 / wall_s.max(1e-9),
-        "com_layer_fraction": world.stats.com_layer_wall_s / (world.stats.com_layer_wall_s + world.stats.mpm_wall_s).max(1e-12),
-        "frames_dropped_by_renderer": 0,
-        "frames_lost_by_recorder": 0,
-        "stats": world.stats,
-        "diagnostics_start": diag0,
-        "diagnostics_end": world.diagnostics(),
-        "explain": world.explain(),
-        "error": error.as_ref().map(|e| e.to_string()),
-    });
+    let mut summary = RunSummary::from_world("in-process", &plan.name, &sim.world, wall_s);
+    summary.objects_csv_rows = rows;
+    summary.error = error.as_ref().map(ToString::to_string);
     write_json(&args.out.join("summary.json"), &summary)?;
     if args.explain {
-        explain(&args.out, &world.explain())?;
+        explain(&args.out, &summary.explain)?;
     }
     eprintln!(
         "splatphys run: {} frames in {wall_s:.2} s; wrote {}",
-        world.frame,
+        summary.frames,
         args.out.display()
     );
     if let Some(e) = error {
@@ -164,13 +152,9 @@ fn explain(out: &Path, report: &Explanation) -> Result<()> {
         .with_context(|| format!("writing {}", out.join("explain.txt").display()))
 }
 
-fn write_json(path: &Path, v: &Value) -> Result<()> {
-    std::fs::write(path, serde_json::to_string_pretty(v)?)
-        .with_context(|| format!("writing {}", path.display()))
-}
-
-/// A sibling executable of this one (cargo puts every workspace binary in one folder).
-pub(crate) fn sibling(name: &str) -> Result<PathBuf> {
+/// A sibling executable of this one (cargo puts every workspace binary in one folder): the
+/// client processes of a run.
+fn sibling(name: &str) -> Result<PathBuf> {
     let me = std::env::current_exe().context("locating the splatphys executable")?;
     let path = me.with_file_name(name);
     if !path.exists() {
@@ -183,6 +167,7 @@ pub(crate) fn sibling(name: &str) -> Result<PathBuf> {
     Ok(path)
 }
 
+/// A child process of the run, killed when dropped (so an early error leaves nothing behind).
 struct Proc {
     name: &'static str,
     child: Child,
@@ -202,6 +187,11 @@ impl Proc {
         }
         let child = cmd.spawn().with_context(|| format!("starting {name}"))?;
         Ok(Self { name, child })
+    }
+
+    /// Exited with a failure status (not yet exited: `false`).
+    fn failed(&mut self) -> bool {
+        matches!(self.child.try_wait(), Ok(Some(status)) if !status.success())
     }
 
     /// Waits up to `timeout`; kills the process past it. Returns its exit success.
@@ -235,16 +225,65 @@ impl Drop for Proc {
     }
 }
 
+/// Reads the renderer's stdout in the background; its last JSON line is its report.
+fn render_report(renderer: &mut Proc) -> std::thread::JoinHandle<Option<RenderReport>> {
+    let out = renderer.child.stdout.take();
+    std::thread::spawn(move || {
+        let mut text = String::new();
+        out?.read_to_string(&mut text).ok()?;
+        RenderReport::from_stdout(&text)
+    })
+}
+
+/// Follows the server's `status` until the server process exits, showing progress; ends the run
+/// early with a clear message when a client dies.
+fn follow_server(
+    plan: &RunPlan,
+    server: &mut Proc,
+    clients: &mut [&mut Proc],
+    logs: &Path,
+) -> Result<()> {
+    let pb = progress_bar(plan.total_frames);
+    let mut opts = ClientOptions::new(&plan.prefix);
+    opts.node_name = "splatphys-run".into();
+    opts.frames = false;
+    opts.objects = false;
+    opts.commands = false;
+    opts.connect_timeout = Duration::from_secs(30);
+    let mut conn = None;
+    loop {
+        if server.child.try_wait()?.is_some() {
+            break;
+        }
+        for p in clients.iter_mut() {
+            if p.failed() {
+                pb.abandon();
+                bail!(
+                    "the {} exited with an error before the end; see {}/{}.log (files written so far are kept)",
+                    p.name,
+                    logs.display(),
+                    p.name
+                );
+            }
+        }
+        if conn.is_none() {
+            conn = Connection::connect(&opts).ok();
+        }
+        // A server that stops beating is reported when its process exits (below).
+        if let Some(c) = conn.as_mut()
+            && let Ok(Some(status)) = c.poll_status()
+        {
+            pb.set_position(status.step);
+            pb.set_message(format!("t = {:.3} s", status.time_s));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    pb.finish_and_clear();
+    Ok(())
+}
+
 fn multi_process(args: &RunArgs) -> Result<()> {
-    // Validate the scene here first, for a clear error before any process starts.
-    let (name, scene) = splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
-    let world = World::from_scene(&scene).with_context(|| format!("building scene {name:?}"))?;
-    let total_frames = world.total_frames();
-    drop(world);
-    let prefix = args
-        .prefix
-        .clone()
-        .unwrap_or_else(|| format!("splatphys/run-{}", std::process::id()));
+    let (plan, _scene) = RunPlan::new(args.scene.as_deref(), args.duration_s, args.prefix.clone())?;
     let logs = args.out.join("logs");
     let frames = args.out.join("frames");
     std::fs::create_dir_all(&logs)?;
@@ -252,120 +291,48 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     let me = std::env::current_exe()?;
     let record_bin = sibling("splatphys-record")?;
     let render_bin = sibling("splatphys-render")?;
+    let server_json = args.out.join("server.json");
+    let _ = std::fs::remove_file(&server_json);
 
     let mut server_cmd = Command::new(&me);
     server_cmd.arg("serve");
-    if let Some(s) = &args.scene {
+    if let Some(s) = &plan.scene_path {
         server_cmd.arg(s);
     }
     server_cmd
-        .args([
-            "--prefix",
-            &prefix,
-            "--wait-for-subscribers",
-            "2",
-            "--progress",
-            "--report",
-        ])
-        .arg(args.out.join("server.json"))
-        .stdout(Stdio::piped());
-    if let Some(d) = args.duration_s {
+        .args(["--prefix", &plan.prefix, "--wait-for-subscribers", "2", "--report"])
+        .arg(&server_json)
+        .stdout(Stdio::null());
+    if let Some(d) = plan.duration_s {
         server_cmd.args(["--duration-s", &d.to_string()]);
     }
     let mut server = Proc::spawn("server", server_cmd, &logs.join("server.log"), args.threads)?;
-    let server_out = server.child.stdout.take().context("server stdout")?;
 
     let mut rec_cmd = Command::new(&record_bin);
     rec_cmd
-        .args([
-            "record",
-            "--prefix",
-            &prefix,
-            "--connect-timeout-s",
-            "30",
-            "--out",
-        ])
-        .arg(args.out.join("run.mcap"));
-    rec_cmd.stdout(Stdio::null());
+        .args(["record", "--prefix", &plan.prefix, "--connect-timeout-s", "30", "--out"])
+        .arg(args.out.join("run.mcap"))
+        .stdout(Stdio::null());
     let mut recorder = Proc::spawn("recorder", rec_cmd, &logs.join("recorder.log"), None)?;
 
+    let camera_args = plan.camera_args();
     let mut ren_cmd = Command::new(&render_bin);
     ren_cmd
-        .args([
-            "live",
-            "--prefix",
-            &prefix,
-            "--timeout-s",
-            "30",
-            "--out-dir",
-        ])
+        .args(["live", "--prefix", &plan.prefix, "--timeout-s", "30", "--out-dir"])
         .arg(&frames)
         .arg("--gif")
         .arg(args.out.join("animation.gif"))
+        .args(&camera_args)
         .stdout(Stdio::piped());
-    let camera_args: Vec<String> = match scene.cameras.first() {
-        Some(cam) => {
-            let v = |a: [f32; 3]| format!("{},{},{}", a[0], a[1], a[2]);
-            vec![
-                "--camera-pos".into(),
-                v(cam.position_m),
-                "--look-at".into(),
-                v(cam.look_at_m),
-                "--up".into(),
-                v(cam.up),
-                "--fov-deg".into(),
-                cam.fov_y_deg.to_string(),
-                "--width".into(),
-                cam.width_px.to_string(),
-                "--height".into(),
-                cam.height_px.to_string(),
-            ]
-        }
-        None => Vec::new(),
-    };
-    ren_cmd.args(&camera_args);
-    let mut renderer = Proc::spawn(
-        "renderer",
-        ren_cmd,
-        &logs.join("renderer.log"),
-        args.threads,
-    )?;
-    let render_out = renderer.child.stdout.take().context("renderer stdout")?;
-    let render_json = std::thread::spawn(move || -> Option<Value> {
-        BufReader::new(render_out)
-            .lines()
-            .map_while(Result::ok)
-            .filter_map(|l| serde_json::from_str::<Value>(&l).ok())
-            .last()
-    });
+    let mut renderer = Proc::spawn("renderer", ren_cmd, &logs.join("renderer.log"), args.threads)?;
+    let live_report = render_report(&mut renderer);
 
-    let pb = progress_bar(total_frames);
     let started = Instant::now();
-    for line in BufReader::new(server_out).lines().map_while(Result::ok) {
-        let mut it = line.split_whitespace();
-        if it.next() == Some("progress") {
-            let frame: u64 = it.next().and_then(|v| v.parse().ok()).unwrap_or(0);
-            let t: f64 = it.nth(1).and_then(|v| v.parse().ok()).unwrap_or(0.0);
-            pb.set_position(frame);
-            pb.set_message(format!("t = {t:.3} s"));
-        }
-        // A client that died early ends the run with a clear message.
-        for p in [&mut recorder, &mut renderer] {
-            if let Ok(Some(status)) = p.child.try_wait()
-                && !status.success()
-            {
-                pb.abandon();
-                let _ = server.child.kill();
-                bail!(
-                    "the {} exited with {status} before the end; see {}/{}.log (files written so far are kept)",
-                    p.name,
-                    logs.display(),
-                    p.name
-                );
-            }
-        }
+    let followed = follow_server(&plan, &mut server, &mut [&mut recorder, &mut renderer], &logs);
+    if followed.is_err() {
+        let _ = server.child.kill();
     }
-    pb.finish_and_clear();
+    followed?;
     let server_ok = server.wait(Duration::from_secs(30))?;
     let timeout = Duration::from_secs_f64(args.client_timeout_s.max(1.0));
     let recorder_ok = recorder.wait(timeout)?;
@@ -374,29 +341,29 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     if !server_ok {
         bail!("the server failed; see {}/server.log", logs.display());
     }
+    let report: ServerJson = read_json(&server_json)
+        .with_context(|| format!("the server's report (see {}/server.log)", logs.display()))?;
+    let live = live_report.join().ok().flatten().unwrap_or_default();
 
-    // objects.csv from the lossless recording.
-    let csv = args.out.join("objects.csv");
-    let export = Command::new(&record_bin)
-        .args(["export-objects"])
-        .arg(args.out.join("run.mcap"))
-        .arg("--out")
-        .arg(&csv)
-        .status()
-        .context("running splatphys-record export-objects")?;
-    let server_json: Value = std::fs::read_to_string(args.out.join("server.json"))
-        .ok()
-        .and_then(|s| serde_json::from_str(&s).ok())
-        .unwrap_or(Value::Null);
-    let render_json = render_json.join().ok().flatten().unwrap_or(Value::Null);
+    // objects.csv from the lossless recording, names from the plan.
+    let mcap = args.out.join("run.mcap");
+    let csv_rows = (|| -> Result<u64> {
+        let bytes = read_file(&mcap)?;
+        let msgs = messages(&bytes, &mcap, true)?;
+        let path = args.out.join("objects.csv");
+        let mut out = BufWriter::new(
+            File::create(&path).with_context(|| format!("creating {}", path.display()))?,
+        );
+        Ok(objects_csv(&msgs, &mcap, plan.object_names.clone(), &mut out)?)
+    })();
     // The live renderer shows the newest frame and skips when it is slower than the simulation;
     // the animation left behind should hold every step, so re-render any skipped ones from the
     // lossless recording (the live figure stays in the summary).
     let mut rerendered = false;
-    if recorder_ok && render_json["frames_dropped"].as_u64().unwrap_or(0) > 0 {
+    if recorder_ok && live.frames_dropped > 0 {
         let status = Command::new(&render_bin)
             .arg("mcap")
-            .arg(args.out.join("run.mcap"))
+            .arg(&mcap)
             .arg("--out-dir")
             .arg(&frames)
             .arg("--gif")
@@ -408,50 +375,32 @@ fn multi_process(args: &RunArgs) -> Result<()> {
             .context("running splatphys-render mcap")?;
         rerendered = status.success();
     }
-    let frames_png = std::fs::read_dir(&frames)
+    let mut summary = RunSummary::from_server(&plan.name, &plan.prefix, report, wall_s);
+    summary.frames_rendered = live.frames_rendered;
+    summary.frame_pngs = std::fs::read_dir(&frames)
         .map(|d| d.filter_map(Result::ok).count())
         .unwrap_or(0);
-    let summary = json!({
-        "mode": "multi-process",
-        "scene": name,
-        "prefix": prefix,
-        "method": server_json["method"],
-        "particles": server_json["particles"],
-        "gaussians": server_json["gaussians"],
-        "objects": server_json["objects"],
-        "substeps": server_json["substeps"],
-        "frames": server_json["frames_published"],
-        "frames_rendered": render_json["frames_rendered"],
-        "frame_pngs": frames_png,
-        "wall_s": wall_s,
-        "simulation_wall_s": server_json["step_wall_s"],
-        "particle_substeps_per_s": server_json["particle_substeps_per_s"],
-        "frames_dropped_by_renderer": render_json["frames_dropped"],
-        "frames_rerendered_from_recording": rerendered,
-        "frames_lost_by_recorder": server_json["frames_lost_by_recorder"],
-        "recorder_ok": recorder_ok,
-        "renderer_ok": renderer_ok,
-        "objects_csv_ok": export.success(),
-        "stats": server_json["stats"],
-        "diagnostics_end": server_json["diagnostics"],
-        "explain": server_json["explain"],
-    });
+    summary.frames_dropped_by_renderer = live.frames_dropped;
+    summary.frames_rerendered_from_recording = rerendered;
+    summary.recorder_ok = recorder_ok;
+    summary.renderer_ok = renderer_ok;
+    summary.objects_csv_rows = *csv_rows.as_ref().unwrap_or(&0);
     write_json(&args.out.join("summary.json"), &summary)?;
     if args.explain {
-        let report: Explanation = serde_json::from_value(server_json["explain"].clone())
-            .context("the server's report has no explanation (see logs/server.log)")?;
-        explain(&args.out, &report)?;
+        explain(&args.out, &summary.explain)?;
     }
     eprintln!(
         "splatphys run: {} frames simulated, {} rendered, in {wall_s:.1} s; wrote {}",
-        server_json["frames_published"],
-        render_json["frames_rendered"],
+        summary.frames,
+        summary.frames_rendered,
         args.out.display()
     );
-    if !(recorder_ok && renderer_ok && export.success()) {
+    if let Err(e) = &csv_rows {
+        bail!("objects.csv could not be written from the recording: {e:#}");
+    }
+    if !(recorder_ok && renderer_ok) {
         bail!(
-            "a client failed (recorder ok: {recorder_ok}, renderer ok: {renderer_ok}, csv export ok: {}); see {}",
-            export.success(),
+            "a client failed (recorder ok: {recorder_ok}, renderer ok: {renderer_ok}); see {}",
             logs.display()
         );
     }

@@ -8,6 +8,7 @@ use clap::Args;
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
 use splatphys_ipc::validate::Limits;
+use splatphys::report::{ServerJson, method_name, write_json};
 use splatphys::world_sim::WorldSim;
 
 /// Arguments of `splatphys serve`.
@@ -42,9 +43,6 @@ pub struct ServeArgs {
     /// Write a JSON report (counts, wall time, diagnostics) here when the server stops.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Print `progress <frame> <total> <time_s>` lines on stdout (for the main job).
-    #[arg(long, hide = true)]
-    pub progress: bool,
     /// Serve the built-in free-fall stand-in instead of the scene (testing the IPC layer).
     #[arg(long, hide = true)]
     pub fake: bool,
@@ -108,7 +106,6 @@ fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
     let (name, scene) = splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
     let mut sim =
         WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
-    sim.progress = args.progress;
     eprintln!(
         "splatphys serve: scene {name:?}: {} objects, {} particles, {} Gaussians published, {} frames",
         sim.world.bodies.len(),
@@ -121,33 +118,33 @@ fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
     let wall_s = started.elapsed().as_secs_f64();
     let report = result.context("server failed")?;
     let w = &sim.world;
-    let json = serde_json::json!({
-        "scene": name,
-        "method": format!("{:?}", w.settings.method).to_lowercase(),
-        "stopped": format!("{:?}", report.reason),
-        "particles": w.particle_count(),
-        "gaussians": w.published_count(),
-        "objects": w.bodies.len(),
-        "frames_published": report.frames_published,
-        "last_step": report.step,
-        "simulated_s": w.time_s,
-        "substeps": w.stats.substeps,
-        "wall_s": wall_s,
-        "step_wall_s": report.step_wall_s,
-        "publish_wall_s": report.publish_wall_s,
-        "mpm_particle_substeps": w.stats.mpm_particle_substeps,
-        "particle_substeps_per_s": w.stats.mpm_particle_substeps as f64 / report.step_wall_s.max(1e-9),
-        "frames_dropped_by_clients": report.frames_dropped,
-        "frames_lost_by_recorder": report.recorder_frames_lost,
-        "commands_received": report.commands_received,
-        "commands_rejected": report.commands_rejected,
-        "stats": w.stats,
-        "diagnostics": w.diagnostics(),
-        "explain": w.explain(),
-    });
+    let json = ServerJson {
+        scene: name,
+        method: method_name(w),
+        stopped: format!("{:?}", report.reason),
+        particles: w.particle_count(),
+        gaussians: w.published_count(),
+        objects: w.bodies.len(),
+        frames_published: report.frames_published,
+        last_step: report.step,
+        simulated_s: w.time_s,
+        substeps: w.stats.substeps,
+        wall_s,
+        step_wall_s: report.step_wall_s,
+        publish_wall_s: report.publish_wall_s,
+        mpm_particle_substeps: w.stats.mpm_particle_substeps,
+        particle_substeps_per_s: w.stats.mpm_particle_substeps as f64
+            / report.step_wall_s.max(1e-9),
+        frames_dropped_by_clients: report.frames_dropped,
+        frames_lost_by_recorder: report.recorder_frames_lost,
+        commands_received: report.commands_received,
+        commands_rejected: report.commands_rejected,
+        stats: w.stats,
+        diagnostics: w.diagnostics(),
+        explain: w.explain(),
+    };
     if let Some(path) = &args.report {
-        std::fs::write(path, serde_json::to_string_pretty(&json)?)
-            .with_context(|| format!("writing {}", path.display()))?;
+        write_json(path, &json)?;
     }
     eprintln!(
         "splatphys serve: stopped ({:?}) at step {}, {} frames published, {} lost by recorders",

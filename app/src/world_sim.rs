@@ -35,9 +35,6 @@ pub struct WorldSim {
     name: String,
     sh_degree: u32,
     substeps: u64,
-    /// Print `progress <frame> <total frames> <time_s>` on stdout after every frame (the main
-    /// job reads it for its progress bar).
-    pub progress: bool,
 }
 
 impl WorldSim {
@@ -59,7 +56,6 @@ impl WorldSim {
             name: name.to_string(),
             sh_degree,
             substeps: 0,
-            progress: false,
         })
     }
 }
@@ -122,18 +118,6 @@ impl Simulation for WorldSim {
             reason: e.to_string(),
         })?;
         self.substeps += n;
-        if self.progress {
-            use std::io::Write;
-            let mut out = std::io::stdout().lock();
-            let _ = writeln!(
-                out,
-                "progress {} {} {:.6}",
-                self.world.frame,
-                self.world.total_frames(),
-                self.world.time_s
-            );
-            let _ = out.flush();
-        }
         Ok(Advance {
             steps: 1,
             substeps: n,

@@ -3,10 +3,12 @@
 //! - [`writer`]: chunked zstd/lz4 MCAP with raw POD channels and a `foxglove.PointCloud`;
 //! - [`recorder`]: the lossless recording loop against a live server;
 //! - [`read`]: reading (also files cut off by a killed recorder) and CSV export;
+//! - [`objects_csv`]: the one `objects.csv` writer;
 //! - [`replay`]: publishing a recording back onto the services.
 
 pub mod channels;
 pub mod error;
+pub mod objects_csv;
 pub mod pointcloud;
 pub mod read;
 pub mod recorder;

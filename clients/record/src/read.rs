@@ -8,9 +8,10 @@ use std::path::Path;
 
 use bytemuck::Pod;
 use mcap::read::{MessageStream, Options};
-use splatphys_ipc::wire::{FrameHeader, ObjectState};
+use splatphys_ipc::wire::{FrameHeader, ObjectState, SceneHeader, read_fixed_str};
 
-use crate::channels::{FRAME, OBJECTS};
+use crate::channels::{FRAME, OBJECTS, SCENE};
+use crate::objects_csv::ObjectsCsv;
 use crate::error::RecordError;
 
 /// One message of a recording, owned.
@@ -135,38 +136,45 @@ pub fn frame_headers(
         .collect()
 }
 
-/// Writes the objects of every frame as CSV:
-/// `step,time_s,object,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg`. Returns the rows written.
+/// Object names from the first scene message of a recording (`names[id]`; the scene header
+/// names the first [`MAX_NAMED_OBJECTS`](splatphys_ipc::wire::MAX_NAMED_OBJECTS) objects).
+/// Empty when the recording holds no scene.
+pub fn object_names(msgs: &[RecordedMessage]) -> Vec<String> {
+    let Some(m) = msgs.iter().find(|m| m.topic == SCENE) else {
+        return Vec::new();
+    };
+    if m.data.len() < size_of::<SceneHeader>() {
+        return Vec::new();
+    }
+    let h: SceneHeader = bytemuck::pod_read_unaligned(&m.data[..size_of::<SceneHeader>()]);
+    h.object_names
+        .iter()
+        .take(h.object_count as usize)
+        .map(|n| read_fixed_str(n))
+        .collect()
+}
+
+/// Writes the objects of every frame as `objects.csv` ([`crate::objects_csv`]), with `names`
+/// for the `name` column. Returns the rows written.
 ///
 /// # Errors
 /// As [`split`], and I/O errors of `out`.
 pub fn objects_csv(
     msgs: &[RecordedMessage],
     path: &Path,
+    names: Vec<String>,
     out: &mut impl std::io::Write,
 ) -> Result<u64, RecordError> {
     let io = |source| RecordError::Io {
         path: path.display().to_string(),
         source,
     };
-    writeln!(
-        out,
-        "step,time_s,object,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg"
-    )
-    .map_err(io)?;
-    let mut rows = 0;
+    let mut csv = ObjectsCsv::new(out, names).map_err(io)?;
     for m in msgs.iter().filter(|m| m.topic == OBJECTS) {
         let (h, objs): (FrameHeader, Vec<ObjectState>) = split(m, path, "objects")?;
-        for o in objs {
-            let (p, v) = (o.position_m, o.velocity_m_s);
-            writeln!(
-                out,
-                "{},{},{},{},{},{},{},{},{},{}",
-                h.step, h.time_s, o.id, p[0], p[1], p[2], v[0], v[1], v[2], o.mass_kg
-            )
-            .map_err(io)?;
-            rows += 1;
-        }
+        csv.write_frame(h.step, h.time_s, &objs).map_err(io)?;
     }
+    let rows = csv.rows();
+    csv.finish().map_err(io)?;
     Ok(rows)
 }

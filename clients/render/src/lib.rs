@@ -28,6 +28,7 @@ pub mod camera;
 pub mod framing;
 pub mod image;
 pub mod orbit;
+pub mod report;
 pub mod output;
 pub mod project;
 pub mod raster;

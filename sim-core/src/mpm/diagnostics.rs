@@ -13,7 +13,7 @@ use crate::material::{ConstitutiveModel, Material};
 const CHUNK: usize = 4096;
 
 /// Totals over a particle set.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Diagnostics {
     /// Σ m (kg).
     pub mass_kg: f64,

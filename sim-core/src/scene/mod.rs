@@ -6,6 +6,7 @@
 //! - [`model`]: the built scene the simulation consumes;
 //! - [`build`]: loading sources, selecting objects, validation;
 //! - [`transform`]: similarity transforms, subsets, voxel subsampling;
+//! - [`builder`]: scenes in code ([`Scene::builder`]), validated as a file is;
 //! - [`builtin`]: the procedural default scene.
 //!
 //! ```no_run
@@ -15,6 +16,7 @@
 //! ```
 
 pub mod build;
+pub mod builder;
 pub mod builtin;
 pub mod model;
 pub mod schema;
@@ -23,6 +25,7 @@ pub mod transform;
 use std::path::{Path, PathBuf};
 
 pub use build::build_scene;
+pub use builder::{ObjectBuilder, SceneBuilder};
 pub use model::{
     CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MaterialSpec,
     Method, ObjectKind, Scene, SceneObject, SimulationSettings, Surface,

@@ -18,6 +18,43 @@ pub enum Method {
     MultiField,
 }
 
+impl Method {
+    /// Every method, in the order the benchmarks chart them.
+    pub const ALL: [Self; 3] = [Self::Com, Self::Mpm, Self::MultiField];
+
+    /// The scene-file name (`com`, `mpm`, `multi-field`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Com => "com",
+            Self::Mpm => "mpm",
+            Self::MultiField => "multi-field",
+        }
+    }
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Method {
+    type Err = splatphys_types::UnknownName;
+
+    /// Parses a scene-file name (`com`, `mpm`, `multi-field`), case-insensitively.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let key = s.trim().to_ascii_lowercase();
+        Self::ALL
+            .into_iter()
+            .find(|m| m.name() == key)
+            .ok_or_else(|| splatphys_types::UnknownName {
+                what: "method",
+                name: s.to_string(),
+                expected: Self::ALL.map(Self::name).join(", "),
+            })
+    }
+}
+
 pub use splatphys_types::ObjectKind;
 
 /// Collider surface condition (PhysGaussian's boundary conditions).
@@ -34,7 +71,6 @@ pub enum Surface {
 }
 
 pub use crate::material::MaterialSpec;
-
 
 /// Simulation settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -166,16 +202,16 @@ pub struct EventSpec {
     pub action: EventAction,
 }
 
-fn default_up() -> [f32; 3] {
+pub(super) fn default_up() -> [f32; 3] {
     [0.0, 0.0, 1.0]
 }
-fn default_fov() -> f32 {
+pub(super) fn default_fov() -> f32 {
     45.0
 }
-fn default_width() -> u32 {
+pub(super) fn default_width() -> u32 {
     640
 }
-fn default_height() -> u32 {
+pub(super) fn default_height() -> u32 {
     480
 }
 

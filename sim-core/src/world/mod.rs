@@ -107,7 +107,7 @@ pub enum WorldError {
 }
 
 /// Counters over the run.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WorldStats {
     /// Substeps taken.
     pub substeps: u64,

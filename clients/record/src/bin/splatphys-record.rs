@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use splatphys_record::read::{messages, objects_csv, read_file};
+use splatphys_record::read::{messages, object_names, objects_csv, read_file};
 use splatphys_record::recorder::{RecordEnd, RecordOptions, record};
 use splatphys_record::replay::{ReplayOptions, replay};
 use splatphys_record::writer::ChunkCompression;
@@ -127,15 +127,16 @@ fn main() -> Result<()> {
         Cmd::ExportObjects { file, out } => {
             let bytes = read_file(&file)?;
             let msgs = messages(&bytes, &file, true)?;
+            let names = object_names(&msgs);
             let rows = match out {
                 Some(p) => {
                     let mut f = std::io::BufWriter::new(
                         std::fs::File::create(&p)
                             .with_context(|| format!("creating {}", p.display()))?,
                     );
-                    objects_csv(&msgs, &file, &mut f)?
+                    objects_csv(&msgs, &file, names, &mut f)?
                 }
-                None => objects_csv(&msgs, &file, &mut std::io::stdout().lock())?,
+                None => objects_csv(&msgs, &file, names, &mut std::io::stdout().lock())?,
             };
             eprintln!("splatphys-record: {rows} object rows");
         }

@@ -229,28 +229,7 @@ impl Selector {
     }
 }
 
-/// The one JSON line printed at the end.
-#[derive(Debug, Clone, Copy)]
-pub struct Summary {
-    /// Frames rendered to PNG.
-    pub frames_rendered: u64,
-    /// Wanted frames not rendered (too slow, lost in the recording, or no scene).
-    pub frames_dropped: u64,
-    /// Step of the last rendered frame (0 when none).
-    pub last_step: u64,
-    /// Wall-clock seconds of the run.
-    pub seconds: f64,
-}
-
-impl Summary {
-    /// `{"frames_rendered":N,"frames_dropped":M,"last_step":S,"seconds":T}`.
-    pub fn json(&self) -> String {
-        format!(
-            "{{\"frames_rendered\":{},\"frames_dropped\":{},\"last_step\":{},\"seconds\":{:.3}}}",
-            self.frames_rendered, self.frames_dropped, self.last_step, self.seconds
-        )
-    }
-}
+pub use splatphys_render::report::RenderReport as Summary;
 
 /// Renders frames to PNG with a camera fixed at the first frame, and writes the animations.
 pub struct FrameRenderer {
@@ -541,20 +520,6 @@ mod tests {
         assert_eq!(s.offer(1, 0), Decision::Render);
         s.rendered(1, 0);
         assert_eq!(s.dropped, 1);
-    }
-
-    #[test]
-    fn summary_is_one_json_line() {
-        let s = Summary {
-            frames_rendered: 3,
-            frames_dropped: 1,
-            last_step: 7,
-            seconds: 0.5,
-        };
-        assert_eq!(
-            s.json(),
-            r#"{"frames_rendered":3,"frames_dropped":1,"last_step":7,"seconds":0.500}"#
-        );
     }
 
     #[test]
