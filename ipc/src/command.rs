@@ -72,115 +72,115 @@ pub enum DecodeError {
 
 /// Encodes `command` to the wire form with the given sequence number.
 pub fn encode(command: &Command, sequence: u64) -> CommandMsg {
-        let mut m = CommandMsg {
-            sequence,
-            ..Default::default()
-        };
-        match *command {
-            Command::Impulse {
-                object,
-                impulse_n_s,
-                point_m,
-            } => {
-                m.kind = CommandKind::Impulse as u32;
-                m.object_id = object;
-                m.vector = impulse_n_s;
-                if let Some(p) = point_m {
-                    m.point_m = p;
-                    m.fields |= FIELD_POINT;
-                }
+    let mut m = CommandMsg {
+        sequence,
+        ..Default::default()
+    };
+    match *command {
+        Command::Impulse {
+            object,
+            impulse_n_s,
+            point_m,
+        } => {
+            m.kind = CommandKind::Impulse as u32;
+            m.object_id = object;
+            m.vector = impulse_n_s;
+            if let Some(p) = point_m {
+                m.point_m = p;
+                m.fields |= FIELD_POINT;
             }
-            Command::SetVelocity {
-                object,
-                velocity_m_s,
-            } => {
-                m.kind = CommandKind::SetVelocity as u32;
-                m.object_id = object;
-                m.vector = velocity_m_s;
-            }
-            Command::EditMaterial { object, edit } => {
-                m.kind = CommandKind::EditMaterial as u32;
-                m.object_id = object;
-                let mut set = |flag: u32, v: Option<f64>, dst: &mut f64| {
-                    if let Some(v) = v {
-                        *dst = v;
-                        m.fields |= flag;
-                    }
-                };
-                set(FIELD_E, edit.youngs_modulus_pa, &mut m.youngs_modulus_pa);
-                set(FIELD_NU, edit.poisson_ratio, &mut m.poisson_ratio);
-                set(FIELD_DENSITY, edit.density_kg_m3, &mut m.density_kg_m3);
-                set(FIELD_RESTITUTION, edit.restitution, &mut m.restitution);
-                set(FIELD_FRICTION, edit.friction, &mut m.friction);
-                if let Some(model) = edit.model {
-                    m.code = model.code();
-                    m.fields |= FIELD_MODEL;
-                }
-            }
-            Command::SetKind { object, kind } => {
-                m.kind = CommandKind::SetKind as u32;
-                m.object_id = object;
-                m.code = kind.code();
-            }
-            Command::Pause => m.kind = CommandKind::Pause as u32,
-            Command::Resume => m.kind = CommandKind::Resume as u32,
-            Command::Step { count } => {
-                m.kind = CommandKind::Step as u32;
-                m.count = count;
-            }
-            Command::Reset => m.kind = CommandKind::Reset as u32,
-            Command::Shutdown => m.kind = CommandKind::Shutdown as u32,
         }
-        m
+        Command::SetVelocity {
+            object,
+            velocity_m_s,
+        } => {
+            m.kind = CommandKind::SetVelocity as u32;
+            m.object_id = object;
+            m.vector = velocity_m_s;
+        }
+        Command::EditMaterial { object, edit } => {
+            m.kind = CommandKind::EditMaterial as u32;
+            m.object_id = object;
+            let mut set = |flag: u32, v: Option<f64>, dst: &mut f64| {
+                if let Some(v) = v {
+                    *dst = v;
+                    m.fields |= flag;
+                }
+            };
+            set(FIELD_E, edit.youngs_modulus_pa, &mut m.youngs_modulus_pa);
+            set(FIELD_NU, edit.poisson_ratio, &mut m.poisson_ratio);
+            set(FIELD_DENSITY, edit.density_kg_m3, &mut m.density_kg_m3);
+            set(FIELD_RESTITUTION, edit.restitution, &mut m.restitution);
+            set(FIELD_FRICTION, edit.friction, &mut m.friction);
+            if let Some(model) = edit.model {
+                m.code = model.code();
+                m.fields |= FIELD_MODEL;
+            }
+        }
+        Command::SetKind { object, kind } => {
+            m.kind = CommandKind::SetKind as u32;
+            m.object_id = object;
+            m.code = kind.code();
+        }
+        Command::Pause => m.kind = CommandKind::Pause as u32,
+        Command::Resume => m.kind = CommandKind::Resume as u32,
+        Command::Step { count } => {
+            m.kind = CommandKind::Step as u32;
+            m.count = count;
+        }
+        Command::Reset => m.kind = CommandKind::Reset as u32,
+        Command::Shutdown => m.kind = CommandKind::Shutdown as u32,
     }
+    m
+}
 
 /// Decodes the wire form. Values are not checked here; see [`crate::validate`].
 ///
 /// # Errors
 /// [`DecodeError`] for an unknown command kind, material model or object kind code.
 pub fn decode(m: &CommandMsg) -> Result<Command, DecodeError> {
-        let opt = |flag: u32, v: f64| (m.fields & flag != 0).then_some(v);
-        Ok(match m.kind {
-            1 => Command::Impulse {
-                object: m.object_id,
-                impulse_n_s: m.vector,
-                point_m: (m.fields & FIELD_POINT != 0).then_some(m.point_m),
-            },
-            2 => Command::SetVelocity {
-                object: m.object_id,
-                velocity_m_s: m.vector,
-            },
-            3 => Command::EditMaterial {
-                object: m.object_id,
-                edit: MaterialEdit {
-                    model: if m.fields & FIELD_MODEL != 0 {
-                        Some(
-                            MaterialModel::from_code(m.code)
-                                .ok_or(DecodeError::UnknownModel { code: m.code })?,
-                        )
-                    } else {
-                        None
-                    },
-                    youngs_modulus_pa: opt(FIELD_E, m.youngs_modulus_pa),
-                    poisson_ratio: opt(FIELD_NU, m.poisson_ratio),
-                    density_kg_m3: opt(FIELD_DENSITY, m.density_kg_m3),
-                    restitution: opt(FIELD_RESTITUTION, m.restitution),
-                    friction: opt(FIELD_FRICTION, m.friction),
+    let opt = |flag: u32, v: f64| (m.fields & flag != 0).then_some(v);
+    Ok(match m.kind {
+        1 => Command::Impulse {
+            object: m.object_id,
+            impulse_n_s: m.vector,
+            point_m: (m.fields & FIELD_POINT != 0).then_some(m.point_m),
+        },
+        2 => Command::SetVelocity {
+            object: m.object_id,
+            velocity_m_s: m.vector,
+        },
+        3 => Command::EditMaterial {
+            object: m.object_id,
+            edit: MaterialEdit {
+                model: if m.fields & FIELD_MODEL != 0 {
+                    Some(
+                        MaterialModel::from_code(m.code)
+                            .ok_or(DecodeError::UnknownModel { code: m.code })?,
+                    )
+                } else {
+                    None
                 },
+                youngs_modulus_pa: opt(FIELD_E, m.youngs_modulus_pa),
+                poisson_ratio: opt(FIELD_NU, m.poisson_ratio),
+                density_kg_m3: opt(FIELD_DENSITY, m.density_kg_m3),
+                restitution: opt(FIELD_RESTITUTION, m.restitution),
+                friction: opt(FIELD_FRICTION, m.friction),
             },
-            4 => Command::SetKind {
-                object: m.object_id,
-                kind: ObjectKind::from_code(m.code)
-                    .ok_or(DecodeError::UnknownObjectKind { code: m.code })?,
-            },
-            5 => Command::Pause,
-            6 => Command::Resume,
-            7 => Command::Step { count: m.count },
-            8 => Command::Reset,
-            9 => Command::Shutdown,
-            kind => return Err(DecodeError::UnknownKind { kind }),
-        })
-    }
+        },
+        4 => Command::SetKind {
+            object: m.object_id,
+            kind: ObjectKind::from_code(m.code)
+                .ok_or(DecodeError::UnknownObjectKind { code: m.code })?,
+        },
+        5 => Command::Pause,
+        6 => Command::Resume,
+        7 => Command::Step { count: m.count },
+        8 => Command::Reset,
+        9 => Command::Shutdown,
+        kind => return Err(DecodeError::UnknownKind { kind }),
+    })
+}
 
 /// Wire codes of [`ReplyMsg::reject_code`].
 #[repr(u32)]
@@ -327,10 +327,7 @@ mod tests {
             kind: 99,
             ..Default::default()
         };
-        assert_eq!(
-            decode(&m),
-            Err(DecodeError::UnknownKind { kind: 99 })
-        );
+        assert_eq!(decode(&m), Err(DecodeError::UnknownKind { kind: 99 }));
         let m = CommandMsg {
             kind: 4,
             code: 17,

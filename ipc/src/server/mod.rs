@@ -1,0 +1,589 @@
+//! The co-simulation server loop, generic over [`Simulation`].
+//!
+//! [`serve`] runs a [`Server`] whose loop reads as its steps: look for a stop (SIGINT/SIGTERM,
+//! the stop flag), handle commands (drain and answer every pending one), republish the scene on
+//! a new generation, step and publish (advance by one published frame unless paused, and write
+//! the frame and the objects straight from the simulation into loaned shared memory), pace to
+//! simulated time when asked, and beat (status). A separate thread publishes the status
+//! heartbeat ([`crate::heartbeat`]). Dead nodes (killed clients) are cleaned up every
+//! [`ServerConfig::cleanup_period`]. On a signal, a `Shutdown` command or the end of the
+//! simulation, the server finishes the step, publishes a last status with
+//! [`STATUS_SHUTTING_DOWN`] and drops its services (iceoryx2 removes them with their last user).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use iceoryx2::node::Node;
+use iceoryx2::port::backpressure_strategy::BackpressureStrategy;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::server::Server as CommandServer;
+use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::prelude::AllocationStrategy;
+
+use crate::backpressure::LagBook;
+use crate::command::{Command, RejectCode, Reply};
+use crate::error::IpcError;
+use crate::heartbeat::Heartbeat;
+use crate::services::{
+    CommandLogService, CommandService, Iox, Role, SceneService, ServiceNames, command_log_service,
+    command_service, create_node, frame_service, objects_service, scene_service,
+};
+use crate::simulation::Simulation;
+use crate::validate::{Limits, validate};
+use crate::wire::{
+    CommandLogEntry, CommandMsg, ReplyMsg, STATUS_FINISHED, STATUS_LOSSLESS_LAGGING, STATUS_PAUSED,
+    STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status,
+};
+
+mod ports;
+
+use ports::{Ports, clean_dead_nodes, publish_frame, publish_scene};
+pub use ports::{frame_publisher, objects_publisher};
+
+/// How the server runs.
+#[derive(Debug, Clone)]
+pub struct ServerConfig {
+    /// Service prefix; `None` = `splatphys/<scene name>`.
+    pub prefix: Option<String>,
+    /// Pace frames to simulated time instead of running as fast as possible.
+    pub realtime: bool,
+    /// Longest wait on a full lossless subscriber per frame. Default 100 ms.
+    pub lossless_limit: Duration,
+    /// Command value limits.
+    pub limits: Limits,
+    /// Period of dead-node cleanup. Default 1 s.
+    pub cleanup_period: Duration,
+    /// Stop after publishing this many frames after the initial one.
+    pub max_frames: Option<u64>,
+    /// Stop when the simulation reports it is finished (otherwise: idle like paused).
+    pub exit_when_finished: bool,
+    /// Start paused.
+    pub start_paused: bool,
+    /// Set to stop the server from another thread.
+    pub stop: Arc<AtomicBool>,
+    /// Hold stepping until this many frame subscribers are connected (0 = do not wait), then
+    /// publish the initial frame again so they all get it. The main job uses it so the recorder
+    /// and the renderer see every step.
+    pub wait_for_subscribers: usize,
+    /// Longest wait for those subscribers; the run then starts anyway. Default 10 s.
+    pub wait_timeout: Duration,
+}
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        Self {
+            prefix: None,
+            realtime: false,
+            lossless_limit: Duration::from_millis(100),
+            limits: Limits::default(),
+            cleanup_period: Duration::from_secs(1),
+            max_frames: None,
+            exit_when_finished: true,
+            start_paused: false,
+            stop: Arc::default(),
+            wait_for_subscribers: 0,
+            wait_timeout: Duration::from_secs(10),
+        }
+    }
+}
+
+/// Why the server stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StopReason {
+    /// SIGINT or SIGTERM.
+    Signal,
+    /// A `Shutdown` command.
+    ShutdownCommand,
+    /// The simulation finished.
+    Finished,
+    /// [`ServerConfig::max_frames`] reached.
+    MaxFrames,
+    /// [`ServerConfig::stop`] was set.
+    StopFlag,
+}
+
+/// What a server run did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServerReport {
+    /// Why it stopped.
+    pub reason: StopReason,
+    /// Frames published, including the initial one.
+    pub frames_published: u64,
+    /// Last step index.
+    pub step: u64,
+    /// Commands received / rejected.
+    pub commands_received: u64,
+    /// Commands rejected.
+    pub commands_rejected: u64,
+    /// Frames skipped by best-effort subscribers.
+    pub frames_dropped: u64,
+    /// Frames lossless subscribers lost past the limit.
+    pub recorder_frames_lost: u64,
+    /// Wall time spent stepping vs. publishing, seconds.
+    pub step_wall_s: f64,
+    /// Wall time spent loaning, writing and sending frames and objects, seconds.
+    pub publish_wall_s: f64,
+}
+
+/// Serves `sim` until a signal, a `Shutdown` command, the end of the simulation or
+/// [`ServerConfig::stop`].
+///
+/// # Errors
+/// When services cannot be created (e.g. [`IpcError::PrefixInUse`]), iceoryx2 fails, or the
+/// simulation fails.
+pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerReport, IpcError> {
+    let mut server = Server::start(sim, cfg)?;
+    let reason = loop {
+        if let Some(reason) = server.stop_requested() {
+            break reason;
+        }
+        server.update_connections()?;
+        if let Some(reason) = server.handle_commands()? {
+            break reason;
+        }
+        server.republish_on_new_generation()?;
+        if let Some(reason) = server.end_reached() {
+            break reason;
+        }
+        if server.wait_for_subscribers()? {
+            continue;
+        }
+        if let Some(reason) = server.step_and_publish()? {
+            break reason;
+        }
+        server.beat();
+        server.clean_up();
+    };
+    server.finish(reason)
+}
+
+/// Loop state that changes from iteration to iteration.
+struct LoopState {
+    /// The scene generation last published.
+    generation: u32,
+    /// Stepping paused by a command or [`ServerConfig::start_paused`].
+    paused: bool,
+    /// Still holding for [`ServerConfig::wait_for_subscribers`].
+    waiting: bool,
+    /// Frames still to step while paused (`step N`).
+    pending_steps: u64,
+    /// Wall instant and simulated time that pacing counts from.
+    pace_origin: (Instant, f64),
+    /// When the wait for subscribers, the last status and the last cleanup happened.
+    wait_started: Instant,
+    last_status: Instant,
+    last_cleanup: Instant,
+    /// Start of the current rate period: instant, step, substeps.
+    period: (Instant, u64, u64),
+    /// Steps and substeps per wall second over the last period.
+    rates: (f64, f64),
+}
+
+/// A running server: its ports, its report so far and its loop state. The services are kept
+/// here so they live as long as their ports.
+pub struct Server<'a, S: Simulation> {
+    sim: &'a mut S,
+    cfg: &'a ServerConfig,
+    node: Node<Iox>,
+    names: ServiceNames,
+    _scene_service: SceneService,
+    _command_service: CommandService,
+    _command_log_service: CommandLogService,
+    scene_pub: Publisher<Iox, [SceneGaussian], SceneHeader>,
+    command_log_pub: Publisher<Iox, CommandLogEntry, ()>,
+    command_server: CommandServer<Iox, CommandMsg, (), ReplyMsg, ()>,
+    heartbeat: Heartbeat,
+    ports: Ports,
+    report: ServerReport,
+    state: LoopState,
+}
+
+/// Maps "the service already exists" to [`IpcError::PrefixInUse`].
+fn owned<T>(r: Result<T, IpcError>, prefix: &str) -> Result<T, IpcError> {
+    r.map_err(|e| match e {
+        IpcError::Iceoryx { detail, .. } if detail.contains("AlreadyExists") => {
+            IpcError::PrefixInUse {
+                prefix: prefix.to_owned(),
+            }
+        }
+        e => e,
+    })
+}
+
+impl<'a, S: Simulation> Server<'a, S> {
+    /// Creates every service and port and publishes the scene and the initial frame.
+    ///
+    /// # Errors
+    /// As [`serve`].
+    pub fn start(sim: &'a mut S, cfg: &'a ServerConfig) -> Result<Self, IpcError> {
+        let prefix = cfg
+            .prefix
+            .clone()
+            .unwrap_or_else(|| ServiceNames::default_prefix(sim.scene_name()));
+        let names = ServiceNames::new(&prefix);
+        let node = create_node("splatphys-server")?;
+        clean_dead_nodes(&node);
+
+        let scene_service = owned(scene_service(&node, &names, Role::Owner), &prefix)?;
+        let frame_service = owned(frame_service(&node, &names, Role::Owner), &prefix)?;
+        let objects_service = owned(objects_service(&node, &names, Role::Owner), &prefix)?;
+        let command_service = owned(command_service(&node, &names, Role::Owner), &prefix)?;
+        let command_log_service = owned(command_log_service(&node, &names, Role::Owner), &prefix)?;
+
+        let scene_pub = scene_service
+            .publisher_builder()
+            .initial_max_slice_len(sim.gaussian_count().max(1))
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(|e| IpcError::iox("create publisher", &names.name("scene"), e))?;
+        let frame_book = LagBook::new(cfg.lossless_limit);
+        let objects_book = LagBook::new(cfg.lossless_limit);
+        let frame_pub = frame_publisher(&frame_service, &names, sim.gaussian_count(), &frame_book)?;
+        let objects_pub =
+            objects_publisher(&objects_service, &names, sim.object_count(), &objects_book)?;
+        let command_log_pub = command_log_service
+            .publisher_builder()
+            .create()
+            .map_err(|e| IpcError::iox("create publisher", &names.name("command_log"), e))?;
+        let command_server = command_service
+            .server_builder()
+            .backpressure_strategy(BackpressureStrategy::DiscardData)
+            .create()
+            .map_err(|e| IpcError::iox("create server", &names.name("command"), e))?;
+        // `status` last: a client connects once it opens, and sends commands at once. iceoryx2
+        // delivers a request only to the servers connected when it is sent, so the command
+        // server port must exist by then (regression: a `resume` sent right after connecting
+        // was lost).
+        let heartbeat = owned(Heartbeat::start(&names), &prefix)?;
+
+        let mut ports = Ports {
+            names: names.clone(),
+            frame_service,
+            objects_service,
+            frame_pub,
+            objects_pub,
+            frame_book,
+            objects_book,
+            subscriber_counts: (usize::MAX, usize::MAX),
+        };
+        let report = ServerReport {
+            reason: StopReason::StopFlag,
+            frames_published: 1,
+            step: sim.step(),
+            commands_received: 0,
+            commands_rejected: 0,
+            frames_dropped: 0,
+            recorder_frames_lost: 0,
+            step_wall_s: 0.0,
+            publish_wall_s: 0.0,
+        };
+        publish_scene(sim, &scene_pub)?;
+        ports.refresh_subscribers(true);
+        publish_frame(sim, &ports, 0)?;
+        let now = Instant::now();
+        let state = LoopState {
+            generation: sim.scene_generation(),
+            paused: cfg.start_paused,
+            waiting: cfg.wait_for_subscribers > 0,
+            pending_steps: 0,
+            pace_origin: (now, sim.time_s()),
+            wait_started: now,
+            last_status: now,
+            last_cleanup: now,
+            period: (now, report.step, sim.substeps()),
+            rates: (0.0, 0.0),
+        };
+        Ok(Self {
+            sim,
+            cfg,
+            node,
+            names,
+            _scene_service: scene_service,
+            _command_service: command_service,
+            _command_log_service: command_log_service,
+            scene_pub,
+            command_log_pub,
+            command_server,
+            heartbeat,
+            ports,
+            report,
+            state,
+        })
+    }
+
+    /// A signal or the stop flag.
+    fn stop_requested(&self) -> Option<StopReason> {
+        if self.node.wait(Duration::ZERO).is_err() {
+            return Some(StopReason::Signal);
+        }
+        self.cfg
+            .stop
+            .load(Ordering::Acquire)
+            .then_some(StopReason::StopFlag)
+    }
+
+    /// Late subscribers get the scene from history when the publisher updates connections.
+    fn update_connections(&self) -> Result<(), IpcError> {
+        self.scene_pub
+            .update_connections()
+            .map_err(|e| IpcError::iox("update connections", &self.names.name("scene"), e))
+    }
+
+    /// Drains and answers every pending command; logs each with its reply. Returns
+    /// [`StopReason::ShutdownCommand`] after an accepted `Shutdown`.
+    fn handle_commands(&mut self) -> Result<Option<StopReason>, IpcError> {
+        let mut shutdown = None;
+        loop {
+            let request = match self.command_server.receive() {
+                Ok(Some(r)) => r,
+                Ok(None) => break,
+                Err(e) => {
+                    return Err(IpcError::iox(
+                        "receive command",
+                        &self.names.name("command"),
+                        e,
+                    ));
+                }
+            };
+            self.report.commands_received += 1;
+            let msg = *request.payload();
+            let reply = match crate::command::decode(&msg) {
+                Err(e) => Reply::Rejected {
+                    code: RejectCode::Malformed,
+                    reason: e.to_string(),
+                },
+                Ok(cmd) => match validate(&cmd, self.sim.object_count() as u32, &self.cfg.limits) {
+                    Err(rejection) => rejection,
+                    Ok(()) => {
+                        if cmd == Command::Shutdown {
+                            shutdown = Some(StopReason::ShutdownCommand);
+                        }
+                        self.execute(cmd)
+                    }
+                },
+            };
+            if matches!(reply, Reply::Rejected { .. }) {
+                self.report.commands_rejected += 1;
+            }
+            // A client that died before its reply costs nothing: the send is discarded.
+            let reply_msg = reply.to_msg(msg.sequence);
+            let _ = request.send_copy(reply_msg);
+            self.command_log_pub
+                .send_copy(CommandLogEntry {
+                    received_step: self.sim.step(),
+                    command: msg,
+                    reply: reply_msg,
+                })
+                .map_err(|e| IpcError::iox("send", &self.names.name("command_log"), e))?;
+        }
+        Ok(shutdown)
+    }
+
+    /// Carries out one validated command: stepping commands here, the rest in the simulation.
+    fn execute(&mut self, cmd: Command) -> Reply {
+        let step = self.sim.step();
+        let accepted = |effective_step| Reply::Accepted { effective_step };
+        match cmd {
+            Command::Pause => {
+                self.state.paused = true;
+                accepted(step)
+            }
+            Command::Resume => {
+                self.state.paused = false;
+                self.state.pending_steps = 0;
+                self.state.pace_origin = (Instant::now(), self.sim.time_s());
+                accepted(step + 1)
+            }
+            Command::Step { count } => {
+                self.state.pending_steps = self.state.pending_steps.saturating_add(count);
+                accepted(step + 1)
+            }
+            Command::Shutdown => accepted(step),
+            other => match self.sim.apply(&other) {
+                Ok(step) => accepted(step),
+                Err(reason) => Reply::Rejected {
+                    code: RejectCode::Refused,
+                    reason,
+                },
+            },
+        }
+    }
+
+    /// Publishes the scene and a frame again when the scene generation changed (a reset, or an
+    /// edit that changed the counts).
+    fn republish_on_new_generation(&mut self) -> Result<(), IpcError> {
+        if self.sim.scene_generation() == self.state.generation {
+            return Ok(());
+        }
+        self.state.generation = self.sim.scene_generation();
+        publish_scene(self.sim, &self.scene_pub)?;
+        self.publish()?;
+        self.state.pace_origin = (Instant::now(), self.sim.time_s());
+        Ok(())
+    }
+
+    /// The end of the simulation or [`ServerConfig::max_frames`].
+    fn end_reached(&self) -> Option<StopReason> {
+        if self.sim.is_finished() && self.cfg.exit_when_finished {
+            return Some(StopReason::Finished);
+        }
+        self.cfg
+            .max_frames
+            .is_some_and(|m| self.report.frames_published > m)
+            .then_some(StopReason::MaxFrames)
+    }
+
+    /// While holding for [`ServerConfig::wait_for_subscribers`]: `true` to go round again. Once
+    /// they are there (or the wait timed out) the current frame is published again so every one
+    /// of them gets it.
+    fn wait_for_subscribers(&mut self) -> Result<bool, IpcError> {
+        if !self.state.waiting {
+            return Ok(false);
+        }
+        self.ports.refresh_subscribers(false);
+        let have = self.ports.subscriber_counts.0;
+        if have >= self.cfg.wait_for_subscribers
+            || self.state.wait_started.elapsed() >= self.cfg.wait_timeout
+        {
+            self.state.waiting = false;
+            self.publish()?;
+            self.state.pace_origin = (Instant::now(), self.sim.time_s());
+            Ok(false)
+        } else {
+            std::thread::sleep(Duration::from_millis(2));
+            Ok(true)
+        }
+    }
+
+    /// Publishes the current frame and objects with the next frame index.
+    fn publish(&mut self) -> Result<(), IpcError> {
+        publish_frame(self.sim, &self.ports, self.report.frames_published)?;
+        self.report.frames_published += 1;
+        Ok(())
+    }
+
+    /// Advances one frame and publishes it when stepping (not paused, or `step N` pending),
+    /// then paces; otherwise idles a millisecond. A signal during either wait stops.
+    fn step_and_publish(&mut self) -> Result<Option<StopReason>, IpcError> {
+        let stepping =
+            !self.sim.is_finished() && (!self.state.paused || self.state.pending_steps > 0);
+        if !stepping {
+            let signalled = self.node.wait(Duration::from_millis(1)).is_err();
+            return Ok(signalled.then_some(StopReason::Signal));
+        }
+        let t0 = Instant::now();
+        self.sim.advance()?;
+        let t1 = Instant::now();
+        self.ports.refresh_subscribers(false);
+        self.publish()?;
+        self.report.step_wall_s += (t1 - t0).as_secs_f64();
+        self.report.publish_wall_s += t1.elapsed().as_secs_f64();
+        self.state.pending_steps = self.state.pending_steps.saturating_sub(1);
+        if self.cfg.realtime {
+            let (origin, origin_time_s) = self.state.pace_origin;
+            let due =
+                origin + Duration::from_secs_f64((self.sim.time_s() - origin_time_s).max(0.0));
+            let now = Instant::now();
+            if due > now && self.node.wait(due - now).is_err() {
+                return Ok(Some(StopReason::Signal));
+            }
+        }
+        Ok(None)
+    }
+
+    /// Updates the heartbeat's status every [`crate::services::STATUS_PERIOD`].
+    fn beat(&mut self) {
+        if self.state.last_status.elapsed() < crate::services::STATUS_PERIOD {
+            return;
+        }
+        let (start, step0, substeps0) = self.state.period;
+        let dt = start.elapsed().as_secs_f64().max(1e-9);
+        self.state.rates = (
+            // a reset moves the step back
+            (self.sim.step().saturating_sub(step0)) as f64 / dt,
+            (self.sim.substeps().saturating_sub(substeps0)) as f64 / dt,
+        );
+        self.state.period = (Instant::now(), self.sim.step(), self.sim.substeps());
+        self.ports.refresh_subscribers(true);
+        let flags = if self.state.paused { STATUS_PAUSED } else { 0 }
+            | if self.sim.is_finished() {
+                STATUS_FINISHED
+            } else {
+                0
+            };
+        self.heartbeat.update(&status(
+            self.sim,
+            &self.ports,
+            &self.report,
+            self.state.rates,
+            flags,
+        ));
+        self.state.last_status = Instant::now();
+    }
+
+    /// Removes killed clients' resources every [`ServerConfig::cleanup_period`].
+    fn clean_up(&mut self) {
+        if self.state.last_cleanup.elapsed() >= self.cfg.cleanup_period {
+            clean_dead_nodes(&self.node);
+            self.state.last_cleanup = Instant::now();
+        }
+    }
+
+    /// Publishes the last status with [`STATUS_SHUTTING_DOWN`] and returns the report.
+    fn finish(mut self, reason: StopReason) -> Result<ServerReport, IpcError> {
+        self.report.reason = reason;
+        self.report.step = self.sim.step();
+        let totals = self.ports.frame_book.totals();
+        self.report.frames_dropped = totals.best_effort_dropped;
+        self.report.recorder_frames_lost = totals.lossless_lost;
+        let finished = if self.sim.is_finished() {
+            STATUS_FINISHED
+        } else {
+            0
+        };
+        self.heartbeat.update(&status(
+            self.sim,
+            &self.ports,
+            &self.report,
+            self.state.rates,
+            finished,
+        ));
+        self.heartbeat.finish(STATUS_SHUTTING_DOWN)?;
+        Ok(self.report)
+    }
+}
+
+fn status<S: Simulation>(
+    sim: &S,
+    ports: &Ports,
+    report: &ServerReport,
+    rates: (f64, f64),
+    flags: u32,
+) -> Status {
+    let totals = ports.frame_book.totals();
+    let lags = ports.frame_book.report();
+    let mut s = Status {
+        step: sim.step(),
+        time_s: sim.time_s(),
+        frames_published: report.frames_published,
+        steps_per_s: rates.0,
+        substeps_per_s: rates.1,
+        frames_dropped: totals.best_effort_dropped,
+        recorder_frames_lost: totals.lossless_lost,
+        commands_received: report.commands_received,
+        commands_rejected: report.commands_rejected,
+        flags: flags
+            | if totals.lagging > 0 {
+                STATUS_LOSSLESS_LAGGING
+            } else {
+                0
+            },
+        scene_generation: sim.scene_generation(),
+        subscriber_count: ports.subscriber_counts.0 as u32,
+        reported_subscribers: lags.len() as u32,
+        ..Default::default()
+    };
+    s.subscribers[..lags.len()].copy_from_slice(&lags);
+    s
+}
