@@ -45,7 +45,9 @@ pub const FIELD_RESTITUTION: u32 = 32;
 /// [`CommandMsg::fields`]: `friction` is present.
 pub const FIELD_FRICTION: u32 = 64;
 
-pub use splatphys_types::{Command, MaterialEdit, MaterialModel, ObjectKind, UnknownName};
+pub use splatphys_types::{
+    Command, CommandToml, MaterialEdit, MaterialModel, ObjectKind, UnknownName,
+};
 
 /// Why a command message could not be decoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]

@@ -1,25 +1,15 @@
 //! The command vocabulary: what a scene `[[event]]`, a control timeline entry and a wire command
 //! all are once parsed.
 
-use serde::{Deserialize, Serialize};
-
 use crate::{MaterialEdit, ObjectKind};
 
 /// A command to a running simulation.
 ///
-/// `O` names the target object: `u32` ids on the wire and inside the simulation, `String` names
-/// in scene files and timelines ([`Command::map_object`] resolves one into the other). In TOML a
-/// command is a table with `action` set to the variant's snake-case name and the variant's
-/// fields as keys, the same in scene files and timelines:
-///
-/// ```toml
-/// action = "impulse"
-/// object = "ball"
-/// impulse_n_s = [0.0, 0.0, 2.0]
-/// point_m = [0.0, 0.0, 0.1]    # optional; the centre of mass when absent
-/// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "action", rename_all = "snake_case", deny_unknown_fields)]
+/// `O` names the target object: `u32` ids on the wire and inside the simulation, names (or
+/// name-or-id references) in scene files and timelines ([`Command::map_object`] resolves one
+/// into the other). Scene files and timelines write commands the same way, as
+/// [`CommandToml`](crate::CommandToml) tables.
+#[derive(Debug, Clone, PartialEq)]
 pub enum Command<O = u32> {
     /// Apply an impulse (N·s, world frame) to an object, at a point (m, world) or at its COM.
     Impulse {
@@ -28,7 +18,6 @@ pub enum Command<O = u32> {
         /// Impulse, N·s.
         impulse_n_s: [f64; 3],
         /// Point of application, metres; `None` = centre of mass.
-        #[serde(default)]
         point_m: Option<[f64; 3]>,
     },
     /// Set an object's COM velocity, m/s (angular velocity unchanged).
@@ -43,7 +32,6 @@ pub enum Command<O = u32> {
         /// Target object.
         object: O,
         /// The fields to change.
-        #[serde(flatten)]
         edit: MaterialEdit,
     },
     /// Change how an object moves.
@@ -80,13 +68,15 @@ impl<O> Command<O> {
         }
     }
 
-    /// The variant's snake-case name (`impulse`, `set_velocity`, ...), as written in TOML.
+    /// The command's name as written in TOML and on the command line (`impulse`,
+    /// `set-velocity`, `edit-material`, `set-kind`, `pause`, `resume`, `step`, `reset`,
+    /// `shutdown`).
     pub fn name(&self) -> &'static str {
         match self {
             Self::Impulse { .. } => "impulse",
-            Self::SetVelocity { .. } => "set_velocity",
-            Self::EditMaterial { .. } => "edit_material",
-            Self::SetKind { .. } => "set_kind",
+            Self::SetVelocity { .. } => "set-velocity",
+            Self::EditMaterial { .. } => "edit-material",
+            Self::SetKind { .. } => "set-kind",
             Self::Pause => "pause",
             Self::Resume => "resume",
             Self::Step { .. } => "step",
@@ -131,62 +121,5 @@ impl<O> Command<O> {
             Self::Reset => Command::Reset,
             Self::Shutdown => Command::Shutdown,
         })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::MaterialModel;
-
-    #[test]
-    fn toml_commands_parse_with_names_and_map_to_ids() {
-        let text = r#"
-            [[e]]
-            action = "impulse"
-            object = "ball"
-            impulse_n_s = [0.0, 0.0, 2.0]
-            [[e]]
-            action = "edit_material"
-            object = "ball"
-            model = "snow"
-            youngs_modulus_pa = 1e5
-            [[e]]
-            action = "step"
-            count = 3
-        "#;
-        #[derive(Deserialize)]
-        struct Doc {
-            e: Vec<Command<String>>,
-        }
-        let doc: Doc = toml::from_str(text).unwrap();
-        let ids: Vec<Command> = doc
-            .e
-            .into_iter()
-            .map(|c| c.map_object(|n| if n == "ball" { Ok(7) } else { Err(n) }).unwrap())
-            .collect();
-        assert_eq!(
-            ids[0],
-            Command::Impulse {
-                object: 7,
-                impulse_n_s: [0.0, 0.0, 2.0],
-                point_m: None
-            }
-        );
-        let Command::EditMaterial { object: 7, edit } = ids[1] else {
-            panic!("{:?}", ids[1]);
-        };
-        assert_eq!(edit.model, Some(MaterialModel::Snow));
-        assert_eq!(edit.youngs_modulus_pa, Some(1e5));
-        assert_eq!(edit.poisson_ratio, None);
-        assert_eq!(ids[2], Command::Step { count: 3 });
-        assert_eq!(ids[2].name(), "step");
-    }
-
-    #[test]
-    fn unknown_keys_are_refused() {
-        let r: Result<Command<String>, _> =
-            toml::from_str("action = \"impulse\"\nobject = \"a\"\nimpulse_n_s = [0.0,0.0,1.0]\nforce = 1");
-        assert!(r.is_err());
     }
 }

@@ -8,7 +8,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use serde::Deserialize;
-use splatphys_ipc::command::{Command, MaterialEdit, MaterialModel, ObjectKind};
+use splatphys_ipc::command::{Command, MaterialModel, ObjectKind};
 
 use crate::error::ControlError;
 
@@ -85,11 +85,13 @@ pub fn parse_vec3(input: &str) -> Result<[f64; 3], ControlError> {
 /// # Errors
 /// [`ControlError::UnknownName`].
 pub fn parse_model(input: &str) -> Result<MaterialModel, ControlError> {
-    input.parse().map_err(|e: splatphys_ipc::command::UnknownName| ControlError::UnknownName {
-        what: e.what,
-        input: e.name,
-        expected: e.expected,
-    })
+    input.parse().map_err(
+        |e: splatphys_ipc::command::UnknownName| ControlError::UnknownName {
+            what: e.what,
+            input: e.name,
+            expected: e.expected,
+        },
+    )
 }
 
 /// Parses an object kind (`deformable`, `rigid`, `static`).
@@ -100,124 +102,21 @@ pub fn parse_kind(input: &str) -> Result<ObjectKind, ControlError> {
     match input.trim().to_ascii_lowercase().as_str() {
         "mpm" => Ok(ObjectKind::Deformable),
         "fixed" => Ok(ObjectKind::Static),
-        _ => input.parse().map_err(|e: splatphys_ipc::command::UnknownName| {
-            ControlError::UnknownName {
-                what: e.what,
-                input: e.name,
-                expected: e.expected,
-            }
-        }),
+        _ => input
+            .parse()
+            .map_err(
+                |e: splatphys_ipc::command::UnknownName| ControlError::UnknownName {
+                    what: e.what,
+                    input: e.name,
+                    expected: e.expected,
+                },
+            ),
     }
 }
 
-/// A command with its object not yet resolved to an id.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Action {
-    /// Apply an impulse, N·s (world), at a point (m, world) or at the COM.
-    Impulse {
-        /// Target object.
-        object: ObjectRef,
-        /// Impulse, N·s.
-        impulse_n_s: [f64; 3],
-        /// Point of application, metres; `None` = centre of mass.
-        point_m: Option<[f64; 3]>,
-    },
-    /// Set the COM velocity, m/s.
-    SetVelocity {
-        /// Target object.
-        object: ObjectRef,
-        /// Velocity, m/s.
-        velocity_m_s: [f64; 3],
-    },
-    /// Edit the material; `None` fields keep their value.
-    EditMaterial {
-        /// Target object.
-        object: ObjectRef,
-        /// The changes.
-        edit: MaterialEdit,
-    },
-    /// Change how the object moves.
-    SetKind {
-        /// Target object.
-        object: ObjectRef,
-        /// New kind.
-        kind: ObjectKind,
-    },
-    /// Stop stepping.
-    Pause,
-    /// Resume stepping.
-    Resume,
-    /// While paused, advance this many frames.
-    Step {
-        /// Frames (>= 1).
-        count: u64,
-    },
-    /// Reset the scene (bumps the scene generation).
-    Reset,
-    /// Ask the server to shut down.
-    Shutdown,
-}
-
-impl Action {
-    /// The command's name as typed on the command line (`impulse`, `set-velocity`, ...).
-    pub fn name(&self) -> &'static str {
-        match self {
-            Action::Impulse { .. } => "impulse",
-            Action::SetVelocity { .. } => "set-velocity",
-            Action::EditMaterial { .. } => "edit-material",
-            Action::SetKind { .. } => "set-kind",
-            Action::Pause => "pause",
-            Action::Resume => "resume",
-            Action::Step { .. } => "step",
-            Action::Reset => "reset",
-            Action::Shutdown => "shutdown",
-        }
-    }
-
-    /// The object the action targets, if any.
-    pub fn object(&self) -> Option<&ObjectRef> {
-        match self {
-            Action::Impulse { object, .. }
-            | Action::SetVelocity { object, .. }
-            | Action::EditMaterial { object, .. }
-            | Action::SetKind { object, .. } => Some(object),
-            _ => None,
-        }
-    }
-
-    /// The wire command, with the object id given by `id` (the resolved [`Action::object`];
-    /// ignored for actions without an object).
-    pub fn to_command(&self, id: u32) -> Command {
-        match self {
-            Action::Impulse {
-                impulse_n_s,
-                point_m,
-                ..
-            } => Command::Impulse {
-                object: id,
-                impulse_n_s: *impulse_n_s,
-                point_m: *point_m,
-            },
-            Action::SetVelocity { velocity_m_s, .. } => Command::SetVelocity {
-                object: id,
-                velocity_m_s: *velocity_m_s,
-            },
-            Action::EditMaterial { edit, .. } => Command::EditMaterial {
-                object: id,
-                edit: *edit,
-            },
-            Action::SetKind { kind, .. } => Command::SetKind {
-                object: id,
-                kind: *kind,
-            },
-            Action::Pause => Command::Pause,
-            Action::Resume => Command::Resume,
-            Action::Step { count } => Command::Step { count: *count },
-            Action::Reset => Command::Reset,
-            Action::Shutdown => Command::Shutdown,
-        }
-    }
-}
+/// A command with its object not yet resolved to an id: the one command vocabulary
+/// ([`Command`]) with objects named or numbered.
+pub type Action = Command<ObjectRef>;
 
 #[cfg(test)]
 mod tests {

@@ -201,11 +201,7 @@ impl Session {
     /// # Errors
     /// As [`Session::resolve`].
     pub fn command_for(&mut self, action: &Action) -> Result<Command, ControlError> {
-        let id = match action.object() {
-            Some(o) => self.resolve(o)?,
-            None => 0,
-        };
-        Ok(action.to_command(id))
+        action.clone().map_object(|o| self.resolve(&o))
     }
 
     /// Resolves, sends and waits for the reply.

@@ -1,7 +1,8 @@
 //! Timelines: commands scheduled at simulated times, from a TOML file.
 //!
 //! ```toml
-//! # Every event: `at_s` (simulated seconds) and `command`; the other keys depend on it.
+//! # Every event: `at_s` (simulated seconds) and `command`; the other keys depend on it. The
+//! # same keys as a scene file's [[event]] (splatphys_types::CommandToml).
 //! [[event]]
 //! at_s = 0.5
 //! command = "impulse"          # object, impulse_n_s, optional point_m
@@ -41,9 +42,9 @@ use std::time::{Duration, Instant};
 use serde::Deserialize;
 use splatphys_ipc::IpcError;
 use splatphys_ipc::client::PendingCommand;
-use splatphys_ipc::command::{MaterialEdit, Reply};
+use splatphys_ipc::command::{CommandToml, Reply};
 
-use crate::action::{Action, ObjectRef, parse_kind, parse_model};
+use crate::action::{Action, ObjectRef};
 use crate::error::ControlError;
 use crate::session::Session;
 
@@ -51,26 +52,7 @@ use crate::session::Session;
 #[serde(deny_unknown_fields)]
 struct File {
     #[serde(default)]
-    event: Vec<EventSpec>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct EventSpec {
-    at_s: f64,
-    command: String,
-    object: Option<ObjectRef>,
-    impulse_n_s: Option<[f64; 3]>,
-    point_m: Option<[f64; 3]>,
-    velocity_m_s: Option<[f64; 3]>,
-    model: Option<String>,
-    youngs_modulus_pa: Option<f64>,
-    poisson_ratio: Option<f64>,
-    density_kg_m3: Option<f64>,
-    restitution: Option<f64>,
-    friction: Option<f64>,
-    kind: Option<String>,
-    count: Option<u64>,
+    event: Vec<toml::Table>,
 }
 
 /// One scheduled command.
@@ -82,103 +64,23 @@ pub struct TimedAction {
     pub action: Action,
 }
 
-impl EventSpec {
-    /// The keys set besides `at_s` and `command`.
-    fn present(&self) -> Vec<&'static str> {
-        let mut v = Vec::new();
-        let mut add = |set: bool, k: &'static str| {
-            if set {
-                v.push(k)
-            }
-        };
-        add(self.object.is_some(), "object");
-        add(self.impulse_n_s.is_some(), "impulse_n_s");
-        add(self.point_m.is_some(), "point_m");
-        add(self.velocity_m_s.is_some(), "velocity_m_s");
-        add(self.model.is_some(), "model");
-        add(self.youngs_modulus_pa.is_some(), "youngs_modulus_pa");
-        add(self.poisson_ratio.is_some(), "poisson_ratio");
-        add(self.density_kg_m3.is_some(), "density_kg_m3");
-        add(self.restitution.is_some(), "restitution");
-        add(self.friction.is_some(), "friction");
-        add(self.kind.is_some(), "kind");
-        add(self.count.is_some(), "count");
-        v
-    }
-
-    fn to_action(&self) -> Result<Action, String> {
-        let allowed: &[&str] = match self.command.as_str() {
-            "impulse" => &["object", "impulse_n_s", "point_m"],
-            "set-velocity" => &["object", "velocity_m_s"],
-            "edit-material" => &[
-                "object",
-                "model",
-                "youngs_modulus_pa",
-                "poisson_ratio",
-                "density_kg_m3",
-                "restitution",
-                "friction",
-            ],
-            "set-kind" => &["object", "kind"],
-            "step" => &["count"],
-            "pause" | "resume" | "reset" | "shutdown" => &[],
-            other => {
-                return Err(format!(
-                    "unknown command `{other}` (impulse, set-velocity, edit-material, set-kind, pause, resume, step, reset, shutdown)"
-                ));
-            }
-        };
-        if let Some(k) = self.present().into_iter().find(|k| !allowed.contains(k)) {
-            return Err(format!("`{k}` does not apply to `{}`", self.command));
+/// One `[[event]]` table: `at_s` and a [`CommandToml`].
+fn parse_event(mut table: toml::Table) -> Result<(f64, Action), (f64, String)> {
+    let at_s = match table.remove("at_s") {
+        Some(toml::Value::Float(t)) => t,
+        Some(toml::Value::Integer(t)) => t as f64,
+        Some(other) => {
+            return Err((
+                f64::NAN,
+                format!("`at_s` = {other} is not a number of seconds"),
+            ));
         }
-        let need = |k: &str| format!("`{}` needs `{k}`", self.command);
-        let object = || self.object.clone().ok_or_else(|| need("object"));
-        Ok(match self.command.as_str() {
-            "impulse" => Action::Impulse {
-                object: object()?,
-                impulse_n_s: self.impulse_n_s.ok_or_else(|| need("impulse_n_s"))?,
-                point_m: self.point_m,
-            },
-            "set-velocity" => Action::SetVelocity {
-                object: object()?,
-                velocity_m_s: self.velocity_m_s.ok_or_else(|| need("velocity_m_s"))?,
-            },
-            "edit-material" => {
-                let edit = MaterialEdit {
-                    model: self
-                        .model
-                        .as_deref()
-                        .map(parse_model)
-                        .transpose()
-                        .map_err(|e| e.to_string())?,
-                    youngs_modulus_pa: self.youngs_modulus_pa,
-                    poisson_ratio: self.poisson_ratio,
-                    density_kg_m3: self.density_kg_m3,
-                    restitution: self.restitution,
-                    friction: self.friction,
-                };
-                if edit == MaterialEdit::default() {
-                    return Err("`edit-material` changes nothing".into());
-                }
-                Action::EditMaterial {
-                    object: object()?,
-                    edit,
-                }
-            }
-            "set-kind" => Action::SetKind {
-                object: object()?,
-                kind: parse_kind(self.kind.as_deref().ok_or_else(|| need("kind"))?)
-                    .map_err(|e| e.to_string())?,
-            },
-            "step" => Action::Step {
-                count: self.count.ok_or_else(|| need("count"))?,
-            },
-            "pause" => Action::Pause,
-            "resume" => Action::Resume,
-            "reset" => Action::Reset,
-            _ => Action::Shutdown,
-        })
-    }
+        None => return Err((f64::NAN, "`at_s` is missing".into())),
+    };
+    let spec: CommandToml<ObjectRef> =
+        CommandToml::deserialize(table).map_err(|e| (at_s, e.to_string()))?;
+    let action = spec.into_command().map_err(|e| (at_s, e))?;
+    Ok((at_s, action))
 }
 
 /// Parses a timeline from TOML text; `path` is only used in messages. Events come back sorted
@@ -194,20 +96,18 @@ pub fn parse_timeline(text: &str, path: &str) -> Result<Vec<TimedAction>, Contro
         detail: e.to_string(),
     })?;
     let mut out = Vec::with_capacity(file.event.len());
-    for (index, spec) in file.event.iter().enumerate() {
-        let err = |detail: String| ControlError::TimelineEvent {
+    for (index, table) in file.event.into_iter().enumerate() {
+        let err = |at_s: f64, detail: String| ControlError::TimelineEvent {
             path: path.to_owned(),
             index,
-            at_s: spec.at_s,
+            at_s,
             detail,
         };
-        if !(spec.at_s.is_finite() && spec.at_s >= 0.0) {
-            return Err(err("`at_s` must be a finite time >= 0 s".into()));
+        let (at_s, action) = parse_event(table).map_err(|(at_s, e)| err(at_s, e))?;
+        if !(at_s.is_finite() && at_s >= 0.0) {
+            return Err(err(at_s, "`at_s` must be a finite time >= 0 s".into()));
         }
-        out.push(TimedAction {
-            at_s: spec.at_s,
-            action: spec.to_action().map_err(err)?,
-        });
+        out.push(TimedAction { at_s, action });
     }
     out.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
     Ok(out)
@@ -458,7 +358,7 @@ mod tests {
             ("at_s = 1.0\ncommand = \"explode\"", "unknown command"),
             (
                 "at_s = 1.0\ncommand = \"set-kind\"\nobject = 0\nkind = \"gas\"",
-                "object kind",
+                "unknown variant `gas`",
             ),
             (
                 "at_s = 1.0\ncommand = \"edit-material\"\nobject = 0",

@@ -234,7 +234,7 @@ fn run(cli: &Cli) -> Result<i32, ControlError> {
         .ok_or_else(|| ControlError::UnknownName {
             what: "service prefix",
             input: String::new(),
-            expected: "pass --prefix P or set SPLATPHYS_PREFIX",
+            expected: "pass --prefix P or set SPLATPHYS_PREFIX".into(),
         })?;
     let mut opts = SessionOptions::new(&prefix);
     opts.connect_timeout = Duration::from_millis(cli.connect_timeout_ms);
@@ -251,7 +251,7 @@ fn run(cli: &Cli) -> Result<i32, ControlError> {
     if let Some(action) = action {
         let cmd = session.command_for(&action)?;
         let reply = session.connection().command(&cmd, opts.reply_timeout)?;
-        print_reply(cli.json, action.name(), cmd.object(), &reply);
+        print_reply(cli.json, action.name(), cmd.object().copied(), &reply);
         return Ok(if matches!(reply, Reply::Accepted { .. }) {
             0
         } else {

@@ -1,0 +1,226 @@
+//! [`CommandToml`]: a command as scene files (`[[event]]`) and control timelines write it.
+
+use serde::Deserialize;
+
+use crate::{Command, MaterialEdit, MaterialModel, ObjectKind};
+
+/// A command as a TOML table: `command` names it, the other keys are its fields. Scene files'
+/// `[[event]]`s and control timelines use exactly these keys (plus their own `at_s`):
+///
+/// ```toml
+/// command = "impulse"            # object, impulse_n_s, optional point_m
+/// object = "ball"
+/// impulse_n_s = [0.0, 0.0, 2.0]
+/// ```
+///
+/// | `command` | keys |
+/// |---|---|
+/// | `impulse` | `object`, `impulse_n_s` [x, y, z] N·s, optional `point_m` [x, y, z] m (default: the COM) |
+/// | `set-velocity` | `object`, `velocity_m_s` [x, y, z] m/s |
+/// | `edit-material` | `object`, any of `model`, `youngs_modulus_pa`, `poisson_ratio`, `density_kg_m3`, `restitution`, `friction` |
+/// | `set-kind` | `object`, `kind` (`deformable`, `rigid`, `static`) |
+/// | `step` | `count` |
+/// | `pause`, `resume`, `reset`, `shutdown` | none |
+///
+/// Unknown keys, and keys that do not belong to the command, are errors
+/// ([`CommandToml::into_command`]).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommandToml<O> {
+    /// The command's name ([`Command::name`]).
+    pub command: String,
+    /// Target object.
+    pub object: Option<O>,
+    /// `impulse`: impulse, N·s.
+    pub impulse_n_s: Option<[f64; 3]>,
+    /// `impulse`: point of application, m.
+    pub point_m: Option<[f64; 3]>,
+    /// `set-velocity`: velocity, m/s.
+    pub velocity_m_s: Option<[f64; 3]>,
+    /// `edit-material`: model.
+    pub model: Option<MaterialModel>,
+    /// `edit-material`: Young's modulus E, Pa.
+    pub youngs_modulus_pa: Option<f64>,
+    /// `edit-material`: Poisson's ratio nu.
+    pub poisson_ratio: Option<f64>,
+    /// `edit-material`: density, kg/m³.
+    pub density_kg_m3: Option<f64>,
+    /// `edit-material`: restitution e.
+    pub restitution: Option<f64>,
+    /// `edit-material`: Coulomb friction mu.
+    pub friction: Option<f64>,
+    /// `set-kind`: the new kind.
+    pub kind: Option<ObjectKind>,
+    /// `step`: frames.
+    pub count: Option<u64>,
+}
+
+impl<O> CommandToml<O> {
+    /// The keys set besides `command`.
+    fn present(&self) -> Vec<&'static str> {
+        [
+            (self.object.is_some(), "object"),
+            (self.impulse_n_s.is_some(), "impulse_n_s"),
+            (self.point_m.is_some(), "point_m"),
+            (self.velocity_m_s.is_some(), "velocity_m_s"),
+            (self.model.is_some(), "model"),
+            (self.youngs_modulus_pa.is_some(), "youngs_modulus_pa"),
+            (self.poisson_ratio.is_some(), "poisson_ratio"),
+            (self.density_kg_m3.is_some(), "density_kg_m3"),
+            (self.restitution.is_some(), "restitution"),
+            (self.friction.is_some(), "friction"),
+            (self.kind.is_some(), "kind"),
+            (self.count.is_some(), "count"),
+        ]
+        .into_iter()
+        .filter_map(|(set, key)| set.then_some(key))
+        .collect()
+    }
+
+    /// The command, checked: every key it needs is there and no other key is.
+    ///
+    /// # Errors
+    /// A message naming the command and the key: an unknown command, a missing key, a key that
+    /// does not apply, or an `edit-material` that changes nothing.
+    pub fn into_command(self) -> Result<Command<O>, String> {
+        let allowed: &[&str] = match self.command.as_str() {
+            "impulse" => &["object", "impulse_n_s", "point_m"],
+            "set-velocity" => &["object", "velocity_m_s"],
+            "edit-material" => &[
+                "object",
+                "model",
+                "youngs_modulus_pa",
+                "poisson_ratio",
+                "density_kg_m3",
+                "restitution",
+                "friction",
+            ],
+            "set-kind" => &["object", "kind"],
+            "step" => &["count"],
+            "pause" | "resume" | "reset" | "shutdown" => &[],
+            other => {
+                return Err(format!(
+                    "unknown command `{other}` (impulse, set-velocity, edit-material, set-kind, pause, resume, step, reset, shutdown)"
+                ));
+            }
+        };
+        if let Some(k) = self.present().into_iter().find(|k| !allowed.contains(k)) {
+            return Err(format!("`{k}` does not apply to `{}`", self.command));
+        }
+        let name = self.command.clone();
+        let need = |k: &str| format!("`{name}` needs `{k}`");
+        let object = self.object.ok_or_else(|| need("object"));
+        Ok(match self.command.as_str() {
+            "impulse" => Command::Impulse {
+                object: object?,
+                impulse_n_s: self.impulse_n_s.ok_or_else(|| need("impulse_n_s"))?,
+                point_m: self.point_m,
+            },
+            "set-velocity" => Command::SetVelocity {
+                object: object?,
+                velocity_m_s: self.velocity_m_s.ok_or_else(|| need("velocity_m_s"))?,
+            },
+            "edit-material" => {
+                let edit = MaterialEdit {
+                    model: self.model,
+                    youngs_modulus_pa: self.youngs_modulus_pa,
+                    poisson_ratio: self.poisson_ratio,
+                    density_kg_m3: self.density_kg_m3,
+                    restitution: self.restitution,
+                    friction: self.friction,
+                };
+                if edit == MaterialEdit::default() {
+                    return Err("`edit-material` changes nothing".into());
+                }
+                Command::EditMaterial {
+                    object: object?,
+                    edit,
+                }
+            }
+            "set-kind" => Command::SetKind {
+                object: object?,
+                kind: self.kind.ok_or_else(|| need("kind"))?,
+            },
+            "step" => Command::Step {
+                count: self.count.ok_or_else(|| need("count"))?,
+            },
+            "pause" => Command::Pause,
+            "resume" => Command::Resume,
+            "reset" => Command::Reset,
+            _ => Command::Shutdown,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Command<String>, String> {
+        toml::from_str::<CommandToml<String>>(text)
+            .map_err(|e| e.to_string())?
+            .into_command()
+    }
+
+    #[test]
+    fn every_command_parses_from_its_keys_and_maps_to_ids() {
+        let c = parse("command = \"impulse\"\nobject = \"ball\"\nimpulse_n_s = [0.0, 0.0, 2.0]")
+            .unwrap();
+        assert_eq!(c.name(), "impulse");
+        let id = c
+            .map_object(|n| if n == "ball" { Ok(7) } else { Err(n) })
+            .unwrap();
+        assert_eq!(
+            id,
+            Command::Impulse {
+                object: 7,
+                impulse_n_s: [0.0, 0.0, 2.0],
+                point_m: None
+            }
+        );
+        let c = parse("command = \"edit-material\"\nobject = \"b\"\nmodel = \"snow\"\nyoungs_modulus_pa = 1e5").unwrap();
+        let Command::EditMaterial { edit, .. } = c else {
+            panic!("{c:?}")
+        };
+        assert_eq!(edit.model, Some(MaterialModel::Snow));
+        assert_eq!(edit.youngs_modulus_pa, Some(1e5));
+        assert_eq!(edit.poisson_ratio, None);
+        let c = parse("command = \"set-kind\"\nobject = \"b\"\nkind = \"rigid\"").unwrap();
+        assert_eq!(c.name(), "set-kind");
+        assert_eq!(
+            parse("command = \"step\"\ncount = 3").unwrap(),
+            Command::Step { count: 3 }
+        );
+        for name in ["pause", "resume", "reset", "shutdown"] {
+            assert_eq!(
+                parse(&format!("command = \"{name}\"")).unwrap().name(),
+                name
+            );
+        }
+    }
+
+    #[test]
+    fn bad_commands_name_the_key_and_the_problem() {
+        let cases = [
+            (
+                "command = \"impulse\"\nobject = \"a\"",
+                "needs `impulse_n_s`",
+            ),
+            ("command = \"pause\"\nobject = \"a\"", "does not apply"),
+            ("command = \"explode\"", "unknown command"),
+            (
+                "command = \"set-kind\"\nobject = \"a\"\nkind = \"gas\"",
+                "unknown variant",
+            ),
+            (
+                "command = \"edit-material\"\nobject = \"a\"",
+                "changes nothing",
+            ),
+            ("command = \"pause\"\nbogus = 1", "bogus"),
+        ];
+        for (text, want) in cases {
+            let e = parse(text).unwrap_err();
+            assert!(e.contains(want), "{text:?}: {e} lacks {want}");
+        }
+    }
+}
