@@ -506,20 +506,25 @@ impl<'a, S: Simulation> Server<'a, S> {
         );
         self.state.period = (Instant::now(), self.sim.step(), self.sim.substeps());
         self.ports.refresh_subscribers(true);
-        let flags = if self.state.paused { STATUS_PAUSED } else { 0 }
-            | if self.sim.is_finished() {
-                STATUS_FINISHED
-            } else {
-                0
-            };
+        self.update_status(if self.state.paused { STATUS_PAUSED } else { 0 });
+        self.state.last_status = Instant::now();
+    }
+
+    /// Hands the heartbeat thread the current status, with `flags` and [`STATUS_FINISHED`]
+    /// when the simulation is.
+    fn update_status(&self, flags: u32) {
+        let finished = if self.sim.is_finished() {
+            STATUS_FINISHED
+        } else {
+            0
+        };
         self.heartbeat.update(&status(
             self.sim,
             &self.ports,
             &self.report,
             self.state.rates,
-            flags,
+            flags | finished,
         ));
-        self.state.last_status = Instant::now();
     }
 
     /// Removes killed clients' resources every [`ServerConfig::cleanup_period`].
@@ -537,18 +542,7 @@ impl<'a, S: Simulation> Server<'a, S> {
         let totals = self.ports.frame_book.totals();
         self.report.frames_dropped = totals.best_effort_dropped;
         self.report.recorder_frames_lost = totals.lossless_lost;
-        let finished = if self.sim.is_finished() {
-            STATUS_FINISHED
-        } else {
-            0
-        };
-        self.heartbeat.update(&status(
-            self.sim,
-            &self.ports,
-            &self.report,
-            self.state.rates,
-            finished,
-        ));
+        self.update_status(0);
         self.heartbeat.finish(STATUS_SHUTTING_DOWN)?;
         Ok(self.report)
     }
