@@ -12,20 +12,21 @@
 //! Writes JSON lines to stdout and `compare_accuracy.{csv,svg,png}` and
 //! `compare_scaling.{csv,svg,png}` into `--out-dir`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use splatphys_core::scene::load_scene_str;
+use splatphys_core::material::MaterialSpec;
+use splatphys_core::scene::{Method, Scene, SceneBuilder, SceneObject};
 use splatphys_core::world::World;
 
 use crate::chart::{self, Series};
 
 /// Methods compared, in chart order.
-const METHODS: [&str; 3] = ["com", "mpm", "multi-field"];
+const METHODS: [Method; 3] = Method::ALL;
 
 /// Arguments of `bench compare`.
 #[derive(Args, Debug)]
@@ -93,40 +94,27 @@ fn bar(len: usize, what: &str) -> ProgressBar {
 }
 
 /// The head-on sphere pair of the accuracy runs (also `bench spheres`).
-pub(crate) fn sphere_pair(method: &str, dx_m: f64, e: f64) -> String {
-    format!(
-        r#"
-[simulation]
-method = "{method}"
-duration_s = 0.3
-frame_rate_hz = 100.0
-grid_dx_m = {dx_m}
-gravity_m_s2 = [0.0, 0.0, 0.0]
-
-[[object]]
-name = "left"
-shape = {{ sphere = {{ center_m = [-0.08, 0.0, 0.0], radius_m = 0.04 }} }}
-spacing_m = {s}
-material = {{ model = "jelly", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }}
-restitution = {e}
-friction = 0.0
-velocity_m_s = [1.0, 0.0, 0.0]
-
-[[object]]
-name = "right"
-shape = {{ sphere = {{ center_m = [0.08, 0.0, 0.0], radius_m = 0.04 }} }}
-spacing_m = {s}
-material = {{ model = "jelly", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }}
-restitution = {e}
-friction = 0.0
-velocity_m_s = [-1.0, 0.0, 0.0]
-"#,
-        s = dx_m / 2.0
-    )
+pub(crate) fn sphere_pair(method: Method, dx_m: f64, e: f64) -> SceneBuilder {
+    let sphere = |name: &str, x_m: f32, vx_m_s: f32| {
+        SceneObject::sphere(name, [x_m, 0.0, 0.0], 0.04)
+            .spacing_m((dx_m / 2.0) as f32)
+            .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
+            .restitution(e as f32)
+            .friction(0.0)
+            .velocity([vx_m_s, 0.0, 0.0])
+    };
+    Scene::builder()
+        .method(method)
+        .duration_s(0.3)
+        .frame_rate_hz(100.0)
+        .grid_dx_m(dx_m)
+        .gravity_m_s2([0.0, 0.0, 0.0])
+        .object(sphere("left", -0.08, 1.0))
+        .object(sphere("right", 0.08, -1.0))
 }
 
-pub(crate) fn world(text: &str) -> Result<World> {
-    let scene = load_scene_str(text, Path::new(".")).context("generated scene")?;
+pub(crate) fn world(scene: &SceneBuilder) -> Result<World> {
+    let scene = scene.build().context("generated scene")?;
     Ok(World::from_scene(&scene)?)
 }
 
@@ -154,7 +142,7 @@ fn accuracy(a: &CompareBenchArgs) -> Result<()> {
             let com_fraction = s.com_layer_wall_s / (s.mpm_wall_s + s.com_layer_wall_s);
             let row = json!({
                 "bench": "compare_accuracy",
-                "method": method,
+                "method": method.name(),
                 "dx_m": dx,
                 "particles": particles,
                 "restitution": e,
@@ -178,7 +166,7 @@ fn accuracy(a: &CompareBenchArgs) -> Result<()> {
             name: m.to_string(),
             points: rows
                 .iter()
-                .filter(|r| r["method"] == *m)
+                .filter(|r| r["method"] == m.name())
                 .map(|r| {
                     (
                         r["wall_s"].as_f64().unwrap_or(0.0),
@@ -204,25 +192,26 @@ fn accuracy(a: &CompareBenchArgs) -> Result<()> {
 }
 
 /// `k` spheres of `n` particles each in a row along x, two cells apart, all at 0.5 m/s along y.
-fn sphere_row(method: &str, k: usize, n_total: usize, dx_m: f64) -> String {
+fn sphere_row(method: Method, k: usize, n_total: usize, dx_m: f64) -> SceneBuilder {
     let spacing = dx_m / 2.0;
     let per = (n_total / k).max(1) as f64;
     let r = spacing * (3.0 * per / (4.0 * std::f64::consts::PI)).cbrt();
-    let mut text = format!(
-        "[simulation]\nmethod = \"{method}\"\nduration_s = 10.0\nframe_rate_hz = 30.0\n\
-         grid_dx_m = {dx_m}\ngravity_m_s2 = [0.0, 0.0, 0.0]\n"
-    );
+    let mut scene = Scene::builder()
+        .method(method)
+        .duration_s(10.0)
+        .frame_rate_hz(30.0)
+        .grid_dx_m(dx_m)
+        .gravity_m_s2([0.0, 0.0, 0.0]);
     for i in 0..k {
         let x = i as f64 * (2.0 * r + 2.0 * dx_m);
-        text.push_str(&format!(
-            "\n[[object]]\nname = \"s{i}\"\n\
-             shape = {{ sphere = {{ center_m = [{x}, 0.0, 0.0], radius_m = {r} }} }}\n\
-             spacing_m = {spacing}\n\
-             material = {{ model = \"jelly\", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }}\n\
-             velocity_m_s = [0.0, 0.5, 0.0]\n"
-        ));
+        scene = scene.object(
+            SceneObject::sphere(format!("s{i}"), [x as f32, 0.0, 0.0], r as f32)
+                .spacing_m(spacing as f32)
+                .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
+                .velocity([0.0, 0.5, 0.0]),
+        );
     }
-    text
+    scene
 }
 
 fn scaling(a: &CompareBenchArgs) -> Result<()> {
@@ -251,7 +240,7 @@ fn scaling(a: &CompareBenchArgs) -> Result<()> {
                 let com = s.com_layer_wall_s - before.com_layer_wall_s;
                 let row = json!({
                     "bench": "compare_scaling",
-                    "method": method,
+                    "method": method.name(),
                     "objects": k,
                     "particles": particles,
                     "seconds_per_substep": per_substep,
@@ -275,7 +264,7 @@ fn scaling(a: &CompareBenchArgs) -> Result<()> {
                 name: format!("{m}, {k} objects"),
                 points: rows
                     .iter()
-                    .filter(|r| r["method"] == m && r["objects"] == k)
+                    .filter(|r| r["method"] == m.name() && r["objects"] == k)
                     .map(|r| {
                         (
                             r["particles"].as_f64().unwrap_or(0.0),

@@ -38,8 +38,8 @@ use splatphys_ipc::server::frame_publisher;
 use splatphys_ipc::services::{Role, ServiceNames, create_node, frame_service};
 use splatphys_ipc::wire::{FrameGaussian, FrameHeader, LAYOUT_VERSION};
 
-use crate::peer::now_s;
 use crate::chart::{Series, line_chart, write_csv};
+use crate::peer::now_s;
 
 /// Arguments of `bench ipc`.
 #[derive(Args, Debug)]
@@ -403,8 +403,13 @@ pub fn run(a: &IpcBenchArgs, world: crate::WorldSimFactory) -> Result<()> {
     );
     if a.command_flood_hz > 0.0 {
         for &sim in &a.flood_sims {
-            let line =
-                crate::flood::run(sim, world, a.command_flood_hz, a.flood_seconds, a.flood_repeats)?;
+            let line = crate::flood::run(
+                sim,
+                world,
+                a.command_flood_hz,
+                a.flood_seconds,
+                a.flood_repeats,
+            )?;
             println!("{line}");
         }
     }

@@ -41,7 +41,6 @@ use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
 use splatphys_core::scene::Scene;
 use splatphys_ipc::Simulation;
 
-
 /// Untimed substeps before the clock starts (the Taichi reference compiles its kernel there).
 const WARMUP_SUBSTEPS: u32 = 5;
 

@@ -1,5 +1,5 @@
 //! `splatphys bench realtime`: how fast a captured scene can run, and what accuracy that costs
-//! (issue #7, part 3: 30 simulated frames per wall second on 2 cores).
+//! (goal: 30 simulated frames per wall second on 2 cores).
 //!
 //! Thinning the particles at a fixed grid (`bench subsets`) leaves too few particles per cell for
 //! MLS-MPM, so here the grid is coarsened together with the particles. Per scene:
@@ -37,8 +37,8 @@ use serde_json::{Value, json};
 
 use splatphys_core::scene::{ObjectKind, Scene, SceneObject};
 
-use crate::subsets::{Trace, gaussian_errors_cells, max_distance, moving, run_scene};
 use crate::chart::{self, Series};
+use crate::subsets::{Trace, gaussian_errors_cells, max_distance, moving, run_scene};
 
 /// Arguments of `bench realtime`.
 #[derive(Args, Debug)]

@@ -1,4 +1,4 @@
-//! `splatphys bench stability`: the stability map of issue #7. Which Young's modulus, Poisson's
+//! `splatphys bench stability`: the stability map. Which Young's modulus, Poisson's
 //! ratio, impact speed and time step each method (`com`, `mpm`, `multi-field`) survives, for
 //! every material model.
 //!
@@ -54,13 +54,11 @@ use plotters::style::RGBColor;
 use serde_json::{Value, json};
 use splatphys_core::material::{self, ConstitutiveModel, Material};
 use splatphys_core::mpm::MpmError;
-use splatphys_core::scene::load_scene_str;
+use splatphys_core::scene::{Method, Scene, SceneBuilder, SceneObject};
 use splatphys_core::world::{World, WorldError, overlap};
 
 use crate::chart::{self, HeatMap, HeatPanel};
 
-/// Methods, in chart order.
-const METHODS: [&str; 3] = ["com", "mpm", "multi-field"];
 /// Grid cell size (m).
 const DX_M: f64 = 0.01;
 /// Particle spacing (m).
@@ -285,15 +283,8 @@ fn hertz_contact_s(e_pa: f64, nu: f64, rho: f64, r: f64, v: f64) -> f64 {
     2.87 * (m_eff * m_eff / (r_eff * e_eff * e_eff * v)).powf(0.2)
 }
 
-fn material_toml(s: &RunSpec) -> String {
-    format!(
-        "{{ model = \"{}\", youngs_modulus_pa = {:e}, poisson_ratio = {}, density_kg_m3 = {DENSITY_KG_M3} }}",
-        s.material, s.youngs_modulus_pa, s.poisson_ratio
-    )
-}
-
-/// The scene of run `s` and its forced dt (s), if any.
-fn scene_text(s: &RunSpec, wave_speed_m_s: f64) -> (String, Option<f64>, f64) {
+/// The scene of run `s`, its forced dt (s), if any, and its duration (s).
+fn scene(s: &RunSpec, wave_speed_m_s: f64) -> Result<(SceneBuilder, Option<f64>, f64)> {
     let duration = DURATION_CONTACT_TIMES
         * hertz_contact_s(
             s.youngs_modulus_pa,
@@ -302,57 +293,44 @@ fn scene_text(s: &RunSpec, wave_speed_m_s: f64) -> (String, Option<f64>, f64) {
             RADIUS_M,
             s.speed_m_s,
         );
-    // The contact plane lies mid-cell (x = dx/2), where the nearest particles of the two
-    // spheres (s/2 on either side of it) share a cell.
-    let x0 = DX_M / 2.0;
-    let (step, forced_dt, frame_rate, duration) = if s.forced {
+    let scene = Scene::builder()
+        .method(s.method.parse()?)
+        .grid_dx_m(DX_M)
+        .gravity_m_s2([0.0, 0.0, 0.0]);
+    let (scene, forced_dt, frame_rate, duration) = if s.forced {
         let dt = (s.cfl * DX_M / (wave_speed_m_s + s.speed_m_s)) as f32 as f64;
         // Frames hold a whole number of substeps, so every substep is exactly dt.
         let per_frame = (duration / FRAMES as f64 / dt).ceil().max(1.0);
         let frame_s = per_frame * dt;
         (
-            format!("dt_s = {dt:e}\nforce_dt = true\n"),
+            scene.forced_dt_s(dt),
             Some(dt),
             1.0 / frame_s,
             frame_s * FRAMES as f64,
         )
     } else {
-        (
-            format!("cfl = {}\n", s.cfl),
-            None,
-            FRAMES as f64 / duration,
-            duration,
-        )
+        (scene.cfl(s.cfl), None, FRAMES as f64 / duration, duration)
     };
-    let material = material_toml(s);
-    let text = format!(
-        r#"
-[simulation]
-method = "{method}"
-duration_s = {duration:e}
-frame_rate_hz = {frame_rate:e}
-grid_dx_m = {DX_M}
-gravity_m_s2 = [0.0, 0.0, 0.0]
-{step}
-[[object]]
-name = "striker"
-shape = {{ sphere = {{ center_m = [{xs}, 0.0, 0.0], radius_m = {RADIUS_M} }} }}
-spacing_m = {SPACING_M}
-material = {material}
-velocity_m_s = [{v}, 0.0, 0.0]
-
-[[object]]
-name = "target"
-shape = {{ sphere = {{ center_m = [{xt}, 0.0, 0.0], radius_m = {RADIUS_M} }} }}
-spacing_m = {SPACING_M}
-material = {material}
-"#,
-        method = s.method,
-        xs = x0 - RADIUS_M,
-        xt = x0 + RADIUS_M,
-        v = s.speed_m_s,
+    let material = material::MaterialSpec::new(
+        s.material.parse()?,
+        s.youngs_modulus_pa,
+        s.poisson_ratio,
+        DENSITY_KG_M3,
     );
-    (text, forced_dt, duration)
+    let sphere = |name: &str, x_m: f64| {
+        SceneObject::sphere(name, [x_m as f32, 0.0, 0.0], RADIUS_M as f32)
+            .spacing_m(SPACING_M as f32)
+            .material(material.clone())
+    };
+    // The contact plane lies mid-cell (x = dx/2), where the nearest particles of the two
+    // spheres (s/2 on either side of it) share a cell.
+    let x0 = DX_M / 2.0;
+    let scene = scene
+        .duration_s(duration)
+        .frame_rate_hz(frame_rate)
+        .object(sphere("striker", x0 - RADIUS_M).velocity([s.speed_m_s as f32, 0.0, 0.0]))
+        .object(sphere("target", x0 + RADIUS_M));
+    Ok((scene, forced_dt, duration))
 }
 
 /// The model's largest dilational wave speed (m/s), as the automatic policy sees it.
@@ -368,9 +346,8 @@ fn wave_speed(s: &RunSpec) -> Result<f64> {
 
 fn run_one(s: &RunSpec) -> Result<Outcome> {
     let wave = wave_speed(s)?;
-    let (text, forced_dt, duration) = scene_text(s, wave);
-    let scene = load_scene_str(&text, Path::new(".")).context("generated scene")?;
-    let mut w = World::from_scene(&scene)?;
+    let (scene, forced_dt, duration) = scene(s, wave)?;
+    let mut w = World::from_scene(&scene.build().context("generated scene")?)?;
     let t = Instant::now();
     let d0 = w.diagnostics();
     let e0 = d0.total_energy_j();
@@ -520,10 +497,8 @@ fn category(o: &Outcome) -> usize {
 fn names(a: &StabilityBenchArgs) -> Result<(Vec<&'static str>, Vec<&'static str>)> {
     let mut methods = Vec::new();
     for m in &a.methods {
-        match METHODS.iter().find(|k| **k == m.as_str()) {
-            Some(k) => methods.push(*k),
-            None => bail!("--methods: unknown method {m:?} (expected one of {METHODS:?})"),
-        }
+        let method: Method = m.parse().map_err(|e| anyhow::anyhow!("--methods: {e}"))?;
+        methods.push(method.name());
     }
     let mut materials = Vec::new();
     for m in &a.materials {

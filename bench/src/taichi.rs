@@ -14,6 +14,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde_json::{Value, json};
+use splatphys_core::scene::Method;
 
 /// Arguments of `bench spheres`.
 #[derive(Args, Debug)]
@@ -54,11 +55,7 @@ pub fn spheres(a: &SpheresArgs) -> Result<()> {
         None
     };
     let pool = crate::thread_pool(a.threads)?;
-    let scene = crate::compare::sphere_pair("mpm", a.dx_m, 0.5).replacen(
-        "[simulation]\n",
-        &format!("[simulation]\nseed = {}\n", a.seed),
-        1,
-    );
+    let scene = crate::compare::sphere_pair(Method::Mpm, a.dx_m, 0.5).seed(a.seed);
     let mut w = crate::compare::world(&scene)?;
     let particles = w.particle_count();
     let seconds = pool.install(|| -> Result<f64> {

@@ -2,7 +2,7 @@
 """Taichi reference of the `mpm` baseline of `splatphys bench compare`: two elastic spheres meeting
 head-on on ONE shared grid (contact happens through the grid, no contact model), CPU backend.
 
-Scene (ipc/src/bin/splatphys/bench_compare.rs `sphere_pair`): spheres of radius 4 cm centred at
+Scene (bench/src/compare.rs `sphere_pair`): spheres of radius 4 cm centred at
 x = -/+0.08 m moving at +/-1 m/s along x, jelly (fixed-corotated) E = 2e5 Pa, nu = 0.3,
 1000 kg/m^3, no gravity, 0.3 s simulated in 100 Hz frames, CFL 0.5 substeps
 dt = 0.5 dx / (c_p + |v|max) landing on every frame end (sim-core/src/mpm/timestep.rs).

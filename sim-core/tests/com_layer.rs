@@ -1,45 +1,32 @@
 //! The COM object layer against closed forms: the 1D restitution law, momentum and angular
 //! momentum through collisions, a rigid box at rest, sleeping, and thread-count determinism.
 
-use std::path::Path;
-
-use splatphys_core::scene::load_scene_str;
+use splatphys_core::material::MaterialSpec;
+use splatphys_core::scene::{ColliderSpec, Method, ObjectKind, Scene, SceneBuilder, SceneObject};
 use splatphys_core::world::World;
 
 /// Two spheres head-on along x, no gravity. Densities set the mass ratio.
-fn two_spheres(method: &str, e: f64, rho_left: f64, offset_y: f64) -> String {
-    format!(
-        r#"
-[simulation]
-method = "{method}"
-duration_s = 0.3
-frame_rate_hz = 100.0
-grid_dx_m = 0.01
-gravity_m_s2 = [0.0, 0.0, 0.0]
-
-[[object]]
-name = "left"
-shape = {{ sphere = {{ center_m = [-0.08, 0.0, 0.0], radius_m = 0.04 }} }}
-spacing_m = 0.005
-material = {{ model = "jelly", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = {rho_left} }}
-restitution = {e}
-friction = 0.0
-velocity_m_s = [1.0, 0.0, 0.0]
-
-[[object]]
-name = "right"
-shape = {{ sphere = {{ center_m = [0.08, {offset_y}, 0.0], radius_m = 0.04 }} }}
-spacing_m = 0.005
-material = {{ model = "jelly", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }}
-restitution = {e}
-friction = 0.0
-velocity_m_s = [-1.0, 0.0, 0.0]
-"#
-    )
+fn two_spheres(method: Method, e: f64, rho_left: f64, offset_y: f64) -> SceneBuilder {
+    let sphere = |name: &str, center_m: [f32; 3], rho: f64, vx: f32| {
+        SceneObject::sphere(name, center_m, 0.04)
+            .spacing_m(0.005)
+            .material(MaterialSpec::jelly(2e5, 0.3, rho))
+            .restitution(e as f32)
+            .friction(0.0)
+            .velocity([vx, 0.0, 0.0])
+    };
+    Scene::builder()
+        .method(method)
+        .duration_s(0.3)
+        .frame_rate_hz(100.0)
+        .grid_dx_m(0.01)
+        .gravity_m_s2([0.0, 0.0, 0.0])
+        .object(sphere("left", [-0.08, 0.0, 0.0], rho_left, 1.0))
+        .object(sphere("right", [0.08, offset_y as f32, 0.0], 1000.0, -1.0))
 }
 
-fn run(text: &str) -> World {
-    let scene = load_scene_str(text, Path::new(".")).expect("scene");
+fn run(scene: &SceneBuilder) -> World {
+    let scene = scene.build().expect("scene");
     let mut w = World::from_scene(&scene).expect("world");
     while !w.is_finished() {
         w.advance_frame().expect("step");
@@ -51,7 +38,7 @@ fn run(text: &str) -> World {
 fn head_on_collision_follows_the_restitution_law() {
     for ratio in [1.0, 4.0] {
         for e in [0.0, 0.5, 1.0] {
-            let w = run(&two_spheres("com", e, 1000.0 * ratio, 0.0));
+            let w = run(&two_spheres(Method::Com, e, 1000.0 * ratio, 0.0));
             let o = w.objects();
             let (m1, m2) = (o[0].mass_kg, o[1].mass_kg);
             // Cell-counted volumes of two jittered lattices differ slightly: the law uses the
@@ -79,14 +66,13 @@ fn head_on_collision_follows_the_restitution_law() {
 fn baselines_are_recorded_and_conserve_momentum() {
     // The baselines' answers for e = 1 (neither has a restitution coefficient: the bounce comes
     // from the spheres' elasticity), printed for the record; momentum must still be conserved.
-    for method in ["mpm", "multi-field"] {
-        let text = two_spheres(method, 1.0, 1000.0, 0.0);
-        let scene = load_scene_str(&text, Path::new(".")).unwrap();
-        let p0 = World::from_scene(&scene)
+    for method in [Method::Mpm, Method::MultiField] {
+        let scene = two_spheres(method, 1.0, 1000.0, 0.0);
+        let p0 = World::from_scene(&scene.build().unwrap())
             .unwrap()
             .diagnostics()
             .momentum_kg_m_s;
-        let w = run(&text);
+        let w = run(&scene);
         let o = w.objects();
         let (u1, u2) = (o[0].velocity_m_s[0], o[1].velocity_m_s[0]);
         println!("{method} e=1: v1' = {u1:.4}, v2' = {u2:.4} (law: -1, 1)");
@@ -98,7 +84,7 @@ fn baselines_are_recorded_and_conserve_momentum() {
         );
         // Both baselines turn the spheres around; multi-field contact lets them part freely.
         assert!(u1 < 0.0 && u2 > 0.0, "{method}: {u1} {u2}");
-        if method == "multi-field" {
+        if method == Method::MultiField {
             assert!(w.stats.contact_nodes > 0);
         }
     }
@@ -106,8 +92,8 @@ fn baselines_are_recorded_and_conserve_momentum() {
 
 #[test]
 fn momentum_is_conserved_through_a_collision_for_every_method() {
-    for method in ["com", "mpm", "multi-field"] {
-        let scene = load_scene_str(&two_spheres(method, 0.5, 3000.0, 0.0), Path::new(".")).unwrap();
+    for method in Method::ALL {
+        let scene = two_spheres(method, 0.5, 3000.0, 0.0).build().unwrap();
         let mut w = World::from_scene(&scene).unwrap();
         let p0 = w.diagnostics().momentum_kg_m_s;
         let scale: f64 = w.objects().iter().map(|o| o.mass_kg * 1.0).sum();
@@ -122,7 +108,7 @@ fn momentum_is_conserved_through_a_collision_for_every_method() {
 
 #[test]
 fn off_centre_collision_conserves_angular_momentum_and_spins_both() {
-    let scene = load_scene_str(&two_spheres("com", 0.5, 1000.0, 0.04), Path::new(".")).unwrap();
+    let scene = two_spheres(Method::Com, 0.5, 1000.0, 0.04).build().unwrap();
     let mut w = World::from_scene(&scene).unwrap();
     let l0 = w.diagnostics().angular_momentum_kg_m2_s;
     // Scale: |r × p| of one sphere at the offset, 0.04 m × 1 m/s × m.
@@ -146,29 +132,19 @@ fn off_centre_collision_conserves_angular_momentum_and_spins_both() {
 
 #[test]
 fn rigid_box_rests_on_a_static_plane_and_a_resting_object_sleeps() {
-    let text = r#"
-[simulation]
-duration_s = 1.8
-frame_rate_hz = 50.0
-grid_dx_m = 0.01
-
-[[object]]
-name = "box"
-shape = { box = { min_m = [-0.05, -0.05, 0.0], max_m = [0.05, 0.05, 0.1] } }
-spacing_m = 0.01
-kind = "rigid"
-
-[[object]]
-name = "jelly"
-shape = { box = { min_m = [0.3, -0.05, 0.0], max_m = [0.4, 0.05, 0.05] } }
-spacing_m = 0.005
-
-[[collider]]
-name = "floor"
-plane = { point_m = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }
-surface = "sticky"
-"#;
-    let scene = load_scene_str(text, Path::new(".")).unwrap();
+    let scene = Scene::builder()
+        .duration_s(1.8)
+        .frame_rate_hz(50.0)
+        .grid_dx_m(0.01)
+        .object(
+            SceneObject::cuboid("box", [-0.05, -0.05, 0.0], [0.05, 0.05, 0.1])
+                .spacing_m(0.01)
+                .kind(ObjectKind::Rigid),
+        )
+        .object(SceneObject::cuboid("jelly", [0.3, -0.05, 0.0], [0.4, 0.05, 0.05]).spacing_m(0.005))
+        .collider(ColliderSpec::ground("floor"))
+        .build()
+        .unwrap();
     let mut w = World::from_scene(&scene).unwrap();
     // Settle first (0.8 s): the jittered lattice's lowest particles sit up to half a spacing
     // above the plane, so the box drops onto its lowest ones and rocks briefly.
@@ -199,7 +175,7 @@ surface = "sticky"
     );
 }
 
-fn bits(threads: usize, method: &str) -> Vec<u32> {
+fn bits(threads: usize, method: Method) -> Vec<u32> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -222,7 +198,7 @@ fn bits(threads: usize, method: &str) -> Vec<u32> {
 
 #[test]
 fn world_is_bit_identical_for_1_and_2_threads() {
-    for method in ["com", "mpm", "multi-field"] {
+    for method in Method::ALL {
         assert_eq!(bits(1, method), bits(2, method), "{method}");
     }
 }

@@ -6,44 +6,54 @@
 //! deeper than one cell inside B when its cell is an interior cell of B (B occupies it and all 6
 //! face neighbours). Touching surfaces only share boundary cells.
 
-use std::path::Path;
-
-use splatphys_core::scene::load_scene_str;
+use splatphys_core::material::{MaterialModel, MaterialSpec};
+use splatphys_core::scene::{
+    ColliderSpec, Method, ObjectBuilder, Scene, SceneBuilder, SceneObject, Surface,
+};
 use splatphys_core::world::World;
 use splatphys_core::world::overlap::penetration;
 
-const SIMULATION: &str = r#"
-[simulation]
-method = "com"
-frame_rate_hz = 50.0
-grid_dx_m = 0.01
-"#;
-
-const JELLY: &str =
-    r#"{ model = "jelly", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }"#;
-const SNOW: &str = r#"{ model = "snow", youngs_modulus_pa = 1.4e5, poisson_ratio = 0.2, density_kg_m3 = 400.0, hardening = 10.0, critical_compression = 0.025, critical_stretch = 0.0075 }"#;
-
-fn sphere(name: &str, center: [f64; 3], radius: f64, material: &str, v: [f64; 3]) -> String {
-    format!(
-        r#"
-[[object]]
-name = "{name}"
-shape = {{ sphere = {{ center_m = {center:?}, radius_m = {radius} }} }}
-spacing_m = 0.005
-material = {material}
-restitution = 0.5
-friction = 0.3
-velocity_m_s = {v:?}
-"#
-    )
+/// The COM method at 50 frames per second on a 1 cm grid, for `duration_s`.
+fn simulation(duration_s: f64) -> SceneBuilder {
+    Scene::builder()
+        .method(Method::Com)
+        .frame_rate_hz(50.0)
+        .grid_dx_m(0.01)
+        .duration_s(duration_s)
 }
 
-const STICKY_FLOOR: &str = r#"
-[[collider]]
-name = "table"
-plane = { point_m = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }
-surface = "sticky"
-"#;
+fn jelly() -> MaterialSpec {
+    MaterialSpec::jelly(2e5, 0.3, 1000.0)
+}
+
+fn snow() -> MaterialSpec {
+    MaterialSpec {
+        hardening: Some(10.0),
+        critical_compression: Some(0.025),
+        critical_stretch: Some(0.0075),
+        ..MaterialSpec::new(MaterialModel::Snow, 1.4e5, 0.2, 400.0)
+    }
+}
+
+fn sphere(
+    name: &str,
+    center: [f32; 3],
+    radius: f32,
+    material: MaterialSpec,
+    v: [f32; 3],
+) -> ObjectBuilder {
+    SceneObject::sphere(name, center, radius)
+        .spacing_m(0.005)
+        .material(material)
+        .restitution(0.5)
+        .friction(0.3)
+        .velocity(v)
+}
+
+/// The sticky table top, z = 0.
+fn sticky_floor() -> ColliderSpec {
+    ColliderSpec::ground("table").surface(Surface::Sticky)
+}
 
 /// Particles of body `a` in interior cells of body `b` (at least a cell deep).
 fn deep_particles(world: &World, a: usize, b: usize, dx: f32) -> usize {
@@ -58,8 +68,8 @@ fn deep_particles(world: &World, a: usize, b: usize, dx: f32) -> usize {
 /// Runs `text` to the end; after every frame asserts no deep interpenetration of any pair, no
 /// particle more than a cell below z = `floor_z` (when given) and finite state. Returns the world
 /// and the lowest particle height seen over the run (m).
-fn run_checked(name: &str, text: &str, floor_z: Option<f32>) -> (World, f32) {
-    let scene = load_scene_str(text, Path::new(".")).expect("scene");
+fn run_checked(name: &str, scene: SceneBuilder, floor_z: Option<f32>) -> (World, f32) {
+    let scene = scene.build().expect("scene");
     let mut w = World::from_scene(&scene).expect("world");
     let dx = w.dx_m();
     let n = w.bodies.len();
@@ -102,11 +112,16 @@ fn run_checked(name: &str, text: &str, floor_z: Option<f32>) -> (World, f32) {
 
 #[test]
 fn elastic_ball_dropped_on_a_sticky_plane() {
-    let text = format!(
-        "{SIMULATION}duration_s = 0.6\n{}{STICKY_FLOOR}",
-        sphere("ball", [0.0, 0.0, 0.2], 0.04, JELLY, [0.0, 0.0, 0.0])
-    );
-    let (_, lowest) = run_checked("ball drop", &text, Some(0.0));
+    let scene = simulation(0.6)
+        .object(sphere(
+            "ball",
+            [0.0, 0.0, 0.2],
+            0.04,
+            jelly(),
+            [0.0, 0.0, 0.0],
+        ))
+        .collider(sticky_floor());
+    let (_, lowest) = run_checked("ball drop", scene, Some(0.0));
     // It landed: some particle came within a cell of the floor.
     assert!(lowest < 0.01, "ball never reached the floor: {lowest}");
 }
@@ -114,35 +129,62 @@ fn elastic_ball_dropped_on_a_sticky_plane() {
 #[test]
 fn snow_ball_pushed_along_a_sticky_table() {
     // The push is the initial velocity along the table; a sticky table holds what touches it.
-    let text = format!(
-        "{SIMULATION}duration_s = 0.5\n{}{STICKY_FLOOR}",
-        sphere("snow", [0.0, 0.0, 0.045], 0.04, SNOW, [1.0, 0.0, 0.0])
-    );
-    let (w, _) = run_checked("snow push", &text, Some(0.0));
+    let scene = simulation(0.5)
+        .object(sphere(
+            "snow",
+            [0.0, 0.0, 0.045],
+            0.04,
+            snow(),
+            [1.0, 0.0, 0.0],
+        ))
+        .collider(sticky_floor());
+    let (w, _) = run_checked("snow push", scene, Some(0.0));
     let o = &w.objects()[0];
     assert!(o.com_m[0] > 0.0, "snow ball did not move: {:?}", o.com_m);
 }
 
 #[test]
 fn two_elastic_objects_collide_on_a_sticky_table() {
-    let text = format!(
-        "{SIMULATION}duration_s = 0.5\n{}{}{STICKY_FLOOR}",
-        sphere("left", [-0.1, 0.0, 0.045], 0.04, JELLY, [1.0, 0.0, 0.0]),
-        sphere("right", [0.1, 0.0, 0.045], 0.04, JELLY, [-1.0, 0.0, 0.0])
-    );
-    let (w, _) = run_checked("table collision", &text, Some(0.0));
+    let scene = simulation(0.5)
+        .object(sphere(
+            "left",
+            [-0.1, 0.0, 0.045],
+            0.04,
+            jelly(),
+            [1.0, 0.0, 0.0],
+        ))
+        .object(sphere(
+            "right",
+            [0.1, 0.0, 0.045],
+            0.04,
+            jelly(),
+            [-1.0, 0.0, 0.0],
+        ))
+        .collider(sticky_floor());
+    let (w, _) = run_checked("table collision", scene, Some(0.0));
     assert!(w.stats.contact_impulses > 0, "the objects never met");
 }
 
 #[test]
 fn snow_ball_against_rubber_ball_head_on() {
     // The snow ball at twice the rubber ball's speed, no gravity.
-    let text = format!(
-        "{SIMULATION}duration_s = 0.3\ngravity_m_s2 = [0.0, 0.0, 0.0]\n{}{}",
-        sphere("snow", [-0.08, 0.0, 0.0], 0.04, SNOW, [2.0, 0.0, 0.0]),
-        sphere("rubber", [0.08, 0.0, 0.0], 0.04, JELLY, [-1.0, 0.0, 0.0])
-    );
-    let (w, _) = run_checked("snow vs rubber", &text, None);
+    let scene = simulation(0.3)
+        .gravity_m_s2([0.0, 0.0, 0.0])
+        .object(sphere(
+            "snow",
+            [-0.08, 0.0, 0.0],
+            0.04,
+            snow(),
+            [2.0, 0.0, 0.0],
+        ))
+        .object(sphere(
+            "rubber",
+            [0.08, 0.0, 0.0],
+            0.04,
+            jelly(),
+            [-1.0, 0.0, 0.0],
+        ));
+    let (w, _) = run_checked("snow vs rubber", scene, None);
     assert!(w.stats.contact_impulses > 0, "the balls never met");
     // Momentum moves from the snow ball to the rubber ball.
     let o = w.objects();
@@ -154,12 +196,11 @@ fn the_interpenetration_check_sees_overlapping_objects() {
     // Two spheres 2 cm apart (radius 4 cm) overlap by 6 cm: the check must see it; 8.5 cm apart
     // (a gap of 5 mm) it must not.
     for (offset, overlapping) in [(0.02, true), (0.085, false)] {
-        let text = format!(
-            "{SIMULATION}duration_s = 0.1\n{}{}",
-            sphere("a", [0.0, 0.0, 0.5], 0.04, JELLY, [0.0; 3]),
-            sphere("b", [offset, 0.0, 0.5], 0.04, JELLY, [0.0; 3])
-        );
-        let scene = load_scene_str(&text, Path::new(".")).expect("scene");
+        let scene = simulation(0.1)
+            .object(sphere("a", [0.0, 0.0, 0.5], 0.04, jelly(), [0.0; 3]))
+            .object(sphere("b", [offset, 0.0, 0.5], 0.04, jelly(), [0.0; 3]))
+            .build()
+            .expect("scene");
         let w = World::from_scene(&scene).expect("world");
         let deep = deep_particles(&w, 0, 1, w.dx_m());
         assert_eq!(

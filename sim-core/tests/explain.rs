@@ -1,48 +1,46 @@
 //! `World::explain`: per object, what was modelled and which material sets the substep.
 
-use std::path::Path;
-
-use splatphys_core::scene::load_scene_str;
+use splatphys_core::material::{MaterialModel, MaterialSpec};
+use splatphys_core::scene::{Method, ObjectKind, Scene, SceneObject};
 use splatphys_core::world::World;
 
-const SCENE: &str = r#"
-[simulation]
-method = "com"
-duration_s = 0.02
-frame_rate_hz = 100.0
-grid_dx_m = 0.01
-cfl = 0.4
-
-[[object]]
-name = "soft"
-shape = { sphere = { center_m = [0.0, 0.0, 0.3], radius_m = 0.04 } }
-spacing_m = 0.005
-material = { model = "jelly", youngs_modulus_pa = 2e4, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
-
-[[object]]
-name = "stiff"
-shape = { sphere = { center_m = [0.5, 0.0, 0.3], radius_m = 0.04 } }
-spacing_m = 0.005
-material = { model = "snow", youngs_modulus_pa = 1.4e5, poisson_ratio = 0.2, density_kg_m3 = 400.0 }
-
-[[object]]
-name = "block"
-kind = "rigid"
-shape = { box = { min_m = [-0.5, -0.05, 0.0], max_m = [-0.4, 0.05, 0.1] } }
-spacing_m = 0.01
-material = { model = "jelly", youngs_modulus_pa = 1e9, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
-
-[[object]]
-name = "shelf"
-kind = "static"
-shape = { box = { min_m = [0.3, 0.3, 0.0], max_m = [0.4, 0.4, 0.1] } }
-spacing_m = 0.01
-material = { model = "jelly", youngs_modulus_pa = 1e9, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
-"#;
+fn scene() -> Scene {
+    let stiff = MaterialSpec::jelly(1e9, 0.3, 1000.0);
+    Scene::builder()
+        .method(Method::Com)
+        .duration_s(0.02)
+        .frame_rate_hz(100.0)
+        .grid_dx_m(0.01)
+        .cfl(0.4)
+        .object(
+            SceneObject::sphere("soft", [0.0, 0.0, 0.3], 0.04)
+                .spacing_m(0.005)
+                .material(MaterialSpec::jelly(2e4, 0.3, 1000.0)),
+        )
+        .object(
+            SceneObject::sphere("stiff", [0.5, 0.0, 0.3], 0.04)
+                .spacing_m(0.005)
+                .material(MaterialSpec::new(MaterialModel::Snow, 1.4e5, 0.2, 400.0)),
+        )
+        .object(
+            SceneObject::cuboid("block", [-0.5, -0.05, 0.0], [-0.4, 0.05, 0.1])
+                .kind(ObjectKind::Rigid)
+                .spacing_m(0.01)
+                .material(stiff.clone()),
+        )
+        .object(
+            SceneObject::cuboid("shelf", [0.3, 0.3, 0.0], [0.4, 0.4, 0.1])
+                .kind(ObjectKind::Static)
+                .spacing_m(0.01)
+                .material(stiff),
+        )
+        .build()
+        .unwrap()
+}
 
 #[test]
 fn explanation_names_what_was_modelled_and_what_sets_dt() {
-    let scene = load_scene_str(SCENE, Path::new(".")).unwrap();
+    let scene = scene();
     let mut w = World::from_scene(&scene).unwrap();
     while !w.is_finished() {
         w.advance_frame().unwrap();

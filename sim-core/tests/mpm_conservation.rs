@@ -3,18 +3,8 @@
 
 use glam::Vec3A;
 use splatphys_core::collider::{Collider, Plane, Shape, Surface};
-use splatphys_core::material::{MODEL_NAMES, Material, MaterialSpec};
+use splatphys_core::material::{Material, MaterialModel, MaterialSpec};
 use splatphys_core::mpm::{MpmSystem, Particles};
-
-fn spec(model: &str, e: f64, nu: f64, rho: f64) -> MaterialSpec {
-    MaterialSpec {
-        model: model.into(),
-        youngs_modulus_pa: e,
-        poisson_ratio: nu,
-        density_kg_m3: rho,
-        ..Default::default()
-    }
-}
 
 fn momentum(sys: &MpmSystem) -> [f64; 3] {
     sys.diagnostics().momentum_kg_m_s
@@ -152,10 +142,10 @@ fn start_and_peak_energy(
 /// A block is stretched by an initial velocity field, then its elasticity pulls it back.
 #[test]
 fn every_material_survives_stretch_and_release_without_energy_growth() {
-    for model in MODEL_NAMES {
-        let mat = Material::from_spec(&spec(model, 2e4, 0.3, 1000.0)).unwrap();
+    for model in MaterialModel::ALL {
+        let mat = Material::from_spec(&MaterialSpec::new(model, 2e4, 0.3, 1000.0)).unwrap();
         let mut sys = stretched_block(mat, 1000.0, Vec3A::new(2.0, -0.5, -0.5));
-        let (e0, peak) = start_and_peak_energy(&mut sys, 1000, 1.0, 10, model);
+        let (e0, peak) = start_and_peak_energy(&mut sys, 1000, 1.0, 10, model.name());
         assert!(sys.particles.first_non_finite().is_none(), "{model}: NaN");
         assert!(
             peak <= 1.01 * e0,
@@ -170,7 +160,8 @@ fn every_material_survives_stretch_and_release_without_energy_growth() {
 /// 19–437 % at nu ≥ 0.45); the energy-norm return keeps the total energy at or below its start.
 #[test]
 fn snow_near_incompressibility_gains_no_energy_in_isochoric_stretch() {
-    let mat = Material::from_spec(&spec("snow", 1e5, 0.49, 400.0)).unwrap();
+    let mat =
+        Material::from_spec(&MaterialSpec::new(MaterialModel::Snow, 1e5, 0.49, 400.0)).unwrap();
     let mut sys = stretched_block(mat, 400.0, Vec3A::new(3.0, -3.0, 0.0));
     let (e0, peak) = start_and_peak_energy(&mut sys, 600, 0.5, 1, "snow");
     assert!(sys.particles.first_non_finite().is_none(), "NaN");
@@ -179,12 +170,19 @@ fn snow_near_incompressibility_gains_no_energy_in_isochoric_stretch() {
 
 #[test]
 fn sand_column_collapses_and_snow_ball_impacts_conserving_mass() {
-    for (model, shape) in [("sand", "column"), ("snow", "ball")] {
-        let mat = Material::from_spec(&spec(
+    for (model, shape) in [
+        (MaterialModel::Sand, "column"),
+        (MaterialModel::Snow, "ball"),
+    ] {
+        let mat = Material::from_spec(&MaterialSpec::new(
             model,
             1e5,
             0.3,
-            if model == "sand" { 1600.0 } else { 400.0 },
+            if model == MaterialModel::Sand {
+                1600.0
+            } else {
+                400.0
+            },
         ))
         .unwrap();
         let mut p = if shape == "column" {
@@ -227,7 +225,8 @@ fn run_200_substeps(threads: usize) -> Vec<u32> {
         .build()
         .unwrap();
     pool.install(|| {
-        let snow = Material::from_spec(&spec("snow", 1e5, 0.2, 400.0)).unwrap();
+        let snow =
+            Material::from_spec(&MaterialSpec::new(MaterialModel::Snow, 1e5, 0.2, 400.0)).unwrap();
         let jelly = Material::jelly(1e5, 0.3, 1000.0).unwrap();
         let mut p = Particles::lattice_sphere(Vec3A::new(0.2, 0.2, 0.2), 0.08, 0.005, 400.0, 0, 0);
         let mut q = Particles::lattice_box(

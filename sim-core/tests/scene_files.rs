@@ -225,12 +225,6 @@ fn invalid_values_name_the_key() {
         ),
         (
             format!(
-                "{base}material = {{ model = \"rubber\", youngs_modulus_pa = 1e5, poisson_ratio = 0.3, density_kg_m3 = 1.0 }}\n"
-            ),
-            "object[0].material.model",
-        ),
-        (
-            format!(
                 "{base}\n[[event]]\nat_s = 0.1\nimpulse = {{ object = \"b\", vector_n_s = [0.0, 0.0, 1.0] }}\n"
             ),
             "event[0].impulse.object",
@@ -249,6 +243,18 @@ fn invalid_values_name_the_key() {
             Err(SceneError::Invalid { key_path, .. }) => assert_eq!(key_path, key),
             other => panic!("{key}: expected Invalid, got {other:?}"),
         }
+    }
+    // An unknown model fails to parse (the model is an enum, `MaterialModel`): a TOML error at
+    // the same key, with its line.
+    let text = format!(
+        "{base}material = {{ model = \"rubber\", youngs_modulus_pa = 1e5, poisson_ratio = 0.3, density_kg_m3 = 1.0 }}\n"
+    );
+    match scene::load_scene_str(&text, Path::new(".")) {
+        Err(SceneError::Toml { key_path, line, .. }) => {
+            assert_eq!(key_path, "object[0].material.model");
+            assert_eq!(line, 5);
+        }
+        other => panic!("object[0].material.model: expected a TOML error, got {other:?}"),
     }
 }
 

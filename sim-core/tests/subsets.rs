@@ -6,42 +6,36 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat3A, Quat, Vec3, Vec3A};
 use splatphys_core::kinematics::{GaussianState, gaussian_state, pack_symmetric};
-use splatphys_core::scene::{Scene, SceneError, load_scene, load_scene_str};
+use splatphys_core::material::MaterialSpec;
+use splatphys_core::scene::{
+    ColliderSpec, ObjectBuilder, ObjectKind, Scene, SceneBuilder, SceneError, SceneObject, Surface,
+    load_scene,
+};
 use splatphys_core::world::{World, measure};
 
-/// A jelly sphere (radius 5 cm, 5 mm lattice, ~4,200 Gaussians) at height `z_m`, grid 1 cm,
-/// optionally over a sticky floor at z = 0. `spacing` is the object's `physics_spacing_m` line.
-fn sphere_scene(z_m: f32, floor: bool, duration_s: f64, spacing: &str) -> String {
-    let floor = if floor {
-        r#"
-[[collider]]
-name = "floor"
-plane = { point_m = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }
-surface = "sticky"
-"#
-    } else {
-        ""
-    };
-    format!(
-        r#"
-[simulation]
-duration_s = {duration_s}
-frame_rate_hz = 60.0
-grid_dx_m = 0.01
-
-[[object]]
-name = "ball"
-shape = {{ sphere = {{ center_m = [0.0, 0.0, {z_m}], radius_m = 0.05 }} }}
-spacing_m = 0.005
-material = {{ model = "jelly", youngs_modulus_pa = 1e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }}
-{spacing}
-{floor}
-"#
-    )
+/// A jelly sphere "ball" (radius 5 cm, 5 mm lattice, ~4,200 Gaussians) centred at height `z_m`.
+fn ball(z_m: f32) -> ObjectBuilder {
+    SceneObject::sphere("ball", [0.0, 0.0, z_m], 0.05)
+        .spacing_m(0.005)
+        .material(MaterialSpec::jelly(1e5, 0.3, 1000.0))
 }
 
-fn world(text: &str) -> World {
-    let scene = load_scene_str(text, Path::new(".")).expect("scene");
+/// `ball` alone at 60 frames per second on a 1 cm grid, optionally over a sticky floor at z = 0.
+fn sphere_scene(ball: ObjectBuilder, floor: bool, duration_s: f64) -> SceneBuilder {
+    let scene = Scene::builder()
+        .duration_s(duration_s)
+        .frame_rate_hz(60.0)
+        .grid_dx_m(0.01)
+        .object(ball);
+    if floor {
+        scene.collider(ColliderSpec::ground("floor").surface(Surface::Sticky))
+    } else {
+        scene
+    }
+}
+
+fn world(scene: SceneBuilder) -> World {
+    let scene = scene.build().expect("scene");
     World::from_scene(&scene).expect("world")
 }
 
@@ -84,7 +78,7 @@ fn repo() -> PathBuf {
 fn without_physics_spacing_every_gaussian_is_its_own_particle_bit_for_bit() {
     // The code path: no key, no carry, one particle per Gaussian at its centre, and every
     // published Gaussian is exactly its particle's state.
-    let mut plain = world(&sphere_scene(0.08, true, 0.15, ""));
+    let mut plain = world(sphere_scene(ball(0.08), true, 0.15));
     let b = &plain.bodies[0];
     assert!(b.carry.is_none());
     assert_eq!(b.particles.len(), b.gaussians.len());
@@ -94,11 +88,10 @@ fn without_physics_spacing_every_gaussian_is_its_own_particle_bit_for_bit() {
     // A spacing of 0.1 mm puts each Gaussian of the 5 mm lattice in a cube of its own: the
     // subset construction (volume-weighted mean and summed volume) must give back the very
     // same particles, and the run must match bit for bit, through a landing on the floor.
-    let mut tiny = world(&sphere_scene(
-        0.08,
+    let mut tiny = world(sphere_scene(
+        ball(0.08).physics_spacing_m(0.0001),
         true,
         0.15,
-        "physics_spacing_m = 0.0001",
     ));
     assert!(tiny.bodies[0].carry.is_none());
     assert_eq!(particle_bits(&plain), particle_bits(&tiny));
@@ -145,8 +138,7 @@ fn check_mass_and_com(scene: &Scene, spacings: &[f32]) {
 
 #[test]
 fn subset_keeps_the_objects_mass_and_centre_of_mass() {
-    let text = sphere_scene(0.3, false, 0.1, "");
-    let scene = load_scene_str(&text, Path::new(".")).unwrap();
+    let scene = sphere_scene(ball(0.3), false, 0.1).build().unwrap();
     check_mass_and_com(&scene, &[0.006, 0.01, 0.02, 0.05]);
     // The captured donut: a surface-only shell where cells hold different Gaussian counts.
     let path = repo().join("scenes/donut_drop.toml");
@@ -190,7 +182,7 @@ fn check_affine(w: &mut World, a: Mat3A, t: Vec3A) {
 
 #[test]
 fn affine_motion_of_the_particles_carries_every_gaussian_exactly() {
-    let mut w = world(&sphere_scene(0.3, false, 0.1, "physics_spacing_m = 0.02"));
+    let mut w = world(sphere_scene(ball(0.3).physics_spacing_m(0.02), false, 0.1));
     let b = &w.bodies[0];
     // 2 cm cubes over a 5 mm lattice: about 1/64 as many particles as Gaussians (more at the
     // surface, where cubes are partly empty).
@@ -216,9 +208,11 @@ fn affine_motion_of_the_particles_carries_every_gaussian_exactly() {
 
 #[test]
 fn rigid_subset_object_carries_its_gaussians_with_the_rigid_pose() {
-    let text = sphere_scene(1.0, false, 0.3, "physics_spacing_m = 0.015")
-        .replace("name = \"ball\"", "name = \"ball\"\nkind = \"rigid\"");
-    let mut w = world(&text);
+    let mut w = world(sphere_scene(
+        ball(1.0).kind(ObjectKind::Rigid).physics_spacing_m(0.015),
+        false,
+        0.3,
+    ));
     assert!(w.bodies[0].carry.is_some());
     let com0 = w.bodies[0].rigid.com_m.as_vec3a();
     let rest: Vec<Vec3A> = w.bodies[0]
@@ -252,8 +246,8 @@ fn rigid_subset_object_carries_its_gaussians_with_the_rigid_pose() {
 
 #[test]
 fn free_fall_of_a_subset_matches_the_full_run() {
-    let mut full = world(&sphere_scene(1.0, false, 0.4, ""));
-    let mut sub = world(&sphere_scene(1.0, false, 0.4, "physics_spacing_m = 0.01"));
+    let mut full = world(sphere_scene(ball(1.0), false, 0.4));
+    let mut sub = world(sphere_scene(ball(1.0).physics_spacing_m(0.01), false, 0.4));
     let ratio = full.bodies[0].particles.len() as f64 / sub.bodies[0].particles.len() as f64;
     assert!(ratio > 4.0, "ratio {ratio}");
     let dx = full.dx_m();
@@ -301,7 +295,7 @@ fn subset_run_bits(threads: usize) -> (Vec<u32>, Vec<u32>) {
         .build()
         .unwrap();
     pool.install(|| {
-        let mut w = world(&sphere_scene(0.08, true, 0.2, "physics_spacing_m = 0.008"));
+        let mut w = world(sphere_scene(ball(0.08).physics_spacing_m(0.008), true, 0.2));
         finish(&mut w);
         (particle_bits(&w), state_bits(&published(&w)))
     })
@@ -317,43 +311,39 @@ fn subset_world_is_bit_identical_for_1_and_2_threads() {
 
 #[test]
 fn physics_spacing_is_validated_with_its_key_path() {
-    let bad = |text: String, key: &str| match load_scene_str(&text, Path::new(".")) {
+    let bad = |scene: SceneBuilder, key: &str| match scene.build() {
         Err(SceneError::Invalid { key_path, .. }) => assert_eq!(key_path, key),
         other => panic!("{key}: expected an Invalid error, got {other:?}"),
     };
     bad(
-        sphere_scene(0.3, false, 0.1, "physics_spacing_m = -0.01"),
+        sphere_scene(ball(0.3).physics_spacing_m(-0.01), false, 0.1),
         "object[0].physics_spacing_m",
     );
     bad(
-        sphere_scene(0.3, false, 0.1, "physics_spacing_m = nan"),
+        sphere_scene(ball(0.3).physics_spacing_m(f32::NAN), false, 0.1),
         "object[0].physics_spacing_m",
     );
     bad(
         sphere_scene(
-            0.3,
+            ball(0.3).kind(ObjectKind::Static).physics_spacing_m(0.01),
             false,
             0.1,
-            "kind = \"static\"\nphysics_spacing_m = 0.01",
         ),
         "object[0].physics_spacing_m",
     );
     bad(
-        sphere_scene(0.3, false, 0.1, "").replace(
-            "grid_dx_m = 0.01",
-            "grid_dx_m = 0.01\nphysics_spacing_m = 0.0",
-        ),
+        sphere_scene(ball(0.3), false, 0.1).physics_spacing_m(0.0),
         "simulation.physics_spacing_m",
     );
     // The simulation-level default reaches deformable objects, not static ones.
-    let text = sphere_scene(0.3, false, 0.1, "").replace(
-        "grid_dx_m = 0.01",
-        "grid_dx_m = 0.01\nphysics_spacing_m = 0.02",
-    );
-    let text = format!(
-        "{text}\n[[object]]\nname = \"slab\"\nkind = \"static\"\nshape = {{ box = {{ min_m = [-0.2, -0.2, 0.0], max_m = [0.2, 0.2, 0.02] }} }}\n"
-    );
-    let s = load_scene_str(&text, Path::new(".")).unwrap();
+    let s = sphere_scene(ball(0.3), false, 0.1)
+        .physics_spacing_m(0.02)
+        .object(
+            SceneObject::cuboid("slab", [-0.2, -0.2, 0.0], [0.2, 0.2, 0.02])
+                .kind(ObjectKind::Static),
+        )
+        .build()
+        .unwrap();
     assert_eq!(s.objects[0].physics_spacing_m, Some(0.02));
     assert_eq!(s.objects[1].physics_spacing_m, None);
     let w = World::from_scene(&s).unwrap();
@@ -364,7 +354,7 @@ fn physics_spacing_is_validated_with_its_key_path() {
 fn becoming_rigid_keeps_the_carried_gaussians_where_they_are() {
     // Land a subset jelly ball so that it deforms, then make it rigid: the carried state becomes
     // the rest state (Σ0 ← F Σ0 Fᵀ, X ← x), so nothing published may jump.
-    let mut w = world(&sphere_scene(0.08, true, 0.15, "physics_spacing_m = 0.01"));
+    let mut w = world(sphere_scene(ball(0.08).physics_spacing_m(0.01), true, 0.15));
     finish(&mut w);
     let strain = w.bodies[0]
         .particles
@@ -375,8 +365,7 @@ fn becoming_rigid_keeps_the_carried_gaussians_where_they_are() {
         .fold(0.0f32, f32::max);
     assert!(strain > 1e-3, "the ball did not deform ({strain})");
     let before = published(&w);
-    w.set_kind(0, splatphys_core::scene::ObjectKind::Rigid)
-        .unwrap();
+    w.set_kind(0, ObjectKind::Rigid).unwrap();
     let after = published(&w);
     for (g, (a, b)) in before.iter().zip(&after).enumerate() {
         let d = (Vec3A::from(a.position_m) - Vec3A::from(b.position_m)).length();

@@ -34,8 +34,8 @@
 
 use std::path::Path;
 
-use super::model::{self,
-    CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MaterialSpec, Method,
+use super::model::{
+    self, CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MaterialSpec, Method,
     ObjectKind, Scene, SceneObject, Surface,
 };
 use super::schema::{
@@ -161,9 +161,7 @@ impl SceneBuilder {
     /// Adds a kinematic collider.
     pub fn collider(mut self, collider: ColliderSpec) -> Self {
         let (plane, box_) = match collider.shape {
-            ColliderShape::Plane { point_m, normal } => {
-                (Some(PlaneToml { point_m, normal }), None)
-            }
+            ColliderShape::Plane { point_m, normal } => (Some(PlaneToml { point_m, normal }), None),
             ColliderShape::Box { min_m, max_m } => (None, Some(BoxToml { min_m, max_m })),
         };
         self.file.collider.push(ColliderToml {
@@ -201,10 +199,12 @@ impl SceneBuilder {
             EventAction::SetVelocity {
                 object,
                 velocity_m_s,
-            } => e.set_velocity = Some(SetVelocityToml {
-                object,
-                velocity_m_s,
-            }),
+            } => {
+                e.set_velocity = Some(SetVelocityToml {
+                    object,
+                    velocity_m_s,
+                })
+            }
             EventAction::SetMaterial {
                 object,
                 material,

@@ -1,4 +1,4 @@
-//! The scene: a TOML file (DESIGN.md "Scene in", issue 3 §2) naming 3DGS sources and their
+//! The scene: a TOML file (DESIGN.md "Scene in") naming 3DGS sources and their
 //! world transforms, the objects selected from them or built procedurally, materials, colliders,
 //! scripted events, cameras and simulation settings, built into a plain-data [`Scene`].
 //!
@@ -27,8 +27,8 @@ use std::path::{Path, PathBuf};
 pub use build::build_scene;
 pub use builder::{ObjectBuilder, SceneBuilder};
 pub use model::{
-    CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MaterialSpec,
-    Method, ObjectKind, Scene, SceneObject, SimulationSettings, Surface,
+    CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MaterialSpec, Method,
+    ObjectKind, Scene, SceneObject, SimulationSettings, Surface,
 };
 
 use crate::formats::FormatError;
@@ -170,7 +170,10 @@ pub fn load_scene_str(text: &str, base_dir: &Path) -> Result<Scene, SceneError> 
 /// # Errors
 /// Any [`SceneError`] of [`load_scene`]; [`SceneError::Invalid`] at `simulation.duration_s` when
 /// `duration_s` is not a positive number of seconds.
-pub fn load_named(path: Option<&Path>, duration_s: Option<f64>) -> Result<(String, Scene), SceneError> {
+pub fn load_named(
+    path: Option<&Path>,
+    duration_s: Option<f64>,
+) -> Result<(String, Scene), SceneError> {
     let (name, mut scene) = match path {
         Some(p) => {
             let name = p

@@ -8,9 +8,10 @@
 
 use glam::{DMat3, DVec3, Mat3A, Quat, Vec3A};
 
-use crate::material::Material;
+use super::WorldError;
+use crate::material::{ConstitutiveModel, Material};
 use crate::mpm::{MpmSolver, Particles};
-use crate::scene::ObjectKind;
+use crate::scene::{ObjectKind, SceneObject};
 
 /// Object-level state, measured from the particles in f64 in index order.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -222,6 +223,79 @@ pub struct Body {
 }
 
 impl Body {
+    /// Builds the body of scene object `object`, number `index` in the scene (the particles'
+    /// object id), on a grid of cell size `dx_m` (m): its particles (one per Gaussian, or the
+    /// voxel subset of [`super::carry::physics_particles`]) at the object's initial velocity,
+    /// with masses from its material's density; its rest covariances; its rigid pose. A static
+    /// object starts, and stays, at rest.
+    ///
+    /// # Errors
+    /// [`WorldError::Material`] when the object's material is refused.
+    pub fn from_object(object: &SceneObject, index: u32, dx_m: f32) -> Result<Body, WorldError> {
+        let o = object;
+        let material = Material::from_spec(&o.material).map_err(|source| WorldError::Material {
+            object: o.name.clone(),
+            source,
+        })?;
+        let g = &o.gaussians;
+        let x: Vec<Vec3A> = g.positions.iter().map(|p| Vec3A::from(*p)).collect();
+        let phys = super::carry::physics_particles(&x, dx_m, o.physics_spacing_m);
+        let rho = material.density_kg_m3();
+        let mut particles = Particles::default();
+        let v0 = Vec3A::from(o.velocity_m_s);
+        for (xi, vol) in phys.x.iter().zip(&phys.volume_m3) {
+            particles.push(
+                *xi,
+                v0,
+                rho * vol,
+                *vol,
+                0,
+                index,
+                material.initial_plastic_state(),
+            );
+        }
+        let sigma0 = (0..g.len()).map(|i| Mat3A::from(g.covariance(i))).collect();
+        let mut body = Body {
+            name: o.name.clone(),
+            kind: o.kind,
+            restitution: o.restitution.clamp(0.0, 1.0),
+            friction: o.friction.max(0.0),
+            particles,
+            materials: vec![material],
+            solver: MpmSolver::new(dx_m),
+            gaussians: g.clone(),
+            sigma0,
+            rest_offsets: Vec::new(),
+            visible: if o.visible.len() == g.len() {
+                o.visible.clone()
+            } else {
+                vec![true; g.len()]
+            },
+            carry: phys.carry,
+            rigid: RigidState {
+                orientation: Quat::IDENTITY,
+                com_m: DVec3::ZERO,
+                velocity_m_s: DVec3::ZERO,
+                omega_rad_s: DVec3::ZERO,
+                inertia_rest: DMat3::ZERO,
+                mass_kg: 0.0,
+            },
+            sleeping: false,
+            state_cache: None,
+            still_s: 0.0,
+            substeps_skipped: 0,
+            contacts: 0,
+            max_speed_m_s: v0.length(),
+            impulse_total_n_s: 0.0,
+        };
+        body.capture_rigid_pose();
+        if o.kind == ObjectKind::Static {
+            body.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
+            body.max_speed_m_s = 0.0;
+        }
+        Ok(body)
+    }
+
     /// Whether the body moves at all this substep.
     pub fn is_active(&self) -> bool {
         !self.sleeping && self.kind != ObjectKind::Static

@@ -1,4 +1,4 @@
-//! Physics-particle subsets (issue #7): an object simulates fewer MPM particles than it has
+//! Physics-particle subsets: an object simulates fewer MPM particles than it has
 //! Gaussians, and every Gaussian is carried along by the particles around it.
 //!
 //! **Volumes.** [`particle_volumes`] gives each Gaussian of the object the volume V_i of its

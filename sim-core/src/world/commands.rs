@@ -8,12 +8,6 @@ use crate::material::{ConstitutiveModel, Material};
 use crate::scene::ObjectKind;
 
 impl World {
-    fn wake(&mut self, id: usize) {
-        self.bodies[id].sleeping = false;
-        self.bodies[id].state_cache = None;
-        self.bodies[id].still_s = 0.0;
-    }
-
     fn movable(&self, id: usize) -> Result<(), WorldError> {
         let b = self
             .bodies

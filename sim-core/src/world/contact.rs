@@ -12,10 +12,16 @@
 //! j_n = -(1 + e) v_rel·n / (1/m_A + 1/m_B + n·[(I_A⁻¹ (r_A × n)) × r_A + (I_B⁻¹ (r_B × n)) × r_B]),
 //! Coulomb friction j_t <= μ j_n against the tangential velocity, impulse J = j_n n + j_t t on B and
 //! -J on A, at the contact point, so linear and angular momentum are both conserved.
+//!
+//! The world's contact pass (`World::resolve_contacts`, once per substep over every pair with an
+//! awake object) and the impulse hand-out to rigid and deformable objects are at the end.
 
 use glam::{DMat3, DVec3, IVec3};
+use rayon::prelude::*;
 
-use super::body::{Body, BodyState};
+use super::body::{self, Body, BodyState, measure};
+use super::{World, coherence};
+use crate::scene::{Method, ObjectKind};
 
 /// A detected contact between bodies `a` and `b`.
 #[derive(Debug, Clone, PartialEq)]
@@ -229,4 +235,128 @@ pub fn impulse(
         }
     }
     j.is_finite().then_some(j)
+}
+
+impl World {
+    fn dynamics(&self, k: usize, s: &BodyState) -> Dynamics {
+        let b = &self.bodies[k];
+        if b.kind == ObjectKind::Rigid {
+            let rs = &b.rigid;
+            Dynamics {
+                com_m: rs.com_m,
+                velocity_m_s: rs.velocity_m_s,
+                omega_rad_s: rs.omega_rad_s,
+                inverse_mass: 1.0 / rs.mass_kg.max(f64::MIN_POSITIVE),
+                inverse_inertia: body::inverse_or_zero(b.rigid_world_inertia()),
+            }
+        } else {
+            Dynamics {
+                com_m: s.com_m,
+                velocity_m_s: if b.kind == ObjectKind::Static {
+                    DVec3::ZERO
+                } else {
+                    s.velocity_m_s
+                },
+                omega_rad_s: if b.kind == ObjectKind::Static {
+                    DVec3::ZERO
+                } else {
+                    s.angular_velocity()
+                },
+                inverse_mass: b.inverse_mass(s),
+                inverse_inertia: b.inverse_inertia(s),
+            }
+        }
+    }
+
+    /// Step 2 and 3 of a COM substep (module docs): every pair of objects, one of them awake,
+    /// through the broad and narrow phase; an approaching contact gets the impulse law's
+    /// impulse, the zone and the object-level state ([`super::coherence`]). Pairs of
+    /// deformable objects are left to the grid in the `mpm` and `multi-field` baselines.
+    pub(super) fn resolve_contacts(&mut self, dt: f64) {
+        let n = self.bodies.len();
+        if n < 2 {
+            return;
+        }
+        let dx = self.dx_m();
+        // Static and sleeping objects do not move: their state is measured once and cached
+        // (cleared when they wake or are edited).
+        // Awake objects get the broad phase's bounds only; the full state (inertia, angular
+        // momentum) is measured for the objects of a pair that passes it.
+        let mut states: Vec<(BodyState, bool)> = self
+            .bodies
+            .par_iter_mut()
+            .map(|b| {
+                if b.is_active() {
+                    b.state_cache = None;
+                    return (body::measure_bounds(&b.particles, dx), false);
+                }
+                let s = *b
+                    .state_cache
+                    .get_or_insert_with(|| measure(&b.particles, dx));
+                (s, true)
+            })
+            .collect();
+        let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
+        for i in 0..n {
+            for j in i + 1..n {
+                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+                if !(bi.is_active() || bj.is_active()) {
+                    continue;
+                }
+                if self.settings.method != Method::Com
+                    && bi.kind == ObjectKind::Deformable
+                    && bj.kind == ObjectKind::Deformable
+                {
+                    continue; // the grid handles these in the baselines
+                }
+                if !broad_phase(&states[i].0, &states[j].0, dx as f64) {
+                    continue;
+                }
+                for k in [i, j] {
+                    if !states[k].1 {
+                        states[k] = (measure(&self.bodies[k].particles, dx), true);
+                    }
+                }
+                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+                let Some(c) = narrow_phase(bi, &states[i].0, bj, &states[j].0, dx) else {
+                    continue;
+                };
+                self.bodies[i].contacts += 1;
+                self.bodies[j].contacts += 1;
+                for k in [i, j] {
+                    self.bodies[k].wake_on_contact();
+                }
+                let (da, db) = (
+                    self.dynamics(i, &states[i].0),
+                    self.dynamics(j, &states[j].0),
+                );
+                let e = self.bodies[i].restitution.min(self.bodies[j].restitution) as f64;
+                let mu = ((self.bodies[i].friction * self.bodies[j].friction) as f64).sqrt();
+                let Some(jv) = impulse(&da, &db, c.point_m, c.normal, e, mu, resting) else {
+                    continue;
+                };
+                self.stats.contact_impulses += 1;
+                self.give_impulse(i, -jv, c.point_m, &c.zone_a);
+                self.give_impulse(j, jv, c.point_m, &c.zone_b);
+            }
+        }
+    }
+
+    /// Gives impulse `j` (N s) at `point` (m) to object `k`: rigid objects through their rigid
+    /// state, deformable ones through the particles of `zone` ([`super::coherence`]).
+    pub(super) fn give_impulse(&mut self, k: usize, j: DVec3, point: DVec3, zone: &[u32]) {
+        let b = &mut self.bodies[k];
+        b.impulse_total_n_s += j.length();
+        match b.kind {
+            ObjectKind::Static => {}
+            ObjectKind::Rigid => {
+                let inv_i = body::inverse_or_zero(b.rigid_world_inertia());
+                let rs = &mut b.rigid;
+                rs.velocity_m_s += j / rs.mass_kg;
+                rs.omega_rad_s += inv_i * (point - rs.com_m).cross(j);
+                b.sync_rigid_particles();
+            }
+            ObjectKind::Deformable => coherence::apply_impulse(b, j, point, zone),
+        }
+    }
 }

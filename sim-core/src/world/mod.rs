@@ -17,7 +17,9 @@
 //! Baseline `multi-field` (Bardenhagen et al. 2000): each deformable object keeps its own field on
 //! the shared node lattice and fields meet through the multi-field contact rule
 //! ([`crate::mpm::multi_field`]). In both baselines the COM layer still resolves contacts that
-//! involve a rigid or static object. The MPM part of a substep, per method, is in `mpm_step.rs`.
+//! involve a rigid or static object. The MPM part of a substep, per method, is in `mpm_step.rs`;
+//! contact resolution is in [`contact`]; sleeping and waking (an object still and untouched for
+//! [`SLEEP_AFTER_S`] skips all work) in `sleep.rs`.
 
 pub mod body;
 pub mod carry;
@@ -29,25 +31,21 @@ mod mpm_step;
 mod output;
 pub mod overlap;
 pub mod rigid;
+mod sleep;
 
 use std::time::Instant;
 
-use glam::{DVec3, Mat3A, Quat, Vec3A};
-use rayon::prelude::*;
+use glam::{Mat3A, Vec3A};
 
 pub use body::{Body, BodyState, RigidState, measure};
+pub use sleep::{SLEEP_AFTER_S, SLEEP_SPEED_M_S};
 
 use crate::collider::{BoxShape, Collider, Plane, Shape, Surface};
 use crate::gaussians::GaussianCloud;
 use crate::kinematics::{GaussianState, pack_symmetric};
-use crate::material::{ConstitutiveModel, Material, MaterialError};
-use crate::mpm::{MpmError, MpmSolver, Particles, TimeStepError, TimeStepPolicy};
+use crate::material::{ConstitutiveModel, MaterialError};
+use crate::mpm::{MpmError, MpmSolver, TimeStepError, TimeStepPolicy};
 use crate::scene::{self, EventAction, EventSpec, Method, ObjectKind, Scene};
-
-/// Speed below which an object counts as still (m/s).
-pub const SLEEP_SPEED_M_S: f32 = 5e-3;
-/// How long an object must stay still, touching nothing, before it sleeps (s).
-pub const SLEEP_AFTER_S: f64 = 0.25;
 
 /// Why the world could not be built or stepped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -215,126 +213,83 @@ fn collider_from_spec(c: &scene::ColliderSpec) -> Result<Collider, WorldError> {
     })
 }
 
+/// The substep policy of settings `s`, after checking the grid cell size and frame rate.
+fn time_step_policy(s: &scene::SimulationSettings) -> Result<TimeStepPolicy, WorldError> {
+    let dx = s.grid_dx_m as f32;
+    if !(dx.is_finite() && dx > 0.0) {
+        return Err(WorldError::Settings(format!(
+            "grid_dx_m = {} must be positive",
+            s.grid_dx_m
+        )));
+    }
+    if !(s.frame_rate_hz.is_finite() && s.frame_rate_hz > 0.0) {
+        return Err(WorldError::Settings(format!(
+            "frame_rate_hz = {} must be positive",
+            s.frame_rate_hz
+        )));
+    }
+    let policy = match s.dt_s {
+        Some(dt) => TimeStepPolicy::Fixed {
+            dt_s: dt as f32,
+            force: s.force_dt,
+        },
+        None => TimeStepPolicy::Cfl {
+            number: s.cfl as f32,
+        },
+    };
+    policy
+        .validate()
+        .map_err(|e| WorldError::Settings(e.to_string()))?;
+    Ok(policy)
+}
+
+/// The grid colliders of `scene`: its colliders, then the domain bound when it sets one.
+fn grid_colliders(scene: &Scene) -> Result<Vec<Collider>, WorldError> {
+    let mut colliders = scene
+        .colliders
+        .iter()
+        .map(collider_from_spec)
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some([lo, hi]) = scene.simulation.domain_m {
+        let b = BoxShape::new(Vec3A::from(lo), Vec3A::from(hi))
+            .ok_or_else(|| WorldError::Settings("domain_m needs min < max on every axis".into()))?;
+        colliders.push(Collider::fixed(
+            Shape::DomainBound(b),
+            Surface::Separate,
+            0.0,
+        ));
+    }
+    Ok(colliders)
+}
+
+/// The published state of the static background Gaussians: as loaded, unrotated.
+fn background_state(background: &GaussianCloud) -> Vec<GaussianState> {
+    (0..background.len())
+        .map(|i| GaussianState {
+            position_m: background.positions[i],
+            covariance_m2: pack_symmetric(Mat3A::from(background.covariance(i))),
+            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
+        })
+        .collect()
+}
+
 impl World {
-    /// Builds the world from a scene.
+    /// Builds the world from a scene: one [`Body`] per object ([`Body::from_object`]).
     ///
     /// # Errors
     /// [`WorldError`] for a refused material, a degenerate collider or unusable settings.
     pub fn from_scene(scene: &Scene) -> Result<Self, WorldError> {
         let s = &scene.simulation;
+        let policy = time_step_policy(s)?;
         let dx = s.grid_dx_m as f32;
-        if !(dx.is_finite() && dx > 0.0) {
-            return Err(WorldError::Settings(format!(
-                "grid_dx_m = {} must be positive",
-                s.grid_dx_m
-            )));
-        }
-        if !(s.frame_rate_hz.is_finite() && s.frame_rate_hz > 0.0) {
-            return Err(WorldError::Settings(format!(
-                "frame_rate_hz = {} must be positive",
-                s.frame_rate_hz
-            )));
-        }
-        let policy = match s.dt_s {
-            Some(dt) => TimeStepPolicy::Fixed {
-                dt_s: dt as f32,
-                force: s.force_dt,
-            },
-            None => TimeStepPolicy::Cfl {
-                number: s.cfl as f32,
-            },
-        };
-        policy
-            .validate()
-            .map_err(|e| WorldError::Settings(e.to_string()))?;
-        let mut colliders = scene
-            .colliders
+        let colliders = grid_colliders(scene)?;
+        let bodies = scene
+            .objects
             .iter()
-            .map(collider_from_spec)
+            .enumerate()
+            .map(|(k, o)| Body::from_object(o, k as u32, dx))
             .collect::<Result<Vec<_>, _>>()?;
-        if let Some([lo, hi]) = s.domain_m {
-            let b = BoxShape::new(Vec3A::from(lo), Vec3A::from(hi)).ok_or_else(|| {
-                WorldError::Settings("domain_m needs min < max on every axis".into())
-            })?;
-            colliders.push(Collider::fixed(
-                Shape::DomainBound(b),
-                Surface::Separate,
-                0.0,
-            ));
-        }
-        let mut bodies = Vec::with_capacity(scene.objects.len());
-        for (k, o) in scene.objects.iter().enumerate() {
-            let material = Material::from_spec(&o.material).map_err(|source| {
-                WorldError::Material {
-                    object: o.name.clone(),
-                    source,
-                }
-            })?;
-            let g = &o.gaussians;
-            let x: Vec<Vec3A> = g.positions.iter().map(|p| Vec3A::from(*p)).collect();
-            let phys = carry::physics_particles(&x, dx, o.physics_spacing_m);
-            let rho = material.density_kg_m3();
-            let mut particles = Particles::default();
-            let v0 = Vec3A::from(o.velocity_m_s);
-            for (xi, vol) in phys.x.iter().zip(&phys.volume_m3) {
-                particles.push(
-                    *xi,
-                    v0,
-                    rho * vol,
-                    *vol,
-                    0,
-                    k as u32,
-                    material.initial_plastic_state(),
-                );
-            }
-            let sigma0 = (0..g.len()).map(|i| Mat3A::from(g.covariance(i))).collect();
-            let mut body = Body {
-                name: o.name.clone(),
-                kind: o.kind,
-                restitution: o.restitution.clamp(0.0, 1.0),
-                friction: o.friction.max(0.0),
-                particles,
-                materials: vec![material],
-                solver: MpmSolver::new(dx),
-                gaussians: g.clone(),
-                sigma0,
-                rest_offsets: Vec::new(),
-                visible: if o.visible.len() == g.len() {
-                    o.visible.clone()
-                } else {
-                    vec![true; g.len()]
-                },
-                carry: phys.carry,
-                rigid: RigidState {
-                    orientation: Quat::IDENTITY,
-                    com_m: DVec3::ZERO,
-                    velocity_m_s: DVec3::ZERO,
-                    omega_rad_s: DVec3::ZERO,
-                    inertia_rest: glam::DMat3::ZERO,
-                    mass_kg: 0.0,
-                },
-                sleeping: false,
-                state_cache: None,
-                still_s: 0.0,
-                substeps_skipped: 0,
-                contacts: 0,
-                max_speed_m_s: v0.length(),
-                impulse_total_n_s: 0.0,
-            };
-            body.capture_rigid_pose();
-            if o.kind == ObjectKind::Static {
-                body.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
-                body.max_speed_m_s = 0.0;
-            }
-            bodies.push(body);
-        }
-        let background_state = (0..scene.background.len())
-            .map(|i| GaussianState {
-                position_m: scene.background.positions[i],
-                covariance_m2: pack_symmetric(Mat3A::from(scene.background.covariance(i))),
-                rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
-            })
-            .collect();
+        let background_state = background_state(&scene.background);
         let mut events = scene.events.clone();
         events.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
         Ok(Self {
@@ -507,146 +462,6 @@ impl World {
                     .map(|r| r.length())
                     .fold(0.0f32, f32::max) as f64;
                 b.max_speed_m_s = (rs.velocity_m_s.length() + rs.omega_rad_s.length() * arm) as f32;
-            }
-        }
-    }
-
-    fn dynamics(&self, k: usize, s: &BodyState) -> contact::Dynamics {
-        let b = &self.bodies[k];
-        if b.kind == ObjectKind::Rigid {
-            let rs = &b.rigid;
-            contact::Dynamics {
-                com_m: rs.com_m,
-                velocity_m_s: rs.velocity_m_s,
-                omega_rad_s: rs.omega_rad_s,
-                inverse_mass: 1.0 / rs.mass_kg.max(f64::MIN_POSITIVE),
-                inverse_inertia: body::inverse_or_zero(b.rigid_world_inertia()),
-            }
-        } else {
-            contact::Dynamics {
-                com_m: s.com_m,
-                velocity_m_s: if b.kind == ObjectKind::Static {
-                    DVec3::ZERO
-                } else {
-                    s.velocity_m_s
-                },
-                omega_rad_s: if b.kind == ObjectKind::Static {
-                    DVec3::ZERO
-                } else {
-                    s.angular_velocity()
-                },
-                inverse_mass: b.inverse_mass(s),
-                inverse_inertia: b.inverse_inertia(s),
-            }
-        }
-    }
-
-    fn resolve_contacts(&mut self, dt: f64) {
-        let n = self.bodies.len();
-        if n < 2 {
-            return;
-        }
-        let dx = self.dx_m();
-        // Static and sleeping objects do not move: their state is measured once and cached
-        // (cleared when they wake or are edited).
-        // Awake objects get the broad phase's bounds only; the full state (inertia, angular
-        // momentum) is measured for the objects of a pair that passes it.
-        let mut states: Vec<(BodyState, bool)> = self
-            .bodies
-            .par_iter_mut()
-            .map(|b| {
-                if b.is_active() {
-                    b.state_cache = None;
-                    return (body::measure_bounds(&b.particles, dx), false);
-                }
-                let s = *b
-                    .state_cache
-                    .get_or_insert_with(|| measure(&b.particles, dx));
-                (s, true)
-            })
-            .collect();
-        let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
-        for i in 0..n {
-            for j in i + 1..n {
-                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-                if !(bi.is_active() || bj.is_active()) {
-                    continue;
-                }
-                if self.settings.method != Method::Com
-                    && bi.kind == ObjectKind::Deformable
-                    && bj.kind == ObjectKind::Deformable
-                {
-                    continue; // the grid handles these in the baselines
-                }
-                if !contact::broad_phase(&states[i].0, &states[j].0, dx as f64) {
-                    continue;
-                }
-                for k in [i, j] {
-                    if !states[k].1 {
-                        states[k] = (measure(&self.bodies[k].particles, dx), true);
-                    }
-                }
-                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-                let Some(c) = contact::narrow_phase(bi, &states[i].0, bj, &states[j].0, dx) else {
-                    continue;
-                };
-                self.bodies[i].contacts += 1;
-                self.bodies[j].contacts += 1;
-                for k in [i, j] {
-                    if self.bodies[k].sleeping {
-                        self.bodies[k].sleeping = false;
-                        self.bodies[k].still_s = 0.0;
-                    }
-                }
-                let (da, db) = (
-                    self.dynamics(i, &states[i].0),
-                    self.dynamics(j, &states[j].0),
-                );
-                let e = self.bodies[i].restitution.min(self.bodies[j].restitution) as f64;
-                let mu = ((self.bodies[i].friction * self.bodies[j].friction) as f64).sqrt();
-                let Some(jv) = contact::impulse(&da, &db, c.point_m, c.normal, e, mu, resting)
-                else {
-                    continue;
-                };
-                self.stats.contact_impulses += 1;
-                self.give_impulse(i, -jv, c.point_m, &c.zone_a);
-                self.give_impulse(j, jv, c.point_m, &c.zone_b);
-            }
-        }
-    }
-
-    fn give_impulse(&mut self, k: usize, j: DVec3, point: DVec3, zone: &[u32]) {
-        let b = &mut self.bodies[k];
-        b.impulse_total_n_s += j.length();
-        match b.kind {
-            ObjectKind::Static => {}
-            ObjectKind::Rigid => {
-                let inv_i = body::inverse_or_zero(b.rigid_world_inertia());
-                let rs = &mut b.rigid;
-                rs.velocity_m_s += j / rs.mass_kg;
-                rs.omega_rad_s += inv_i * (point - rs.com_m).cross(j);
-                b.sync_rigid_particles();
-            }
-            ObjectKind::Deformable => coherence::apply_impulse(b, j, point, zone),
-        }
-    }
-
-    fn update_sleep(&mut self, dt: f64) {
-        for b in &mut self.bodies {
-            if b.kind == ObjectKind::Static || b.sleeping {
-                continue;
-            }
-            if b.max_speed_m_s < SLEEP_SPEED_M_S && b.contacts == 0 {
-                b.still_s += dt;
-                if b.still_s >= SLEEP_AFTER_S {
-                    b.sleeping = true;
-                    b.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
-                    b.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
-                    b.rigid.velocity_m_s = DVec3::ZERO;
-                    b.rigid.omega_rad_s = DVec3::ZERO;
-                }
-            } else {
-                b.still_s = 0.0;
             }
         }
     }
