@@ -1,24 +1,19 @@
-//! `splatphys bench realtime` end to end (issue #7, part 3) on a tiny run: the validation
+//! `splatphys bench realtime` end to end on a tiny run: the validation
 //! free-fall sphere for 0.02 s at two grid cell sizes and as a rigid body. Checked on the CSV it
 //! writes: one reference row with zero error, one row per cell size, then the rigid row; errors
 //! finite and in reference cells, coarser grid with fewer particles and substeps, the rigid run
 //! with no grid and free fall's closed-form agreement. Nothing here depends on wall-clock time.
 
-mod common;
-
-use common::table::{num, read_csv, run_bench};
+use splatphys_tests::{num, read_csv, run_bench, workspace};
 
 #[test]
 fn realtime_sweep_writes_a_zero_error_reference_one_row_per_cell_size_and_a_rigid_row() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/validation_free_fall.toml"
-    );
+    let scene = workspace().join("scenes/validation_free_fall.toml");
     let args = [
         "realtime",
         "--scenes",
-        scene,
+        scene.to_str().expect("UTF-8 path"),
         "--duration-s",
         "0.02",
         "--dx-m",

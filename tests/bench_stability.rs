@@ -1,12 +1,10 @@
-//! `splatphys bench stability --quick` end to end (issue #7): the binary sweeps every method ×
+//! `splatphys bench stability --quick` end to end: the binary sweeps every method ×
 //! material on the small quick planes and writes one CSV row per run. Checked on the files it
 //! writes: as many rows as the sweep has runs, no NaN and at most 1 % energy growth anywhere with
 //! automatic time stepping, and at least one failure at the largest forced CFL number (so the
 //! failure detector fires). Nothing here depends on wall-clock time.
 
-mod common;
-
-use common::table::{num, read_csv, run_bench};
+use splatphys_tests::{num, read_csv, run_bench};
 
 /// Methods × materials of the default sweep.
 const COMBOS: usize = 3 * 7;

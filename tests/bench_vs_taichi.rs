@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use serde_json::Value;
+use splatphys_tests::{bin, workspace};
 
-const SPLATPHYS: &str = env!("CARGO_BIN_EXE_splatphys");
 const TINY: [&str; 6] = [
     "--particles-per-axis",
     "4",
@@ -21,7 +21,7 @@ const TINY: [&str; 6] = [
 ];
 
 fn bench_mpm(extra: &[&str]) -> Output {
-    Command::new(SPLATPHYS)
+    Command::new(bin("splatphys"))
         .args(["bench", "mpm"])
         .args(TINY)
         .arg("--vs-taichi")
@@ -51,7 +51,8 @@ fn fake_python(dir: &Path, body: &str) -> PathBuf {
 }
 
 fn repo_script() -> String {
-    format!("{}/../bench/taichi/mpm_cube.py", env!("CARGO_MANIFEST_DIR"))
+    let script = workspace().join("bench/taichi/mpm_cube.py");
+    script.to_str().expect("UTF-8 path").to_owned()
 }
 
 #[test]

@@ -3,153 +3,44 @@
 //! Each test uses its own iceoryx2 file prefix (`SPLATPHYS_IOX2_PREFIX`), so tests never see
 //! each other's services.
 
-use std::path::PathBuf;
-use std::process::{Child, Command, Output, Stdio};
-use std::sync::OnceLock;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use splatphys_ipc::client::{ClientOptions, Connection};
+use splatphys_tests::{
+    Exit, IOX_PREFIX_ENV, Proc, bin, fake_server, iox_prefix, json_objects, leftovers,
+    service_prefix,
+};
 
-const CONTROL: &str = env!("CARGO_BIN_EXE_splatphys-control");
-
-/// `splatphys` lives in another package: take it from the same target directory, building it
-/// once if this test run did not (e.g. `cargo test -p splatphys-control` on a fresh tree).
-fn server_bin() -> &'static PathBuf {
-    static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| {
-        let dir = PathBuf::from(CONTROL)
-            .parent()
-            .expect("target dir")
-            .to_path_buf();
-        let bin = dir.join("splatphys");
-        if !bin.exists() {
-            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-            let st = Command::new(cargo)
-                .args(["build", "-p", "splatphys-ipc", "--bin", "splatphys"])
-                .status()
-                .expect("run cargo build for the splatphys binary");
-            assert!(st.success(), "building splatphys failed");
-        }
-        assert!(bin.exists(), "{} missing", bin.display());
-        bin
-    })
-}
-
-/// A child process, stopped with SIGTERM (clean server shutdown, services removed) when
-/// dropped, and with SIGKILL if that takes more than 3 s.
-struct Proc(Child);
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Ok(None) = self.0.try_wait() {
-            let _ = Command::new("kill")
-                .args(["-TERM", &self.0.id().to_string()])
-                .status();
-            let t0 = Instant::now();
-            while matches!(self.0.try_wait(), Ok(None)) && t0.elapsed() < Duration::from_secs(3) {
-                std::thread::sleep(Duration::from_millis(5));
-            }
-        }
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// Files of iceoryx2 prefix `iox` left in /dev/shm or /tmp/iceoryx2 (iceoryx2 keeps one
-/// 16-byte `*.global_mgmt` node counter per prefix on purpose).
-fn leftovers(iox: &str) -> Vec<String> {
-    let mut found = Vec::new();
-    for dir in ["/dev/shm", "/tmp/iceoryx2/services", "/tmp/iceoryx2/nodes"] {
-        for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
-            let name = e.file_name().to_string_lossy().into_owned();
-            if name.starts_with(iox) && !name.ends_with(".global_mgmt") {
-                found.push(format!("{dir}/{name}"));
-            }
-        }
-    }
-    found
-}
-
-fn iox_prefix(test: &str) -> String {
-    format!("spxc_{test}_{}_", std::process::id())
-}
-
-fn server(iox: &str, prefix: &str, extra: &[&str]) -> Proc {
-    Proc(
-        Command::new(server_bin())
-            .args(["serve", "--fake", "--prefix", prefix])
-            .args(extra)
-            .env("SPLATPHYS_IOX2_PREFIX", iox)
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn server"),
+/// `splatphys-control --prefix <prefix> <args>` under iceoryx2 file prefix `iox`, output piped.
+fn control_process(iox: &str, prefix: &str, args: &[&str]) -> Proc {
+    Proc::spawn(
+        Command::new(bin("splatphys-control"))
+            .args(["--prefix", prefix])
+            .args(args)
+            .env(IOX_PREFIX_ENV, iox)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
     )
 }
 
-/// Runs `splatphys-control --prefix P ARGS` to completion within `timeout`.
+/// Runs `splatphys-control --prefix P ARGS` to completion within `timeout`: exit code, stdout,
+/// stderr.
 fn control(
     iox: &str,
     prefix: &str,
     args: &[&str],
     timeout: Duration,
 ) -> (Option<i32>, String, String) {
-    let mut child = Command::new(CONTROL)
-        .args(["--prefix", prefix])
-        .args(args)
-        .env("SPLATPHYS_IOX2_PREFIX", iox)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn splatphys-control");
-    let o = wait_output(&mut child, timeout);
-    (
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
-
-/// Waits for `child` within `timeout` (killing it and failing the test otherwise) and
-/// collects its output.
-fn wait_output(child: &mut Child, timeout: Duration) -> Output {
-    use std::io::Read;
-    let t0 = Instant::now();
-    let status = loop {
-        if let Some(st) = child.try_wait().expect("try_wait") {
-            break st;
-        }
-        if t0.elapsed() > timeout {
-            let _ = child.kill();
-            panic!("process did not exit within {timeout:?}");
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    let (mut stdout, mut stderr) = (Vec::new(), Vec::new());
-    if let Some(mut o) = child.stdout.take() {
-        let _ = o.read_to_end(&mut stdout);
-    }
-    if let Some(mut e) = child.stderr.take() {
-        let _ = e.read_to_end(&mut stderr);
-    }
-    Output {
-        status,
-        stdout,
-        stderr,
-    }
-}
-
-fn json_lines(out: &str) -> Vec<serde_json::Value> {
-    out.lines()
-        .filter(|l| l.starts_with('{'))
-        .map(|l| serde_json::from_str(l).expect("json line"))
-        .collect()
+    let Exit { code, out, err } = control_process(iox, prefix, args).wait_exit(timeout);
+    (code, out, err)
 }
 
 /// An in-test client subscribed to `objects` (frames keep no history: subscribe first).
 fn objects_client(iox: &str, prefix: &str) -> Connection {
     // SAFETY: iceoryx2 reads the prefix when a node is created; only this test of this binary
     // creates in-process nodes, and child processes get theirs through `Command::env`.
-    unsafe { std::env::set_var("SPLATPHYS_IOX2_PREFIX", iox) };
+    unsafe { std::env::set_var(IOX_PREFIX_ENV, iox) };
     let mut opts = ClientOptions::new(prefix);
     opts.frames = false;
     opts.commands = false;
@@ -173,8 +64,8 @@ fn objects_at(conn: &mut Connection, step: u64) -> Vec<splatphys_ipc::wire::Obje
 #[test]
 fn one_shot_commands_print_the_reply_and_exit_non_zero_on_rejection() {
     let iox = iox_prefix("oneshot");
-    let p = "t/oneshot";
-    let mut srv = server(&iox, p, &["--paused", "--fake-dt", "0.01"]);
+    let p = &service_prefix("oneshot");
+    let srv = fake_server(&iox, p, &["--paused", "--fake-dt", "0.01"]);
     let t = Duration::from_secs(10);
 
     // By name, accepted; the impulse really moves the object once the server steps.
@@ -192,7 +83,7 @@ fn one_shot_commands_print_the_reply_and_exit_non_zero_on_rejection() {
     let mut watcher = objects_client(&iox, p);
     let (code, out, _) = control(&iox, p, &["--json", "step", "1"], t);
     assert_eq!(code, Some(0), "{out}");
-    assert_eq!(json_lines(&out)[0]["effective_step"], 1, "{out}");
+    assert_eq!(json_objects(&out)[0]["effective_step"], 1, "{out}");
     let objs = objects_at(&mut watcher, 1);
     drop(watcher);
     // 1 kg: Δv = J / m = 2 m/s, then one 0.01 s step of gravity: v = 2 - 9.81 * 0.01 m/s
@@ -289,26 +180,23 @@ fn one_shot_commands_print_the_reply_and_exit_non_zero_on_rejection() {
     // Shutdown: accepted, and the server exits cleanly.
     let (code, out, _) = control(&iox, p, &["shutdown"], t);
     assert_eq!(code, Some(0), "{out}");
-    let o = wait_output(&mut srv.0, Duration::from_secs(30));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        o.status.success() && err.contains("ShutdownCommand"),
-        "{err}"
-    );
+    let Exit { code, err, .. } = srv.wait_exit(Duration::from_secs(30));
+    assert!(code == Some(0) && err.contains("ShutdownCommand"), "{err}");
 }
 
 #[test]
 fn no_server_exits_with_status_2_and_says_so() {
     let iox = iox_prefix("none");
+    let p = &service_prefix("none");
     let (code, _, err) = control(
         &iox,
-        "t/none",
+        p,
         &["--connect-timeout-ms", "300", "pause"],
         Duration::from_secs(5),
     );
     assert_eq!(code, Some(2));
     assert!(
-        err.contains("no splatphys server under prefix `t/none`"),
+        err.contains(&format!("no splatphys server under prefix `{p}`")),
         "{err}"
     );
 }
@@ -316,9 +204,9 @@ fn no_server_exits_with_status_2_and_says_so() {
 #[test]
 fn timeline_sends_each_event_once_simulated_time_reaches_it() {
     let iox = iox_prefix("tl");
-    let p = "t/tl";
+    let p = &service_prefix("tl");
     // Real-time pacing at 60 Hz: 0.4 s of simulated time take 0.4 s.
-    let srv = server(&iox, p, &["--paused", "--realtime"]);
+    let srv = fake_server(&iox, p, &["--paused", "--realtime"]);
     let dir = tempfile::tempdir().expect("tempdir");
     let file = dir.path().join("tl.toml");
     std::fs::write(
@@ -348,7 +236,7 @@ fn timeline_sends_each_event_once_simulated_time_reaches_it() {
         Duration::from_secs(10),
     );
     assert_eq!(code, Some(1), "one event is rejected: {out}{err}");
-    let lines = json_lines(&out);
+    let lines = json_objects(&out);
     assert_eq!(lines.len(), 3, "{out}");
     // Replies arrive in sending order, which is time order.
     let at: Vec<f64> = lines.iter().map(|l| l["at_s"].as_f64().unwrap()).collect();
@@ -370,15 +258,15 @@ fn timeline_sends_each_event_once_simulated_time_reaches_it() {
         t0.elapsed() >= Duration::from_millis(350),
         "paced by simulated time"
     );
-    drop(srv);
+    srv.terminate(Duration::from_secs(30)); // clean shutdown: services removed
     assert_eq!(leftovers(&iox), Vec::<String>::new());
 }
 
 #[test]
 fn follow_pushes_an_object_to_the_target_and_reports_loop_latency() {
     let iox = iox_prefix("follow");
-    let p = "t/follow";
-    let srv = server(&iox, p, &["--realtime"]);
+    let p = &service_prefix("follow");
+    let srv = fake_server(&iox, p, &["--realtime"]);
     let (code, out, err) = control(
         &iox,
         p,
@@ -397,7 +285,7 @@ fn follow_pushes_an_object_to_the_target_and_reports_loop_latency() {
         Duration::from_secs(15),
     );
     assert_eq!(code, Some(0), "{out}{err}");
-    let r = &json_lines(&out)[0];
+    let r = &json_objects(&out)[0];
     assert_eq!(r["stop"], "Settled", "{r}");
     assert_eq!(r["object"], "cube1");
     assert!(r["final_error_m"].as_f64().unwrap() <= 0.002, "{r}");
@@ -412,19 +300,19 @@ fn follow_pushes_an_object_to_the_target_and_reports_loop_latency() {
     assert!(n >= 60, "{r}");
     // A command takes effect at the next step, published one 16.7 ms frame later in real time.
     assert!(p50 > 0.0 && p50 < 40_000.0 && p99 < 200_000.0, "{r}");
-    drop(srv);
+    srv.terminate(Duration::from_secs(30)); // clean shutdown: services removed
     assert_eq!(leftovers(&iox), Vec::<String>::new());
 }
 
 #[test]
 fn killed_server_makes_follow_exit_within_a_second_with_status_2() {
     let iox = iox_prefix("kill");
-    let p = "t/kill";
-    let mut srv = server(&iox, p, &["--realtime"]);
-    let mut child = Command::new(CONTROL)
-        .args([
-            "--prefix",
-            p,
+    let p = &service_prefix("kill");
+    let mut srv = fake_server(&iox, p, &["--realtime"]);
+    let follower = control_process(
+        &iox,
+        p,
+        &[
             "follow",
             "--object",
             "0",
@@ -432,19 +320,14 @@ fn killed_server_makes_follow_exit_within_a_second_with_status_2() {
             "0,0,10",
             "--duration-s",
             "30",
-        ])
-        .env("SPLATPHYS_IOX2_PREFIX", &iox)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn");
+        ],
+    );
     std::thread::sleep(Duration::from_millis(700));
-    srv.0.kill().expect("kill -9 server");
+    srv.kill9();
     let killed = Instant::now();
     // The deadline only catches a hang; wall-clock speed is not asserted in tests.
-    let o = wait_output(&mut child, Duration::from_secs(30));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let Exit { code, err, .. } = follower.wait_exit(Duration::from_secs(30));
+    assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("is gone: no heartbeat"), "{err}");
     // Load can only delay the detection: never before the 1 s timeout minus one status period.
     assert!(

@@ -1,4 +1,4 @@
-//! Load and fault tests of issue #5, each with real processes (`splatphys serve --fake` and
+//! Load and fault tests, each with real processes (`splatphys serve --fake` and
 //! `splatphys-probe`) under its own iceoryx2 file prefix, ending with a check that nothing of
 //! that prefix is left in /dev/shm or /tmp/iceoryx2:
 //! - a lossless recorder with random 50 ms stalls loses no frame over 2,000 frames;
@@ -9,13 +9,11 @@
 //! CI runs these on a loaded 2-core machine: deadlines (30-60 s) only catch hangs, and the
 //! asserts are on counts, gaps, exit codes and messages, never on wall-clock speed.
 
-mod common;
-
 use std::time::Duration;
 
-use common::{
-    iox_prefix, json_field, last_line, leftovers, lost_by_recorders, probe, server, server_with,
-    stop_server, wait_exit, wait_for,
+use splatphys_tests::{
+    Exit, iox_prefix, json_field, last_line, leftovers, lost_by_recorders, probe, service_prefix,
+    stepping_server, stop_server, wait_for,
 };
 
 /// Longest wait on a full lossless subscriber given to servers whose lossless clients must lose
@@ -27,16 +25,17 @@ const PATIENT_LIMIT_MS: &str = "2000";
 #[test]
 fn lossless_recorder_with_random_50ms_stalls_loses_no_frame_in_2000() {
     let iox = iox_prefix("stall");
-    let srv = server_with(
+    let prefix = service_prefix("stall");
+    let srv = stepping_server(
         &iox,
-        "t/stall",
+        &prefix,
         100,
         &["--lossless-limit-ms", PATIENT_LIMIT_MS],
     );
     // About 2 % of frames are followed by a 50 ms stall (seeded: the same stalls every run).
     let rec = probe(
         &iox,
-        "t/stall",
+        &prefix,
         &[
             "--lossless",
             "--frames",
@@ -49,7 +48,7 @@ fn lossless_recorder_with_random_50ms_stalls_loses_no_frame_in_2000() {
             "5",
         ],
     );
-    let (code, out, err, _) = wait_exit(rec, Duration::from_secs(120));
+    let Exit { code, out, err } = rec.wait_exit(Duration::from_secs(120));
     assert_eq!(code, Some(0), "stderr: {err}");
     assert_eq!(json_field(&out, "frames"), 2000, "{out}");
     assert_eq!(json_field(&out, "gaps"), 0, "{out}");
@@ -62,16 +61,17 @@ fn lossless_recorder_with_random_50ms_stalls_loses_no_frame_in_2000() {
 #[test]
 fn sigstopped_recorder_does_not_freeze_the_server() {
     let iox = iox_prefix("sigstop");
+    let prefix = service_prefix("sigstop");
     // The default lossless limit (100 ms): the server must give up on the stopped recorder.
-    let srv = server(&iox, "t/sigstop", 100);
-    let mut rec = probe(&iox, "t/sigstop", &["--lossless"]);
+    let srv = stepping_server(&iox, &prefix, 100, &[]);
+    let mut rec = probe(&iox, &prefix, &["--lossless"]);
     let rec_lines = rec.stdout_lines();
     wait_for(&rec_lines, "first_frame", Duration::from_secs(30));
     rec.signal("STOP");
 
     // While the recorder is stopped, a renderer sees 300 frames: the server keeps stepping.
-    let viewer = probe(&iox, "t/sigstop", &["--frames", "300"]);
-    let (code, out, err, _) = wait_exit(viewer, Duration::from_secs(60));
+    let viewer = probe(&iox, &prefix, &["--frames", "300"]);
+    let Exit { code, out, err } = viewer.wait_exit(Duration::from_secs(60));
     assert_eq!(code, Some(0), "stderr: {err}");
     assert_eq!(json_field(&out, "frames"), 300, "{out}");
     let span = json_field(&out, "last") - json_field(&out, "first");
@@ -84,8 +84,8 @@ fn sigstopped_recorder_does_not_freeze_the_server() {
     drop(rec);
 
     // A new recorder attaches and gets 200 consecutive frames.
-    let rec2 = probe(&iox, "t/sigstop", &["--lossless", "--frames", "200"]);
-    let (code, out, err, _) = wait_exit(rec2, Duration::from_secs(60));
+    let rec2 = probe(&iox, &prefix, &["--lossless", "--frames", "200"]);
+    let Exit { code, out, err } = rec2.wait_exit(Duration::from_secs(60));
     assert_eq!(code, Some(0), "stderr: {err}");
     assert_eq!(json_field(&out, "gaps"), 0, "{out}");
 
@@ -98,14 +98,15 @@ fn sigstopped_recorder_does_not_freeze_the_server() {
 #[test]
 fn killed_renderer_recorder_and_controller_cost_no_step() {
     let iox = iox_prefix("kill3");
-    let srv = server_with(
+    let prefix = service_prefix("kill3");
+    let srv = stepping_server(
         &iox,
-        "t/kill3",
+        &prefix,
         100,
         &["--lossless-limit-ms", PATIENT_LIMIT_MS],
     );
     // A lossless watcher for the whole run: every frame the server publishes, without a gap.
-    let mut watcher = probe(&iox, "t/kill3", &["--lossless"]);
+    let mut watcher = probe(&iox, &prefix, &["--lossless"]);
     let watched = watcher.stdout_lines();
     wait_for(&watched, "first_frame", Duration::from_secs(30));
 
@@ -114,7 +115,7 @@ fn killed_renderer_recorder_and_controller_cost_no_step() {
         ("recorder", &["--lossless", "--delay-ms", "1"][..]),
         ("controller", &["--commands-hz", "500", "--object", "1"][..]),
     ] {
-        let mut p = probe(&iox, "t/kill3", args);
+        let mut p = probe(&iox, &prefix, args);
         let lines = p.stdout_lines();
         wait_for(&lines, "first_frame", Duration::from_secs(30));
         std::thread::sleep(Duration::from_millis(300)); // mid-run: frames and commands flowing
@@ -123,21 +124,21 @@ fn killed_renderer_recorder_and_controller_cost_no_step() {
     }
 
     // New clients of each kind attach and receive.
-    let renderer = probe(&iox, "t/kill3", &["--frames", "100"]);
-    let recorder = probe(&iox, "t/kill3", &["--lossless", "--frames", "300"]);
+    let renderer = probe(&iox, &prefix, &["--frames", "100"]);
+    let recorder = probe(&iox, &prefix, &["--lossless", "--frames", "300"]);
     let controller = probe(
         &iox,
-        "t/kill3",
+        &prefix,
         &["--commands-hz", "200", "--object", "1", "--replies", "20"],
     );
-    let (code, out, err, _) = wait_exit(renderer, Duration::from_secs(60));
+    let Exit { code, out, err } = renderer.wait_exit(Duration::from_secs(60));
     assert_eq!(code, Some(0), "new renderer: {err}");
     assert_eq!(json_field(&out, "frames"), 100, "new renderer: {out}");
-    let (code, out, err, _) = wait_exit(recorder, Duration::from_secs(60));
+    let Exit { code, out, err } = recorder.wait_exit(Duration::from_secs(60));
     assert_eq!(code, Some(0), "new recorder: {err}");
     assert_eq!(json_field(&out, "frames"), 300, "new recorder: {out}");
     assert_eq!(json_field(&out, "gaps"), 0, "new recorder: {out}");
-    let (code, out, err, _) = wait_exit(controller, Duration::from_secs(60));
+    let Exit { code, out, err } = controller.wait_exit(Duration::from_secs(60));
     assert_eq!(code, Some(0), "new controller: {err}");
     assert!(
         json_field(&out, "commands_accepted") >= 20,
@@ -151,7 +152,7 @@ fn killed_renderer_recorder_and_controller_cost_no_step() {
 
     stop_server(srv);
     // The watcher saw the server shut down and every frame up to then.
-    let (code, _, err, _) = wait_exit(watcher, Duration::from_secs(30));
+    let Exit { code, err, .. } = watcher.wait_exit(Duration::from_secs(30));
     let summary = last_line(&watched, Duration::from_secs(10));
     assert_eq!(code, Some(0), "watcher: {err}");
     assert!(summary.contains("\"reason\":\"shutdown\""), "{summary}");

@@ -9,17 +9,17 @@ use std::time::{Duration, Instant};
 
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
-use splatphys_record::read::{frame_headers, messages, objects_csv, read_file};
-
-const RECORDER: &str = env!("CARGO_BIN_EXE_splatphys-record");
+use splatphys_record::read::{frame_headers, messages, object_names, objects_csv, read_file};
+use splatphys_tests::{IOX_PREFIX_ENV, Proc, bin, iox_prefix, service_prefix};
 
 fn start_server(
     iox: &str,
     prefix: &str,
     max_frames: Option<u64>,
 ) -> (Arc<AtomicBool>, std::thread::JoinHandle<u64>) {
-    // SAFETY-free: the env var is read by every iceoryx2 node of this process; set before any.
-    unsafe { std::env::set_var("SPLATPHYS_IOX2_PREFIX", iox) };
+    // SAFETY: the only test of this binary sets the variable before any iceoryx2 node of this
+    // process reads it (every node reads it), always to the same value.
+    unsafe { std::env::set_var(IOX_PREFIX_ENV, iox) };
     let stop = Arc::new(AtomicBool::new(false));
     let cfg = ServerConfig {
         prefix: Some(prefix.to_owned()),
@@ -51,24 +51,25 @@ fn resume(prefix: &str) {
 
 #[test]
 fn recorder_gets_every_frame_and_a_killed_recorder_keeps_closed_chunks() {
-    let iox = format!("spxr_{}_", std::process::id());
+    let iox = iox_prefix("rec");
     let dir = tempfile::tempdir().expect("tempdir");
 
     // 1. Clean run: 2,000 frames after the initial one, recorder stops on shutdown.
-    let (_stop, server) = start_server(&iox, "t/rec", Some(2000));
+    let prefix = service_prefix("rec");
+    let (_stop, server) = start_server(&iox, &prefix, Some(2000));
     let out = dir.path().join("run.mcap");
-    let rec = Command::new(RECORDER)
-        .args(["record", "--prefix", "t/rec", "--out"])
-        .arg(&out)
-        .env("SPLATPHYS_IOX2_PREFIX", &iox)
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn recorder");
+    let rec = Proc::spawn(
+        Command::new(bin("splatphys-record"))
+            .args(["record", "--prefix", &prefix, "--out"])
+            .arg(&out)
+            .env(IOX_PREFIX_ENV, &iox)
+            .stderr(Stdio::piped()),
+    );
     std::thread::sleep(Duration::from_millis(500)); // let the recorder subscribe
-    resume("t/rec");
+    resume(&prefix);
     let published = server.join().expect("server thread");
-    let o = rec.wait_with_output().expect("recorder");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Exits 0 (it stops on the server's shutdown).
+    rec.wait_success(Duration::from_secs(60));
     let bytes = read_file(&out).unwrap();
     let msgs = messages(&bytes, &out, false).unwrap();
     let frames = frame_headers(&msgs, &out).unwrap();
@@ -90,23 +91,23 @@ fn recorder_gets_every_frame_and_a_killed_recorder_keeps_closed_chunks() {
             .all(|w| w[1].frame_index == w[0].frame_index + 1)
     );
     let mut csv = Vec::new();
-    let rows = objects_csv(&msgs, &out, &mut csv).unwrap();
+    let rows = objects_csv(&msgs, &out, object_names(&msgs), &mut csv).unwrap();
     assert_eq!(rows, 2 * 2000, "2 objects per frame");
 
     // 2. kill -9 the recorder mid-run: every closed chunk is still readable.
-    let (stop, server) = start_server(&iox, "t/rec2", None);
+    let prefix = service_prefix("rec2");
+    let (stop, server) = start_server(&iox, &prefix, None);
     let out2 = dir.path().join("killed.mcap");
-    let mut rec = Command::new(RECORDER)
-        .args(["record", "--prefix", "t/rec2", "--out"])
-        .arg(&out2)
-        .env("SPLATPHYS_IOX2_PREFIX", &iox)
-        .spawn()
-        .expect("spawn recorder");
+    let mut rec = Proc::spawn(
+        Command::new(bin("splatphys-record"))
+            .args(["record", "--prefix", &prefix, "--out"])
+            .arg(&out2)
+            .env(IOX_PREFIX_ENV, &iox),
+    );
     std::thread::sleep(Duration::from_millis(500));
-    resume("t/rec2");
+    resume(&prefix);
     std::thread::sleep(Duration::from_millis(2500)); // > 2 flush periods of 1 s
-    rec.kill().expect("kill -9");
-    let _ = rec.wait();
+    rec.kill9();
     let t0 = Instant::now();
     std::thread::sleep(Duration::from_millis(200));
     stop.store(true, Ordering::Release);

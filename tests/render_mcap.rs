@@ -2,20 +2,17 @@
 //! recorded frame is rendered, gaps in the frame index count as dropped, and a recording cut off
 //! by a killed recorder is rendered up to its last closed chunk.
 
-#[path = "common/procs.rs"]
-mod procs;
-
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use procs::{Proc, RENDER, lit_pixels, pngs, summary, wait_exit};
 use splatphys_ipc::Simulation;
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::wire::{
     FrameGaussian, FrameHeader, LAYOUT_VERSION, SceneGaussian, SceneHeader, write_fixed_str,
 };
 use splatphys_record::writer::{RunWriter, WriterOptions};
+use splatphys_tests::{Exit, Proc, bin, lit_pixels, pngs, summary};
 
 /// Records the free-fall stand-in for steps 0..=`last`, leaving out the frames in `missing`.
 fn record(path: &Path, last: u64, missing: &[u64]) {
@@ -63,9 +60,9 @@ fn record(path: &Path, last: u64, missing: &[u64]) {
     w.finish().expect("finish");
 }
 
-fn render_mcap(file: &Path, out: &Path, extra: &[&str]) -> procs::Exit {
-    let p = Proc(
-        Command::new(RENDER)
+fn render_mcap(file: &Path, out: &Path, extra: &[&str]) -> Exit {
+    Proc::spawn(
+        Command::new(bin("splatphys-render"))
             .args(["--threads", "2", "mcap"])
             .arg(file)
             .arg("--out-dir")
@@ -73,11 +70,9 @@ fn render_mcap(file: &Path, out: &Path, extra: &[&str]) -> procs::Exit {
             .args(["--width", "160", "--height", "120"])
             .args(extra)
             .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn splatphys-render"),
-    );
-    wait_exit(p, Duration::from_secs(60))
+            .stderr(Stdio::piped()),
+    )
+    .wait_exit(Duration::from_secs(60))
 }
 
 #[test]
@@ -87,8 +82,8 @@ fn mcap_renders_every_recorded_frame() {
     record(&file, 6, &[3]);
     let out = dir.path().join("frames");
     let e = render_mcap(&file, &out, &[]);
-    assert_eq!(e.code, Some(0), "{}", e.stderr);
-    let s = summary(&e.stdout);
+    assert_eq!(e.code, Some(0), "{}", e.err);
+    let s = summary(&e.out);
     assert_eq!(s["frames_rendered"].as_u64(), Some(6), "{s}");
     assert_eq!(s["frames_dropped"].as_u64(), Some(1), "{s}");
     assert_eq!(s["last_step"].as_u64(), Some(6), "{s}");
@@ -116,8 +111,8 @@ fn mcap_every_keeps_the_final_frame() {
         &out,
         &["--every", "4", "--gif", gif.to_str().unwrap()],
     );
-    assert_eq!(e.code, Some(0), "{}", e.stderr);
-    let s = summary(&e.stdout);
+    assert_eq!(e.code, Some(0), "{}", e.err);
+    let s = summary(&e.out);
     // Steps 0 and 4 by `--every`, then the final step 6.
     assert_eq!(s["frames_rendered"].as_u64(), Some(3), "{s}");
     assert_eq!(s["frames_dropped"].as_u64(), Some(0), "{s}");
@@ -134,11 +129,11 @@ fn mcap_cut_off_recording_renders_closed_chunks() {
     std::fs::write(&file, &bytes[..bytes.len() / 2]).expect("truncate");
     let out = dir.path().join("frames");
     let e = render_mcap(&file, &out, &[]);
-    assert_eq!(e.code, Some(0), "{}", e.stderr);
-    let s = summary(&e.stdout);
+    assert_eq!(e.code, Some(0), "{}", e.err);
+    let s = summary(&e.out);
     let n = s["frames_rendered"].as_u64().expect("frames_rendered");
-    assert!((1..21).contains(&n), "{s}\n{}", e.stderr);
-    assert!(e.stderr.contains("incomplete"), "{}", e.stderr);
+    assert!((1..21).contains(&n), "{s}\n{}", e.err);
+    assert!(e.err.contains("incomplete"), "{}", e.err);
 }
 
 #[test]
@@ -146,5 +141,5 @@ fn mcap_missing_file_fails_clearly() {
     let dir = tempfile::tempdir().expect("tempdir");
     let e = render_mcap(&dir.path().join("nope.mcap"), dir.path(), &[]);
     assert_ne!(e.code, Some(0));
-    assert!(e.stderr.contains("nope.mcap"), "{}", e.stderr);
+    assert!(e.err.contains("nope.mcap"), "{}", e.err);
 }

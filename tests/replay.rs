@@ -7,10 +7,10 @@
 //! only catch hangs; nothing here depends on wall-clock speed.
 
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::command::{Command as SimCommand, Reply};
@@ -18,73 +18,24 @@ use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
 use splatphys_record::channels::{FRAME, OBJECTS, SCENE};
 use splatphys_record::read::{RecordedMessage, frame_headers, messages, read_file};
+use splatphys_tests::{
+    IOX_PREFIX_ENV, Proc, bin, iox_prefix, leftovers, service_prefix, wait_until,
+};
 
-const RECORDER: &str = env!("CARGO_BIN_EXE_splatphys-record");
 /// Frames of the recorded run after the initial one.
 const FRAMES: u64 = 300;
 /// Longest wait on the lossless recorders, for the server and the replay (their default,
 /// 100 ms, is the real-time choice; a loaded CI machine can keep a recorder off a core longer).
 const PATIENT_LIMIT: Duration = Duration::from_secs(2);
 
-/// A child process, killed when dropped (only matters when a test fails half-way).
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Ok(None) = self.0.try_wait() {
-            let _ = self.0.kill();
-        }
-        let _ = self.0.wait();
+/// `splatphys-record <args> [--out <out>]` under iceoryx2 file prefix `iox`, stderr piped.
+fn record_process(iox: &str, args: &[&str], out: Option<&Path>) -> Proc {
+    let mut c = Command::new(bin("splatphys-record"));
+    c.args(args).env(IOX_PREFIX_ENV, iox);
+    if let Some(out) = out {
+        c.arg("--out").arg(out);
     }
-}
-
-impl Proc {
-    fn spawn(iox: &str, args: &[&str], out: Option<&Path>) -> Self {
-        let mut c = Command::new(RECORDER);
-        c.args(args).env("SPLATPHYS_IOX2_PREFIX", iox);
-        if let Some(out) = out {
-            c.arg("--out").arg(out);
-        }
-        Self(
-            c.stderr(Stdio::piped())
-                .spawn()
-                .expect("spawn splatphys-record"),
-        )
-    }
-
-    /// Waits for a successful exit; returns stderr.
-    fn success(mut self, what: &str, timeout: Duration) -> String {
-        let t0 = Instant::now();
-        let status = loop {
-            if let Some(st) = self.0.try_wait().expect("try_wait") {
-                break st;
-            }
-            assert!(
-                t0.elapsed() < timeout,
-                "{what} still running after {timeout:?}"
-            );
-            std::thread::sleep(Duration::from_millis(5));
-        };
-        let mut err = String::new();
-        if let Some(mut e) = self.0.stderr.take() {
-            use std::io::Read;
-            let _ = e.read_to_string(&mut err);
-        }
-        assert!(status.success(), "{what} failed ({status}): {err}");
-        err
-    }
-}
-
-/// Files of iceoryx2 prefix `iox` left in /dev/shm (iceoryx2 keeps one 16-byte
-/// `*.global_mgmt` node counter per prefix on purpose).
-fn leftovers(iox: &str) -> Vec<String> {
-    std::fs::read_dir("/dev/shm")
-        .into_iter()
-        .flatten()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(iox) && !n.ends_with(".global_mgmt"))
-        .collect()
+    Proc::spawn(c.stderr(Stdio::piped()))
 }
 
 /// The raw bytes (header + payload) of every message on `topic`, in order.
@@ -95,10 +46,11 @@ fn payloads<'a>(msgs: &'a [RecordedMessage], topic: &str) -> Vec<&'a [u8]> {
         .collect()
 }
 
-/// Records `FRAMES` frames of a free-fall run to `out` with a recorder process.
-fn record_fake_run(iox: &str, out: &Path) {
+/// Records `FRAMES` frames of a free-fall run served under `prefix` to `out` with a recorder
+/// process.
+fn record_fake_run(iox: &str, prefix: &str, out: &Path) {
     let cfg = ServerConfig {
-        prefix: Some("t/rr".into()),
+        prefix: Some(prefix.into()),
         max_frames: Some(FRAMES),
         start_paused: true,
         stop: Arc::new(AtomicBool::new(false)),
@@ -110,71 +62,64 @@ fn record_fake_run(iox: &str, out: &Path) {
         let mut sim = FreeFall::new("rr", 2, 40, 0.002, None);
         serve(&mut sim, &cfg).expect("server").frames_published
     });
-    let rec = Proc::spawn(
+    let rec = record_process(
         iox,
-        &["record", "--prefix", "t/rr", "--connect-timeout-s", "30"],
+        &["record", "--prefix", prefix, "--connect-timeout-s", "30"],
         Some(out),
     );
     // Resume once the recorder subscribed to frames: it then gets frames 1..=FRAMES.
-    let mut opts = ClientOptions::new("t/rr");
+    let mut opts = ClientOptions::new(prefix);
     opts.frames = false;
     opts.objects = false;
     opts.connect_timeout = Duration::from_secs(30);
     let mut conn = Connection::connect(&opts).expect("connect");
-    let t0 = Instant::now();
-    while conn
-        .poll_status()
-        .expect("status")
-        .map_or(0, |s| s.subscriber_count)
-        == 0
-    {
-        assert!(
-            t0.elapsed() < Duration::from_secs(60),
-            "recorder never subscribed"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    wait_until("the recorder subscribes", Duration::from_secs(60), || {
+        conn.poll_status()
+            .expect("status")
+            .is_some_and(|s| s.subscriber_count > 0)
+    });
     let r = conn
         .command(&SimCommand::Resume, Duration::from_secs(30))
         .expect("resume");
     assert!(matches!(r, Reply::Accepted { .. }), "{r:?}");
     drop(conn);
     assert_eq!(server.join().expect("server thread"), FRAMES + 1);
-    rec.success("recorder", Duration::from_secs(60));
+    rec.wait_success(Duration::from_secs(60));
 }
 
 #[test]
 fn replayed_recording_reaches_a_new_subscriber_byte_for_byte() {
-    let iox = format!("spxrr_{}_", std::process::id());
+    let iox = iox_prefix("rr");
     // SAFETY: the only test of this binary, set before any thread reads the environment.
-    unsafe { std::env::set_var("SPLATPHYS_IOX2_PREFIX", &iox) };
+    unsafe { std::env::set_var(IOX_PREFIX_ENV, &iox) };
+    let (recorded, replayed_prefix) = (service_prefix("rr"), service_prefix("rr-replay"));
     let dir = tempfile::tempdir().expect("tempdir");
     let original = dir.path().join("original.mcap");
     let replayed = dir.path().join("replayed.mcap");
 
-    record_fake_run(&iox, &original);
+    record_fake_run(&iox, &recorded, &original);
 
     // The second recorder waits for the replay's services; the replay waits for it to
     // subscribe, then publishes as fast as the recorder takes the frames.
-    let rec = Proc::spawn(
+    let rec = record_process(
         &iox,
         &[
             "record",
             "--prefix",
-            "t/rr-replay",
+            &replayed_prefix,
             "--connect-timeout-s",
             "60",
         ],
         Some(&replayed),
     );
     let original_s = original.display().to_string();
-    let replay = Proc::spawn(
+    let replay = record_process(
         &iox,
         &[
             "replay",
             &original_s,
             "--prefix",
-            "t/rr-replay",
+            &replayed_prefix,
             "--fast",
             "--wait-for-subscribers",
             "1",
@@ -185,12 +130,12 @@ fn replayed_recording_reaches_a_new_subscriber_byte_for_byte() {
         ],
         None,
     );
-    let replay_err = replay.success("replay", Duration::from_secs(120));
+    let replay_err = replay.wait_success(Duration::from_secs(120)).err;
     assert!(
         replay_err.contains(&format!("{FRAMES} frames")),
         "replay said: {replay_err}"
     );
-    rec.success("recorder of the replay", Duration::from_secs(60));
+    rec.wait_success(Duration::from_secs(60));
 
     let a_bytes = read_file(&original).unwrap();
     let b_bytes = read_file(&replayed).unwrap();

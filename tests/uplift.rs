@@ -1,10 +1,14 @@
 //! The whole stage-1 path through the command line: the donut, training cameras as
-//! transforms.json, colour-rule feature maps as .npy files, `splatphys-uplift --pca 2 --refine 1`
+//! transforms.json, colour-rule feature maps as .npy files, `splatphys uplift --pca 2 --refine 1`
 //! writing a PLY with `feat_*` and the basis, then a scene file that selects "icing" by text
 //! through that basis. Plus the command's refusals.
 
+// The stage-1 fixtures (training cameras, transforms.json, the donut's colour rule) are shared
+// with the stage-1 crate's own tests: one copy, in its tests folder.
+#[path = "../stage1/tests/common/mod.rs"]
 mod common;
 
+use std::path::PathBuf;
 use std::process::Command;
 
 use common::{colour_rule, ring_cameras, transforms_json};
@@ -14,16 +18,23 @@ use splatphys_core::formats::read_gaussians;
 use splatphys_core::scene::load_scene_str;
 use splatphys_render::{RenderSettings, Splats, render};
 use splatphys_stage1::FeatureMap;
+use splatphys_tests::{bin, workspace};
 
-const DONUT: &str = "../../shared/data/v3dg_donut.ply";
+/// The captured donut, in the data folder beside the workspace.
+fn donut() -> PathBuf {
+    workspace().join("../shared/data/v3dg_donut.ply")
+}
 
+/// `splatphys uplift`.
 fn uplift() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_splatphys-uplift"))
+    let mut c = Command::new(bin("splatphys"));
+    c.arg("uplift");
+    c
 }
 
 #[test]
 fn donut_from_feature_maps_to_a_text_selected_object() {
-    let donut = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(DONUT);
+    let donut = donut();
     let cloud = read_gaussians(&donut).unwrap();
     let splats = Splats::from_cloud(&cloud);
     let view = splats.view().unwrap();
@@ -127,7 +138,7 @@ material = {{ model = "jelly", youngs_modulus_pa = 2e4, poisson_ratio = 0.3, den
 #[test]
 fn bad_arguments_are_refused_with_the_reason() {
     let dir = tempfile::tempdir().unwrap();
-    let donut = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(DONUT);
+    let donut = donut();
     let run = |extra: &[&str]| {
         let out = uplift()
             .args(["--ply", donut.to_str().unwrap()])
@@ -138,9 +149,11 @@ fn bad_arguments_are_refused_with_the_reason() {
         String::from_utf8_lossy(&out.stderr).into_owned()
     };
     let d = dir.path().to_str().unwrap();
-    let bad_out = run(&["--cameras", d, "--features", d, "--out", "x.txt"]);
+    // Outputs inside `dir`, so the last check sees whether a refused run wrote one.
+    let (x_txt, x_ply) = (format!("{d}/x.txt"), format!("{d}/x.ply"));
+    let bad_out = run(&["--cameras", d, "--features", d, "--out", &x_txt]);
     assert!(bad_out.contains(".ply or .npy"), "{bad_out}");
-    let no_cams = run(&["--cameras", d, "--features", d, "--out", "x.ply"]);
+    let no_cams = run(&["--cameras", d, "--features", d, "--out", &x_ply]);
     assert!(no_cams.contains("not a transforms.json"), "{no_cams}");
     let json = dir.path().join("transforms.json");
     let views: Vec<_> = ring_cameras(Vec3::ZERO, 1.0, &[20.0], 2, [32, 24])
@@ -154,7 +167,7 @@ fn bad_arguments_are_refused_with_the_reason() {
         "--features",
         d,
         "--out",
-        "x.ply",
+        &x_ply,
     ]);
     assert!(no_maps.contains("view_00.npy"), "{no_maps}");
     assert!(!dir.path().join("x.ply").exists());

@@ -186,7 +186,7 @@ impl RunSummary {
 
 /// The method's scene-file name.
 pub fn method_name(world: &World) -> String {
-    format!("{:?}", world.settings.method).to_lowercase()
+    world.settings.method.name().to_string()
 }
 
 fn com_layer_fraction(s: &WorldStats) -> f64 {

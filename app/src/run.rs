@@ -300,7 +300,13 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         server_cmd.arg(s);
     }
     server_cmd
-        .args(["--prefix", &plan.prefix, "--wait-for-subscribers", "2", "--report"])
+        .args([
+            "--prefix",
+            &plan.prefix,
+            "--wait-for-subscribers",
+            "2",
+            "--report",
+        ])
         .arg(&server_json)
         .stdout(Stdio::null());
     if let Some(d) = plan.duration_s {
@@ -310,7 +316,14 @@ fn multi_process(args: &RunArgs) -> Result<()> {
 
     let mut rec_cmd = Command::new(&record_bin);
     rec_cmd
-        .args(["record", "--prefix", &plan.prefix, "--connect-timeout-s", "30", "--out"])
+        .args([
+            "record",
+            "--prefix",
+            &plan.prefix,
+            "--connect-timeout-s",
+            "30",
+            "--out",
+        ])
         .arg(args.out.join("run.mcap"))
         .stdout(Stdio::null());
     let mut recorder = Proc::spawn("recorder", rec_cmd, &logs.join("recorder.log"), None)?;
@@ -318,17 +331,34 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     let camera_args = plan.camera_args();
     let mut ren_cmd = Command::new(&render_bin);
     ren_cmd
-        .args(["live", "--prefix", &plan.prefix, "--timeout-s", "30", "--out-dir"])
+        .args([
+            "live",
+            "--prefix",
+            &plan.prefix,
+            "--timeout-s",
+            "30",
+            "--out-dir",
+        ])
         .arg(&frames)
         .arg("--gif")
         .arg(args.out.join("animation.gif"))
         .args(&camera_args)
         .stdout(Stdio::piped());
-    let mut renderer = Proc::spawn("renderer", ren_cmd, &logs.join("renderer.log"), args.threads)?;
+    let mut renderer = Proc::spawn(
+        "renderer",
+        ren_cmd,
+        &logs.join("renderer.log"),
+        args.threads,
+    )?;
     let live_report = render_report(&mut renderer);
 
     let started = Instant::now();
-    let followed = follow_server(&plan, &mut server, &mut [&mut recorder, &mut renderer], &logs);
+    let followed = follow_server(
+        &plan,
+        &mut server,
+        &mut [&mut recorder, &mut renderer],
+        &logs,
+    );
     if followed.is_err() {
         let _ = server.child.kill();
     }
@@ -354,7 +384,12 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         let mut out = BufWriter::new(
             File::create(&path).with_context(|| format!("creating {}", path.display()))?,
         );
-        Ok(objects_csv(&msgs, &mcap, plan.object_names.clone(), &mut out)?)
+        Ok(objects_csv(
+            &msgs,
+            &mcap,
+            plan.object_names.clone(),
+            &mut out,
+        )?)
     })();
     // The live renderer shows the newest frame and skips when it is slower than the simulation;
     // the animation left behind should hold every step, so re-render any skipped ones from the

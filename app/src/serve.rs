@@ -5,11 +5,11 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
+use splatphys::report::{ServerJson, method_name, write_json};
+use splatphys::world_sim::WorldSim;
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
 use splatphys_ipc::validate::Limits;
-use splatphys::report::{ServerJson, method_name, write_json};
-use splatphys::world_sim::WorldSim;
 
 /// Arguments of `splatphys serve`.
 #[derive(Args, Debug)]

@@ -20,16 +20,14 @@ use splatphys_stage1::{Job, UpliftSettings, read_cameras};
 /// refined by the rendered-feature cosine loss. The cameras must be in the PLY's frame (as the
 /// 3DGS training used them).
 #[derive(Args, Debug)]
-#[command(
-    after_help = "Examples:
+#[command(after_help = "Examples:
   splatphys uplift --ply scene.ply --cameras transforms.json --features feats/ --out scene_feat.ply
   splatphys uplift --ply point_cloud.ply --cameras colmap/sparse/0 --features feats/ --out scene_feat.ply --pca 32 --refine 5
   splatphys uplift --ply scene.ply --cameras transforms.json --features feats/ --out feats.npy --downscale 4
 
 Feature maps: FEATURES/<image stem>.npy, shape [H'][W'][D], float16 or float32, any resolution.
 Output: .ply adds feat_0..feat_{D-1} and uplift_weight; .npy writes [N][D] float32. With --pca K
-the basis [K][D] is written beside the output as <stem>.pca.npy (scene files name it in `pca`)."
-)]
+the basis [K][D] is written beside the output as <stem>.pca.npy (scene files name it in `pca`).")]
 pub struct UpliftArgs {
     /// The trained 3DGS scene (INRIA PLY, .splat or compressed PLY).
     #[arg(long)]

@@ -7,7 +7,7 @@
 //! optional [`pca`] (uncentred, to k channels) -> [`uplift`] (learning-free weighted means
 //! through the rasterizer's blending weights) -> optional [`refine`] (cosine loss of rendered
 //! features) -> [`output`] (PLY `feat_*` properties or a sidecar `.npy`). [`pipeline`] runs the
-//! whole path; the `splatphys-uplift` binary (also `splatphys uplift`) is its command line.
+//! whole path; `splatphys uplift` (app/src/uplift.rs) is its command line.
 
 pub mod cameras;
 pub mod colmap;

@@ -11,8 +11,8 @@ use mcap::read::{MessageStream, Options};
 use splatphys_ipc::wire::{FrameHeader, ObjectState, SceneHeader, read_fixed_str};
 
 use crate::channels::{FRAME, OBJECTS, SCENE};
-use crate::objects_csv::ObjectsCsv;
 use crate::error::RecordError;
+use crate::objects_csv::ObjectsCsv;
 
 /// One message of a recording, owned.
 #[derive(Debug, Clone)]

@@ -1,4 +1,4 @@
-//! Rasterizer throughput: 100k random Gaussians at 640×480 (issue 6 target: >= 30 frames/s on
+//! Rasterizer throughput: 100k random Gaussians at 640×480 (target: >= 30 frames/s on
 //! 2 cores). Not a test; it never gates CI.
 //!
 //! Scene: centres uniform in a 1.6 m cube 3 m in front of the camera (50° vertical field of

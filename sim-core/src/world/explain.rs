@@ -75,7 +75,7 @@ impl World {
             .map(|b| {
                 let deformable = b.kind == ObjectKind::Deformable;
                 let wave = b.materials.first().map(|m| m.max_wave_speed_m_s());
-                let kind = format!("{:?}", b.kind).to_lowercase();
+                let kind = b.kind.name().to_string();
                 let modelled_as = match b.kind {
                     ObjectKind::Deformable if b.particles.len() < b.gaussians.len() => format!(
                         "MPM on {} particles carrying {} Gaussians",
@@ -117,7 +117,7 @@ impl World {
             .min_by(|a, b| a.0.total_cmp(&b.0))
             .map(|(_, o)| format!("{} ({})", o.name, o.material));
         Explanation {
-            method: format!("{:?}", self.settings.method).to_lowercase(),
+            method: self.settings.method.name().to_string(),
             dx_m: dx,
             time_step: match self.policy {
                 TimeStepPolicy::Cfl { number } => format!("cfl {number}"),
