@@ -37,6 +37,9 @@ impl RunPlan {
         prefix: Option<String>,
     ) -> Result<(Self, Scene)> {
         let (name, scene) = load_named(scene_path, duration_s)?;
+        for w in &scene.warnings {
+            eprintln!("splatphys: warning: {w}");
+        }
         let s = &scene.simulation;
         let plan = Self {
             name,

@@ -104,6 +104,9 @@ pub fn run(args: &ServeArgs) -> Result<()> {
 /// Serves the scene file (or the built-in default scene) with the real simulation.
 fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
     let (name, scene) = splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
+    for w in &scene.warnings {
+        eprintln!("splatphys serve: warning: {w}");
+    }
     let mut sim =
         WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
     eprintln!(

@@ -146,45 +146,11 @@ impl Simulation for WorldSim {
 
     fn apply(&mut self, command: &Command) -> Result<u64, String> {
         let at = self.world.frame + 1;
-        let w = &mut self.world;
-        let r = match *command {
-            Command::Impulse {
-                object,
-                impulse_n_s,
-                point_m,
-            } => w.apply_impulse(
-                object as usize,
-                glam::DVec3::from(impulse_n_s).as_vec3a(),
-                point_m.map(|p| glam::DVec3::from(p).as_vec3a()),
-            ),
-            Command::SetVelocity {
-                object,
-                velocity_m_s,
-            } => w.set_velocity(object as usize, glam::DVec3::from(velocity_m_s).as_vec3a()),
-            Command::EditMaterial { object, edit } => {
-                let Some(b) = w.bodies.get(object as usize) else {
-                    return Err(format!("unknown object {object}"));
-                };
-                // Start from the object's own spec so only the named fields change.
-                let spec = edit
-                    .changes_material()
-                    .then(|| b.materials[0].spec().edited(&edit));
-                w.set_material(
-                    object as usize,
-                    spec.as_ref(),
-                    edit.restitution.map(|v| v as f32),
-                    edit.friction.map(|v| v as f32),
-                )
-            }
-            Command::SetKind { object, kind } => w.set_kind(object as usize, kind),
-            Command::Reset => {
-                w.reset();
-                self.substeps = 0;
-                Ok(())
-            }
-            Command::Pause | Command::Resume | Command::Step { .. } | Command::Shutdown => Ok(()),
-        };
-        r.map(|()| at).map_err(|e| e.to_string())
+        self.world.apply(command).map_err(|e| e.to_string())?;
+        if *command == Command::Reset {
+            self.substeps = 0;
+        }
+        Ok(at)
     }
 
     fn is_finished(&self) -> bool {

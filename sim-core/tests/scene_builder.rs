@@ -5,7 +5,7 @@ use std::path::Path;
 
 use splatphys_core::material::{MaterialModel, MaterialSpec};
 use splatphys_core::scene::{
-    CameraSpec, ColliderSpec, EventAction, EventSpec, Method, ObjectKind, Scene, SceneBuilder,
+    CameraSpec, ColliderSpec, Command, EventSpec, Method, ObjectKind, Scene, SceneBuilder,
     SceneError, SceneObject, Surface, load_scene_str,
 };
 
@@ -59,11 +59,16 @@ active_s = [0.1, 0.4]
 
 [[event]]
 at_s = 0.3
-set_velocity = { object = "ball", velocity_m_s = [0.0, 0.0, 1.0] }
+command = "set-velocity"
+object = "ball"
+velocity_m_s = [0.0, 0.0, 1.0]
 
 [[event]]
 at_s = 0.2
-impulse = { object = "can", vector_n_s = [0.0, 0.01, 0.0], point_m = [0.2, 0.0, 0.1] }
+command = "impulse"
+object = "can"
+impulse_n_s = [0.0, 0.01, 0.0]
+point_m = [0.2, 0.0, 0.1]
 
 [[camera]]
 name = "main"
@@ -126,16 +131,16 @@ fn builder() -> SceneBuilder {
         )
         .event(EventSpec {
             at_s: 0.3,
-            action: EventAction::SetVelocity {
+            command: Command::SetVelocity {
                 object: "ball".into(),
                 velocity_m_s: [0.0, 0.0, 1.0],
             },
         })
         .event(EventSpec {
             at_s: 0.2,
-            action: EventAction::Impulse {
+            command: Command::Impulse {
                 object: "can".into(),
-                vector_n_s: [0.0, 0.01, 0.0],
+                impulse_n_s: [0.0, 0.01, 0.0],
                 point_m: Some([0.2, 0.0, 0.1]),
             },
         })
@@ -261,16 +266,16 @@ fn bad_values_give_the_error_the_toml_file_gives() {
             ("invalid", "collider[0].box"),
         ),
         (
-            format!("{SPHERE}\n[[event]]\nat_s = 0.1\nimpulse = {{ object = \"b\", vector_n_s = [0.0, 0.0, 1.0] }}\n"),
+            format!("{SPHERE}\n[[event]]\nat_s = 0.1\ncommand = \"impulse\"\nobject = \"b\"\nimpulse_n_s = [0.0, 0.0, 1.0]\n"),
             Scene::builder().object(sphere()).event(EventSpec {
                 at_s: 0.1,
-                action: EventAction::Impulse {
+                command: Command::Impulse {
                     object: "b".into(),
-                    vector_n_s: [0.0, 0.0, 1.0],
+                    impulse_n_s: [0.0, 0.0, 1.0],
                     point_m: None,
                 },
             }),
-            ("invalid", "event[0].impulse.object"),
+            ("invalid", "event[0].object"),
         ),
         (
             "[[camera]]\nname = \"c\"\nposition_m = [1.0, 0.0, 0.0]\nlook_at_m = [0.0, 0.0, 0.0]\nfov_y_deg = 180.0\n".into(),

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use splatphys_core::scene::{
-    self, ColliderShape, EventAction, Method, ObjectKind, Scene, SceneError, Surface,
+    self, ColliderShape, Command, Method, ObjectKind, Scene, SceneError, Surface,
 };
 
 fn root() -> PathBuf {
@@ -61,7 +61,9 @@ friction = 0.0
 
 [[event]]
 at_s = 0.2
-impulse = { object = "ball", vector_n_s = [0.0, 1.0, 0.0] }        # optional point_m; also set_material, set_velocity
+command = "impulse"                # also set-velocity, edit-material, set-kind: the timeline keys
+object = "ball"
+impulse_n_s = [0.0, 1.0, 0.0]      # optional point_m
 
 [[camera]]
 name = "main"
@@ -99,7 +101,15 @@ fn issue_example_loads_as_written() {
     assert!((n - 4189.0).abs() / 4189.0 < 0.03, "{n}");
     assert!(ball.visible.iter().all(|&v| v));
     assert_eq!(s.colliders[0].surface, Surface::Sticky);
-    assert!(matches!(&s.events[0].action, EventAction::Impulse { object, .. } if object == "ball"));
+    assert_eq!(
+        s.events[0].command,
+        Command::Impulse {
+            object: "ball".into(),
+            impulse_n_s: [0.0, 1.0, 0.0],
+            point_m: None
+        }
+    );
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     assert_eq!(s.cameras[0].width_px, 640);
 }
 
@@ -225,9 +235,19 @@ fn invalid_values_name_the_key() {
         ),
         (
             format!(
+                "{base}\n[[event]]\nat_s = 0.1\ncommand = \"impulse\"\nobject = \"b\"\nimpulse_n_s = [0.0, 0.0, 1.0]\n"
+            ),
+            "event[0].object",
+        ),
+        (
+            format!(
                 "{base}\n[[event]]\nat_s = 0.1\nimpulse = {{ object = \"b\", vector_n_s = [0.0, 0.0, 1.0] }}\n"
             ),
-            "event[0].impulse.object",
+            "event[0].object",
+        ),
+        (
+            format!("{base}\n[[event]]\nat_s = 0.1\ncommand = \"pause\"\n"),
+            "event[0].command",
         ),
         (
             format!("{base}\n[[collider]]\nname = \"c\"\n"),
@@ -297,4 +317,39 @@ fn source_transform_rotates_scales_and_translates() {
             || q.abs_diff_eq(-euler_xyz_deg([-90.0, 0.0, 90.0]), 1e-6)
     );
     let _ = Quat::IDENTITY;
+}
+
+#[test]
+fn deprecated_event_tables_load_with_a_warning_as_the_same_commands() {
+    let base = "[[object]]\nname = \"b\"\nshape = { sphere = { center_m = [0.0, 0.0, 0.1], radius_m = 0.02 } }\nspacing_m = 0.01\n";
+    let old = format!(
+        "{base}[[event]]\nat_s = 0.1\nimpulse = {{ object = \"b\", vector_n_s = [0.0, 0.0, 1.0], point_m = [0.0, 0.0, 0.1] }}\n\
+         [[event]]\nat_s = 0.2\nset_velocity = {{ object = \"b\", velocity_m_s = [1.0, 0.0, 0.0] }}\n\
+         [[event]]\nat_s = 0.3\nset_material = {{ object = \"b\", material = {{ model = \"snow\", youngs_modulus_pa = 1e5, poisson_ratio = 0.2, density_kg_m3 = 400.0 }}, friction = 0.5 }}\n"
+    );
+    let new = format!(
+        "{base}[[event]]\nat_s = 0.1\ncommand = \"impulse\"\nobject = \"b\"\nimpulse_n_s = [0.0, 0.0, 1.0]\npoint_m = [0.0, 0.0, 0.1]\n\
+         [[event]]\nat_s = 0.2\ncommand = \"set-velocity\"\nobject = \"b\"\nvelocity_m_s = [1.0, 0.0, 0.0]\n\
+         [[event]]\nat_s = 0.3\ncommand = \"edit-material\"\nobject = \"b\"\nmodel = \"snow\"\nyoungs_modulus_pa = 1e5\npoisson_ratio = 0.2\ndensity_kg_m3 = 400.0\nfriction = 0.5\n"
+    );
+    let (a, b) = (
+        scene::load_scene_str(&old, Path::new(".")).unwrap(),
+        scene::load_scene_str(&new, Path::new(".")).unwrap(),
+    );
+    assert_eq!(a.events, b.events);
+    assert_eq!(a.warnings.len(), 3, "{:?}", a.warnings);
+    assert!(
+        a.warnings[0].contains("deprecated") && a.warnings[0].contains("command = \"impulse\"")
+    );
+    assert!(b.warnings.is_empty());
+    // A model parameter cannot be carried by an edit: refused, naming the key.
+    let hard = format!(
+        "{base}[[event]]\nat_s = 0.3\nset_material = {{ object = \"b\", material = {{ model = \"snow\", youngs_modulus_pa = 1e5, poisson_ratio = 0.2, density_kg_m3 = 400.0, hardening = 5.0 }} }}\n"
+    );
+    match scene::load_scene_str(&hard, Path::new(".")) {
+        Err(SceneError::Invalid { key_path, .. }) => {
+            assert_eq!(key_path, "event[0].set_material.material")
+        }
+        other => panic!("expected Invalid, got {other:?}"),
+    }
 }

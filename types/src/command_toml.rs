@@ -1,6 +1,6 @@
 //! [`CommandToml`]: a command as scene files (`[[event]]`) and control timelines write it.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::{Command, MaterialEdit, MaterialModel, ObjectKind};
 
@@ -24,35 +24,105 @@ use crate::{Command, MaterialEdit, MaterialModel, ObjectKind};
 ///
 /// Unknown keys, and keys that do not belong to the command, are errors
 /// ([`CommandToml::into_command`]).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    bound(serialize = "O: Serialize", deserialize = "O: Deserialize<'de>")
+)]
 pub struct CommandToml<O> {
     /// The command's name ([`Command::name`]).
     pub command: String,
     /// Target object.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub object: Option<O>,
     /// `impulse`: impulse, N·s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub impulse_n_s: Option<[f64; 3]>,
     /// `impulse`: point of application, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub point_m: Option<[f64; 3]>,
     /// `set-velocity`: velocity, m/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub velocity_m_s: Option<[f64; 3]>,
     /// `edit-material`: model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model: Option<MaterialModel>,
     /// `edit-material`: Young's modulus E, Pa.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub youngs_modulus_pa: Option<f64>,
     /// `edit-material`: Poisson's ratio nu.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub poisson_ratio: Option<f64>,
     /// `edit-material`: density, kg/m³.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub density_kg_m3: Option<f64>,
     /// `edit-material`: restitution e.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub restitution: Option<f64>,
     /// `edit-material`: Coulomb friction mu.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction: Option<f64>,
     /// `set-kind`: the new kind.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kind: Option<ObjectKind>,
     /// `step`: frames.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub count: Option<u64>,
+}
+
+impl<O> From<Command<O>> for CommandToml<O> {
+    /// The table that [`CommandToml::into_command`] turns back into `command`.
+    fn from(command: Command<O>) -> Self {
+        let mut t = Self {
+            command: command.name().to_string(),
+            object: None,
+            impulse_n_s: None,
+            point_m: None,
+            velocity_m_s: None,
+            model: None,
+            youngs_modulus_pa: None,
+            poisson_ratio: None,
+            density_kg_m3: None,
+            restitution: None,
+            friction: None,
+            kind: None,
+            count: None,
+        };
+        match command {
+            Command::Impulse {
+                object,
+                impulse_n_s,
+                point_m,
+            } => {
+                t.object = Some(object);
+                t.impulse_n_s = Some(impulse_n_s);
+                t.point_m = point_m;
+            }
+            Command::SetVelocity {
+                object,
+                velocity_m_s,
+            } => {
+                t.object = Some(object);
+                t.velocity_m_s = Some(velocity_m_s);
+            }
+            Command::EditMaterial { object, edit } => {
+                t.object = Some(object);
+                t.model = edit.model;
+                t.youngs_modulus_pa = edit.youngs_modulus_pa;
+                t.poisson_ratio = edit.poisson_ratio;
+                t.density_kg_m3 = edit.density_kg_m3;
+                t.restitution = edit.restitution;
+                t.friction = edit.friction;
+            }
+            Command::SetKind { object, kind } => {
+                t.object = Some(object);
+                t.kind = Some(kind);
+            }
+            Command::Step { count } => t.count = Some(count),
+            Command::Pause | Command::Resume | Command::Reset | Command::Shutdown => {}
+        }
+        t
+    }
 }
 
 impl<O> CommandToml<O> {
@@ -196,6 +266,43 @@ mod tests {
                 parse(&format!("command = \"{name}\"")).unwrap().name(),
                 name
             );
+        }
+    }
+
+    #[test]
+    fn every_command_round_trips_through_its_table() {
+        let edit = MaterialEdit {
+            model: Some(MaterialModel::Sand),
+            friction: Some(0.4),
+            ..MaterialEdit::default()
+        };
+        let all: [Command<String>; 9] = [
+            Command::Impulse {
+                object: "a".into(),
+                impulse_n_s: [1.0, 2.0, 3.0],
+                point_m: Some([0.0, 0.0, 0.1]),
+            },
+            Command::SetVelocity {
+                object: "a".into(),
+                velocity_m_s: [0.0, 1.0, 0.0],
+            },
+            Command::EditMaterial {
+                object: "a".into(),
+                edit,
+            },
+            Command::SetKind {
+                object: "a".into(),
+                kind: ObjectKind::Static,
+            },
+            Command::Pause,
+            Command::Resume,
+            Command::Step { count: 4 },
+            Command::Reset,
+            Command::Shutdown,
+        ];
+        for c in all {
+            let text = toml::to_string(&CommandToml::from(c.clone())).unwrap();
+            assert_eq!(parse(&text).unwrap(), c, "{text}");
         }
     }
 

@@ -23,19 +23,25 @@ pub fn default_material() -> MaterialSpec {
     MaterialSpec::default()
 }
 
-struct Ctx<'a> {
-    file: &'a Path,
+/// Where a scene is being built from, for errors.
+pub(super) struct Ctx<'a> {
+    /// The scene file (or `<scene>` / `<builder>`).
+    pub(super) file: &'a Path,
 }
 
 impl Ctx<'_> {
-    fn invalid(&self, key_path: impl Into<String>, message: impl Into<String>) -> SceneError {
+    pub(super) fn invalid(
+        &self,
+        key_path: impl Into<String>,
+        message: impl Into<String>,
+    ) -> SceneError {
         SceneError::Invalid {
             file: self.file.to_path_buf(),
             key_path: key_path.into(),
             message: message.into(),
         }
     }
-    fn check(
+    pub(super) fn check(
         &self,
         ok: bool,
         key: impl Into<String>,
@@ -584,70 +590,6 @@ fn colliders(ctx: &Ctx, f: &SceneFile) -> Result<Vec<ColliderSpec>, SceneError> 
     Ok(out)
 }
 
-fn events(ctx: &Ctx, f: &SceneFile, objects: &[SceneObject]) -> Result<Vec<EventSpec>, SceneError> {
-    let mut out = Vec::new();
-    for (i, e) in f.event.iter().enumerate() {
-        let key = format!("event[{i}]");
-        ctx.check(
-            e.at_s.is_finite() && e.at_s >= 0.0,
-            format!("{key}.at_s"),
-            "must be >= 0",
-        )?;
-        let known = |name: &str, k: &str| {
-            ctx.check(
-                objects.iter().any(|o| o.name == name),
-                format!("{key}.{k}.object"),
-                format!("no object named {name:?}"),
-            )
-        };
-        let action = match (&e.impulse, &e.set_velocity, &e.set_material) {
-            (Some(a), None, None) => {
-                known(&a.object, "impulse")?;
-                ctx.finite3(a.vector_n_s, format!("{key}.impulse.vector_n_s"))?;
-                EventAction::Impulse {
-                    object: a.object.clone(),
-                    vector_n_s: a.vector_n_s,
-                    point_m: a.point_m,
-                }
-            }
-            (None, Some(v), None) => {
-                known(&v.object, "set_velocity")?;
-                ctx.finite3(v.velocity_m_s, format!("{key}.set_velocity.velocity_m_s"))?;
-                EventAction::SetVelocity {
-                    object: v.object.clone(),
-                    velocity_m_s: v.velocity_m_s,
-                }
-            }
-            (None, None, Some(m)) => {
-                known(&m.object, "set_material")?;
-                let material = m
-                    .material
-                    .as_ref()
-                    .map(|mt| material(ctx, mt, &format!("{key}.set_material.material")))
-                    .transpose()?;
-                EventAction::SetMaterial {
-                    object: m.object.clone(),
-                    material,
-                    restitution: m.restitution,
-                    friction: m.friction,
-                }
-            }
-            _ => {
-                return Err(ctx.invalid(
-                    &key,
-                    "give exactly one of `impulse`, `set_velocity`, `set_material`",
-                ));
-            }
-        };
-        out.push(EventSpec {
-            at_s: e.at_s,
-            action,
-        });
-    }
-    out.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
-    Ok(out)
-}
-
 /// Builds the scene parsed from `file`; relative paths resolve against `base_dir`.
 ///
 /// # Errors
@@ -680,7 +622,8 @@ pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene,
         background = concat(&background, &subset(&p.cloud, &rest));
     }
     let colliders = colliders(&ctx, f)?;
-    let events = events(&ctx, f, &objects)?;
+    let mut warnings = Vec::new();
+    let events = super::events::events(&ctx, f, &objects, &mut warnings)?;
     for (i, c) in f.camera.iter().enumerate() {
         let key = format!("camera[{i}]");
         ctx.finite3(c.position_m, format!("{key}.position_m"))?;
@@ -702,6 +645,7 @@ pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene,
         background,
         colliders,
         events,
+        warnings,
         cameras: f.camera.clone(),
     })
 }

@@ -35,15 +35,13 @@
 use std::path::Path;
 
 use super::model::{
-    self, CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MaterialSpec, Method,
-    ObjectKind, Scene, SceneObject, Surface,
+    self, CameraSpec, ColliderShape, ColliderSpec, EventSpec, MaterialSpec, Method, ObjectKind,
+    Scene, SceneObject, Surface,
 };
-use super::schema::{
-    BoxToml, ColliderToml, EventToml, ImpulseToml, ObjectToml, PlaneToml, SceneFile,
-    SetMaterialToml, SetVelocityToml, SimulationToml,
-};
+use super::schema::{BoxToml, ColliderToml, ObjectToml, PlaneToml, SceneFile, SimulationToml};
 use super::{SceneError, build_scene};
 use crate::procedural::Shape;
+use splatphys_types::CommandToml;
 
 /// The file name a builder scene's errors carry.
 pub const BUILDER_FILE: &str = "<builder>";
@@ -176,50 +174,12 @@ impl SceneBuilder {
         self
     }
 
-    /// Adds a scripted event (events are sorted by time on build).
+    /// Adds a scripted event (events are sorted by time on build): written as the scene file
+    /// would write it, so it gets the same checks.
     pub fn event(mut self, event: EventSpec) -> Self {
-        let mut e = EventToml {
-            at_s: event.at_s,
-            impulse: None,
-            set_velocity: None,
-            set_material: None,
-        };
-        match event.action {
-            EventAction::Impulse {
-                object,
-                vector_n_s,
-                point_m,
-            } => {
-                e.impulse = Some(ImpulseToml {
-                    object,
-                    vector_n_s,
-                    point_m,
-                });
-            }
-            EventAction::SetVelocity {
-                object,
-                velocity_m_s,
-            } => {
-                e.set_velocity = Some(SetVelocityToml {
-                    object,
-                    velocity_m_s,
-                })
-            }
-            EventAction::SetMaterial {
-                object,
-                material,
-                restitution,
-                friction,
-            } => {
-                e.set_material = Some(SetMaterialToml {
-                    object,
-                    material,
-                    restitution,
-                    friction,
-                });
-            }
-        }
-        self.file.event.push(e);
+        let mut table = toml::Table::try_from(CommandToml::from(event.command)).unwrap_or_default();
+        table.insert("at_s".into(), toml::Value::Float(event.at_s));
+        self.file.event.push(table);
         self
     }
 

@@ -111,6 +111,7 @@ impl Scene {
                 width_px: 640,
                 height_px: 480,
             }],
+            warnings: Vec::new(),
         }
     }
 }

@@ -18,6 +18,7 @@
 pub mod build;
 pub mod builder;
 pub mod builtin;
+mod events;
 pub mod model;
 pub mod schema;
 pub mod transform;
@@ -27,8 +28,8 @@ use std::path::{Path, PathBuf};
 pub use build::build_scene;
 pub use builder::{ObjectBuilder, SceneBuilder};
 pub use model::{
-    CameraSpec, ColliderShape, ColliderSpec, EventAction, EventSpec, MaterialSpec, Method,
-    ObjectKind, Scene, SceneObject, SimulationSettings, Surface,
+    CameraSpec, ColliderShape, ColliderSpec, Command, EventSpec, MaterialSpec, Method, ObjectKind,
+    Scene, SceneObject, SimulationSettings, Surface,
 };
 
 use crate::formats::FormatError;

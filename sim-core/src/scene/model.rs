@@ -2,6 +2,7 @@
 //! background, colliders, events, cameras. SI units, world frame right-handed, z up.
 
 use serde::{Deserialize, Serialize};
+pub use splatphys_types::Command;
 
 use crate::gaussians::GaussianCloud;
 
@@ -161,45 +162,15 @@ pub struct ColliderSpec {
     pub active_s: Option<[f64; 2]>,
 }
 
-/// What an event does.
-#[derive(Debug, Clone, PartialEq)]
-pub enum EventAction {
-    /// Apply an impulse.
-    Impulse {
-        /// Object name.
-        object: String,
-        /// Impulse, N·s.
-        vector_n_s: [f32; 3],
-        /// Application point, m; `None` = the centre of mass.
-        point_m: Option<[f32; 3]>,
-    },
-    /// Set an object's velocity.
-    SetVelocity {
-        /// Object name.
-        object: String,
-        /// Velocity, m/s.
-        velocity_m_s: [f32; 3],
-    },
-    /// Change an object's material and/or contact coefficients.
-    SetMaterial {
-        /// Object name.
-        object: String,
-        /// New material, if any.
-        material: Option<MaterialSpec>,
-        /// New restitution, if any.
-        restitution: Option<f32>,
-        /// New friction, if any.
-        friction: Option<f32>,
-    },
-}
-
-/// A scripted event.
+/// A scripted event: a command (objects named) applied when simulated time reaches `at_s`.
+/// Scene files write it as a [`CommandToml`](splatphys_types::CommandToml) table plus `at_s`,
+/// the same keys control timelines use.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EventSpec {
-    /// Simulated time, s.
+    /// Simulated time, s (>= 0).
     pub at_s: f64,
-    /// The action.
-    pub action: EventAction,
+    /// What happens: `impulse`, `set-velocity`, `edit-material` or `set-kind`.
+    pub command: Command<String>,
 }
 
 pub(super) fn default_up() -> [f32; 3] {
@@ -254,6 +225,9 @@ pub struct Scene {
     pub events: Vec<EventSpec>,
     /// Cameras.
     pub cameras: Vec<CameraSpec>,
+    /// What the scene file wrote in a deprecated form, one message each (the commands print
+    /// them; the scene still loads).
+    pub warnings: Vec<String>,
 }
 
 impl Scene {

@@ -44,7 +44,7 @@ pub struct SceneFile {
     pub collider: Vec<ColliderToml>,
     /// `[[event]]` entries.
     #[serde(default)]
-    pub event: Vec<EventToml>,
+    pub event: Vec<toml::Table>,
     /// `[[camera]]` entries.
     #[serde(default)]
     pub camera: Vec<super::model::CameraSpec>,
@@ -272,43 +272,30 @@ pub struct BoxToml {
     pub max_m: [f32; 3],
 }
 
-/// `[[event]]`.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct EventToml {
-    /// When, s.
-    pub at_s: f64,
-    /// Impulse.
-    pub impulse: Option<ImpulseToml>,
-    /// Set velocity.
-    pub set_velocity: Option<SetVelocityToml>,
-    /// Set material.
-    pub set_material: Option<SetMaterialToml>,
-}
-
-/// `impulse = {...}`.
+/// `impulse = {...}` in an `[[event]]`: the form before `command = "impulse"`, read with a
+/// deprecation warning.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ImpulseToml {
     /// Object name.
     pub object: String,
     /// Impulse, N·s.
-    pub vector_n_s: [f32; 3],
+    pub vector_n_s: [f64; 3],
     /// Application point, m (default COM).
-    pub point_m: Option<[f32; 3]>,
+    pub point_m: Option<[f64; 3]>,
 }
 
-/// `set_velocity = {...}`.
+/// `set_velocity = {...}` in an `[[event]]` (deprecated form).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SetVelocityToml {
     /// Object name.
     pub object: String,
     /// Velocity, m/s.
-    pub velocity_m_s: [f32; 3],
+    pub velocity_m_s: [f64; 3],
 }
 
-/// `set_material = {...}`.
+/// `set_material = {...}` in an `[[event]]` (deprecated form).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SetMaterialToml {
@@ -317,7 +304,7 @@ pub struct SetMaterialToml {
     /// New material.
     pub material: Option<MaterialToml>,
     /// New restitution.
-    pub restitution: Option<f32>,
+    pub restitution: Option<f64>,
     /// New friction.
-    pub friction: Option<f32>,
+    pub friction: Option<f64>,
 }

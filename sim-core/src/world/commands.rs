@@ -1,13 +1,63 @@
 //! Commands on objects: impulses, velocities, material and kind edits. Each wakes the object;
 //! static objects refuse to move. Used by scene events and the server's command service.
 
-use glam::{Mat3A, Vec3A};
+use glam::{DVec3, Mat3A, Vec3A};
+use splatphys_types::{Command, MaterialEdit};
 
 use super::{World, WorldError, coherence, measure};
 use crate::material::{ConstitutiveModel, Material};
 use crate::scene::ObjectKind;
 
 impl World {
+    /// Applies `command` (scene events and the server's command service both end here).
+    /// `Reset` resets the world; `Pause`, `Resume`, `Step` and `Shutdown` are the server's and
+    /// do nothing here. Values are narrowed to the solver's f32.
+    ///
+    /// # Errors
+    /// As the command's method: unknown or static object, a refused material.
+    pub fn apply(&mut self, command: &Command) -> Result<(), WorldError> {
+        let v = |a: [f64; 3]| DVec3::from(a).as_vec3a();
+        match *command {
+            Command::Impulse {
+                object,
+                impulse_n_s,
+                point_m,
+            } => self.apply_impulse(object as usize, v(impulse_n_s), point_m.map(v)),
+            Command::SetVelocity {
+                object,
+                velocity_m_s,
+            } => self.set_velocity(object as usize, v(velocity_m_s)),
+            Command::EditMaterial { object, edit } => self.edit_material(object as usize, &edit),
+            Command::SetKind { object, kind } => self.set_kind(object as usize, kind),
+            Command::Reset => {
+                self.reset();
+                Ok(())
+            }
+            Command::Pause | Command::Resume | Command::Step { .. } | Command::Shutdown => Ok(()),
+        }
+    }
+
+    /// Edits object `id`'s material: only the fields `edit` names change, starting from the
+    /// object's own spec (a snow object keeps its θc, θs and ξ when only E is edited).
+    ///
+    /// # Errors
+    /// Unknown object or a refused material.
+    pub fn edit_material(&mut self, id: usize, edit: &MaterialEdit) -> Result<(), WorldError> {
+        let b = self
+            .bodies
+            .get(id)
+            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
+        let spec = edit
+            .changes_material()
+            .then(|| b.materials[0].spec().edited(edit));
+        self.set_material(
+            id,
+            spec.as_ref(),
+            edit.restitution.map(|e| e as f32),
+            edit.friction.map(|mu| mu as f32),
+        )
+    }
+
     fn movable(&self, id: usize) -> Result<(), WorldError> {
         let b = self
             .bodies

@@ -45,7 +45,7 @@ use crate::gaussians::GaussianCloud;
 use crate::kinematics::{GaussianState, pack_symmetric};
 use crate::material::{ConstitutiveModel, MaterialError};
 use crate::mpm::{MpmError, MpmSolver, TimeStepError, TimeStepPolicy};
-use crate::scene::{self, EventAction, EventSpec, Method, ObjectKind, Scene};
+use crate::scene::{self, EventSpec, Method, ObjectKind, Scene};
 
 /// Why the world could not be built or stepped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -372,39 +372,12 @@ impl World {
         {
             let ev = self.events[self.next_event].clone();
             self.next_event += 1;
-            match ev.action {
-                EventAction::Impulse {
-                    object,
-                    vector_n_s,
-                    point_m,
-                } => {
-                    let id = self
-                        .object_index(&object)
-                        .ok_or(WorldError::UnknownObject(object))?;
-                    self.apply_impulse(id, Vec3A::from(vector_n_s), point_m.map(Vec3A::from))?;
-                }
-                EventAction::SetVelocity {
-                    object,
-                    velocity_m_s,
-                } => {
-                    let id = self
-                        .object_index(&object)
-                        .ok_or(WorldError::UnknownObject(object))?;
-                    self.set_velocity(id, Vec3A::from(velocity_m_s))?;
-                }
-                EventAction::SetMaterial {
-                    object,
-                    material,
-                    restitution,
-                    friction,
-                } => {
-                    let id = self
-                        .object_index(&object)
-                        .ok_or(WorldError::UnknownObject(object))?;
-                    let spec = material.clone();
-                    self.set_material(id, spec.as_ref(), restitution, friction)?;
-                }
-            }
+            let command = ev.command.map_object(|name| {
+                self.object_index(&name)
+                    .map(|id| id as u32)
+                    .ok_or(WorldError::UnknownObject(name))
+            })?;
+            self.apply(&command)?;
         }
         Ok(())
     }
