@@ -249,7 +249,9 @@ fn follow_server(
     opts.frames = false;
     opts.objects = false;
     opts.commands = false;
-    opts.connect_timeout = Duration::from_secs(30);
+    // Short: the loop retries while it watches the processes (a server that fails to start is
+    // noticed when its process exits, not after a long connect).
+    opts.connect_timeout = Duration::from_millis(500);
     let mut conn = None;
     loop {
         if server.child.try_wait()?.is_some() {

@@ -1,11 +1,10 @@
 //! The real simulation behind the server: sim-core's [`World`] as a [`Simulation`].
 //!
 //! Frames are written straight into the loaned shared-memory slice: sim-core's
-//! `GaussianState` has the exact layout of [`FrameGaussian`] (every field's offset, the size and
-//! the alignment are asserted below at compile time, so swapping two same-size fields does not
-//! compile), so the slice is
-//! reinterpreted in place with bytemuck and filled in parallel. Background Gaussians (claimed by
-//! no object) carry `object_id = u32::MAX`.
+//! `GaussianState` has the exact layout of [`FrameGaussian`], so the slice is reinterpreted in
+//! place with bytemuck and filled in parallel. Every field's offset, the size and the alignment
+//! are asserted below at compile time, so swapping two same-size fields does not compile.
+//! Background Gaussians (claimed by no object) carry `object_id = u32::MAX`.
 
 use splatphys_core::kinematics::GaussianState;
 use splatphys_core::scene::Scene;

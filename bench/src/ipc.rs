@@ -297,7 +297,7 @@ fn socket_run(a: &IpcBenchArgs, bytes: &[u8], epoch_ns: u64) -> Result<Vec<f64>>
 fn step_us(n: usize) -> Result<(usize, f64)> {
     let per_axis = (n as f64).cbrt().round().max(1.0) as u32;
     let dx = 2.0 * 0.3 / per_axis as f32;
-    let mut sys = crate::elastic_cube(per_axis, dx, 1.0)?;
+    let mut sys = crate::mpm::elastic_cube(per_axis, dx, 1.0)?;
     sys.substep(1.0)?; // warm-up: grid allocation
     let mut times = Vec::new();
     let t0 = Instant::now();

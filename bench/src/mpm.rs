@@ -1,0 +1,202 @@
+//! `bench mpm`: MLS-MPM throughput on the standard CPU problem Taichi MLS-MPM users run: an
+//! elastic cube of n³ particles (side 0.3 m, corner (0.35, 0.35, 0.3) m) moving at 1 m/s towards
+//! the floor of a 1 m cube domain, dx = 1/grid m, E = 1e5 Pa, nu = 0.3, 1000 kg/m³, fixed
+//! dt = 1e-4 s, gravity 9.8 m/s², timed over `steps` substeps after 5 warm-up substeps.
+//! `--domain-scale 4` puts the same cube in a domain 4× larger per axis: with the sparse grid the
+//! cost must not change. `--vs-taichi` then runs the Taichi reference of the same problem
+//! (`bench/taichi/mpm_cube.py`, through [`crate::taichi`]) with the same arguments and prints its
+//! result and the ratio; without Taichi it says so and stops after our result.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use glam::Vec3A;
+use serde_json::json;
+use splatphys_core::collider::{BoxShape, Collider, Shape, Surface};
+use splatphys_core::material::Material;
+use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
+
+use crate::{taichi, thread_pool};
+
+/// Untimed substeps before the clock starts (the Taichi reference compiles its kernel there).
+const WARMUP_SUBSTEPS: u32 = 5;
+
+/// Arguments of `bench mpm`.
+#[derive(Args, Debug)]
+pub struct MpmBenchArgs {
+    /// Particles per cube edge (n³ particles).
+    #[arg(long, default_value_t = 40)]
+    pub particles_per_axis: u32,
+    /// Grid cells per metre (dx = 1 / grid m).
+    #[arg(long, default_value_t = 64)]
+    pub grid: u32,
+    /// Timed substeps.
+    #[arg(long, default_value_t = 200)]
+    pub steps: u32,
+    /// Worker threads.
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Domain edge in metres (the cube stays where it is).
+    #[arg(long, default_value_t = 1.0)]
+    pub domain_scale: f32,
+    /// Then run the Taichi reference of the same problem (bench/taichi/mpm_cube.py, CPU backend,
+    /// dense grid) with the same arguments and print its result and the ratio; skipped with a
+    /// message when Taichi is not installed.
+    #[arg(long)]
+    pub vs_taichi: bool,
+    /// The Taichi script (default: bench/taichi/mpm_cube.py in the current directory or the
+    /// repository the executable was built in).
+    #[arg(long, requires = "vs_taichi")]
+    pub taichi_script: Option<PathBuf>,
+    /// Python interpreter for --vs-taichi.
+    #[arg(long, default_value = "python3", requires = "vs_taichi")]
+    pub python: String,
+}
+
+/// The standard problem's elastic cube: n³ particles filling (0.35, 0.35, 0.3)..(0.65, 0.65,
+/// 0.6) m, moving at 1 m/s towards the floor, grid spacing `dx_m`, in a cube domain of edge
+/// `domain_m` metres; E = 1e5 Pa, nu = 0.3, 1000 kg/m³, fixed dt = 1e-4 s, gravity 9.8 m/s².
+///
+/// # Errors
+/// When the domain is too small for its 3-cell bound.
+pub fn elastic_cube(particles_per_axis: u32, dx_m: f32, domain_m: f32) -> Result<MpmSystem> {
+    let n = particles_per_axis.max(1);
+    let spacing = 0.3 / n as f32;
+    let jelly = Material::jelly(1e5, 0.3, 1000.0)?;
+    let mut p = Particles::lattice_box(
+        Vec3A::new(0.35, 0.35, 0.3),
+        Vec3A::new(0.65, 0.65, 0.6),
+        spacing,
+        1000.0,
+        0,
+        0,
+    );
+    p.v.iter_mut().for_each(|v| *v = Vec3A::new(0.0, 0.0, -1.0));
+    let mut sys = MpmSystem::new(p, vec![jelly], dx_m);
+    sys.gravity_m_s2 = Vec3A::new(0.0, 0.0, -9.8);
+    sys.policy = TimeStepPolicy::Fixed {
+        dt_s: 1e-4,
+        force: false,
+    };
+    let bound = BoxShape::new(
+        Vec3A::splat(3.0 * dx_m),
+        Vec3A::splat(domain_m - 3.0 * dx_m),
+    )
+    .context("domain too small")?;
+    sys.colliders.push(Collider::fixed(
+        Shape::DomainBound(bound),
+        Surface::Separate,
+        0.0,
+    ));
+    Ok(sys)
+}
+
+/// Runs `bench mpm`.
+///
+/// # Errors
+/// A bad domain, a failed Taichi reference, unwritable output.
+pub fn run(a: &MpmBenchArgs) -> Result<()> {
+    // Resolved first: a broken checkout fails before the run, not after it.
+    let script = if a.vs_taichi {
+        Some(taichi::find_script(
+            "mpm_cube.py",
+            a.taichi_script.as_deref(),
+        )?)
+    } else {
+        None
+    };
+    let pool = thread_pool(a.threads)?;
+    let dx = 1.0 / a.grid.max(1) as f32;
+    let mut sys = elastic_cube(a.particles_per_axis, dx, a.domain_scale)
+        .context("--domain-scale too small")?;
+    let count = sys.particles.len();
+    let seconds = pool.install(|| -> Result<f64> {
+        for _ in 0..WARMUP_SUBSTEPS {
+            sys.substep(1.0)?;
+        }
+        let t = Instant::now();
+        for _ in 0..a.steps {
+            sys.substep(1.0)?;
+        }
+        Ok(t.elapsed().as_secs_f64())
+    })?;
+    let rate = (count as f64 * a.steps as f64) / seconds;
+    let p = &sys.particles;
+    let mass: f64 = p.mass_kg.iter().map(|&m| m as f64).sum();
+    let com_z =
+        p.x.iter()
+            .zip(&p.mass_kg)
+            .map(|(x, &m)| x.z as f64 * m as f64)
+            .sum::<f64>()
+            / mass.max(f64::MIN_POSITIVE);
+    let momentum_z: f64 =
+        p.v.iter()
+            .zip(&p.mass_kg)
+            .map(|(v, &m)| v.z as f64 * m as f64)
+            .sum();
+    let ours = json!({
+        "bench": "mpm",
+        "impl": "splatphys",
+        "particles": count,
+        "steps": a.steps,
+        "threads": a.threads,
+        "grid": a.grid,
+        "domain_scale": a.domain_scale,
+        "grid_blocks": sys.last.grid_blocks,
+        "seconds": seconds,
+        "particle_substeps_per_s": rate,
+        "com_z_m": com_z,
+        "momentum_z_kg_m_s": momentum_z,
+    });
+    println!("{ours}");
+    match script {
+        Some(script) => vs_taichi(a, &script, &ours),
+        None => Ok(()),
+    }
+}
+
+/// Runs the Taichi reference with `a`'s arguments and prints its line and the comparison.
+fn vs_taichi(a: &MpmBenchArgs, script: &std::path::Path, ours: &serde_json::Value) -> Result<()> {
+    let args = [
+        ("--particles-per-axis", a.particles_per_axis.to_string()),
+        ("--grid", a.grid.to_string()),
+        ("--steps", a.steps.to_string()),
+        ("--threads", a.threads.to_string()),
+        ("--warmup", WARMUP_SUBSTEPS.to_string()),
+        ("--domain-scale", a.domain_scale.to_string()),
+    ];
+    let Some(theirs) = taichi::run_reference(&a.python, script, &args)? else {
+        return Ok(());
+    };
+    if theirs["particles"] != ours["particles"] {
+        anyhow::bail!(
+            "the Taichi reference ran {} particles, splatphys {}: not the same problem",
+            theirs["particles"],
+            ours["particles"]
+        );
+    }
+    let key = "particle_substeps_per_s";
+    let ours_rate = taichi::number(ours, key, "splatphys")?;
+    let taichi_rate = taichi::number(&theirs, key, "Taichi")?;
+    let com_diff = taichi::number(ours, "com_z_m", "splatphys")?
+        - taichi::number(&theirs, "com_z_m", "Taichi")?;
+    let momentum_diff = taichi::number(ours, "momentum_z_kg_m_s", "splatphys")?
+        - taichi::number(&theirs, "momentum_z_kg_m_s", "Taichi")?;
+    println!(
+        "{}",
+        json!({
+            "bench": "mpm-vs-taichi",
+            "particles": ours["particles"],
+            "threads": a.threads,
+            "splatphys_per_s": ours_rate,
+            "taichi_per_s": taichi_rate,
+            "ratio": ours_rate / taichi_rate,
+            "com_z_diff_m": com_diff,
+            "momentum_z_diff_kg_m_s": momentum_diff,
+            "taichi_version": theirs["taichi_version"],
+        })
+    );
+    Ok(())
+}
