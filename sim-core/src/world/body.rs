@@ -50,10 +50,9 @@ pub fn inverse_or_zero(i: DMat3) -> DMat3 {
     }
 }
 
-/// The part of [`measure`] the broad phase needs, at a fraction of its cost: mass, COM,
-/// velocity, radius and box. `angular_momentum` and `inertia` are left zero; call [`measure`]
-/// for a body whose contact is resolved.
-pub fn measure_bounds(p: &Particles, dx_m: f32) -> BodyState {
+/// Mass, COM, COM velocity and bounding box of `p` in one pass (f64 sums in particle order);
+/// `None` when it has no mass.
+fn zeroth_and_first_moments(p: &Particles) -> Option<(f64, DVec3, DVec3, (DVec3, DVec3))> {
     let mut m = 0.0f64;
     let mut mx = DVec3::ZERO;
     let mut mv = DVec3::ZERO;
@@ -68,10 +67,16 @@ pub fn measure_bounds(p: &Particles, dx_m: f32) -> BodyState {
         lo = lo.min(x);
         hi = hi.max(x);
     }
-    if m <= 0.0 {
+    (m > 0.0).then(|| (m, mx / m, mv / m, (lo, hi)))
+}
+
+/// The part of [`measure`] the broad phase needs, at a fraction of its cost: mass, COM,
+/// velocity, radius and box. `angular_momentum` and `inertia` are left zero; call [`measure`]
+/// for a body whose contact is resolved.
+pub fn measure_bounds(p: &Particles, dx_m: f32) -> BodyState {
+    let Some((m, com, vel, (lo, hi))) = zeroth_and_first_moments(p) else {
         return BodyState::default();
-    }
-    let com = mx / m;
+    };
     let c = com.as_vec3a();
     let r2max =
         p.x.iter()
@@ -80,7 +85,7 @@ pub fn measure_bounds(p: &Particles, dx_m: f32) -> BodyState {
     BodyState {
         mass_kg: m,
         com_m: com,
-        velocity_m_s: mv / m,
+        velocity_m_s: vel,
         angular_momentum: DVec3::ZERO,
         inertia: DMat3::ZERO,
         // f32 distances: widen by a relative 1e-6 so the sphere still holds every particle.
@@ -92,25 +97,9 @@ pub fn measure_bounds(p: &Particles, dx_m: f32) -> BodyState {
 /// Measures mass, COM, velocity, angular momentum and inertia of `p` (cell size `dx_m` for the
 /// APIC spin term and the radius margin).
 pub fn measure(p: &Particles, dx_m: f32) -> BodyState {
-    let mut m = 0.0f64;
-    let mut mx = DVec3::ZERO;
-    let mut mv = DVec3::ZERO;
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for i in 0..p.len() {
-        let mi = p.mass_kg[i] as f64;
-        let x = p.x[i].as_dvec3();
-        m += mi;
-        mx += x * mi;
-        mv += p.v[i].as_dvec3() * mi;
-        lo = lo.min(x);
-        hi = hi.max(x);
-    }
-    if m <= 0.0 {
+    let Some((m, com, vel, (lo, hi))) = zeroth_and_first_moments(p) else {
         return BodyState::default();
-    }
-    let com = mx / m;
-    let vel = mv / m;
+    };
     let d = (dx_m as f64).powi(2) / 4.0;
     let mut l = DVec3::ZERO;
     let mut spin = DVec3::ZERO;
