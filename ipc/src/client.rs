@@ -30,13 +30,13 @@ use crate::command::{Command, Reply};
 use crate::error::IpcError;
 use crate::services::{
     CommandLogService, CommandService, FrameService, HEARTBEAT_TIMEOUT, Iox, LOSSLESS_PORT_NAME,
-    MAX_FRAME_BUFFER, ObjectsService, Role, SceneService, ServiceNames, StatusService,
-    command_log_service, command_service, create_node, frame_service, objects_service,
-    scene_service, status_service,
+    MAX_FRAME_BUFFER, ObjectNamesService, ObjectsService, Role, SceneService, ServiceNames,
+    StatusService, command_log_service, command_service, create_node, frame_service,
+    object_names_service, objects_service, scene_service, status_service,
 };
 use crate::wire::{
-    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, LAYOUT_VERSION, ObjectState, ReplyMsg,
-    STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status,
+    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, LAYOUT_VERSION, ObjectName,
+    ObjectState, ReplyMsg, STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status,
 };
 
 /// A received frame: `payload()` is `[N] FrameGaussian` viewing shared memory.
@@ -45,6 +45,10 @@ pub type FrameSample = Sample<Iox, [FrameGaussian], FrameHeader>;
 pub type ObjectsSample = Sample<Iox, [ObjectState], FrameHeader>;
 /// A received scene: `payload()` is `[N] SceneGaussian`.
 pub type SceneSample = Sample<Iox, [SceneGaussian], SceneHeader>;
+/// A received list of object names: `payload()` is `[M] ObjectName`, indexed by object id.
+pub type ObjectNamesSample = Sample<Iox, [ObjectName], FrameHeader>;
+/// The `object_names` subscriber.
+type ObjectNamesSubscriber = Subscriber<Iox, [ObjectName], FrameHeader>;
 /// A command in flight.
 pub type PendingCommand = PendingResponse<Iox, CommandMsg, (), ReplyMsg, ()>;
 
@@ -106,6 +110,8 @@ pub struct Connection {
     opts: ClientOptions,
     status_sub: Subscriber<Iox, Status, ()>,
     scene_sub: Subscriber<Iox, [SceneGaussian], SceneHeader>,
+    /// `None` when the server publishes no `object_names` (a replay of an older recording).
+    object_names_sub: Option<(ObjectNamesService, ObjectNamesSubscriber)>,
     frame_sub: Option<Subscriber<Iox, [FrameGaussian], FrameHeader>>,
     objects_sub: Option<Subscriber<Iox, [ObjectState], FrameHeader>>,
     command_client: Option<Client<Iox, CommandMsg, (), ReplyMsg, ()>>,
@@ -163,6 +169,16 @@ impl Connection {
             }
         };
         let scene = scene_service(&node, &names, Role::User)?;
+        let object_names_sub = object_names_service(&node, &names, Role::User)
+            .ok()
+            .and_then(|service| {
+                let sub = service
+                    .subscriber_builder()
+                    .history_request(1)
+                    .create()
+                    .ok()?;
+                Some((service, sub))
+            });
         let frame = opts
             .frames
             .then(|| frame_service(&node, &names, Role::User))
@@ -243,6 +259,7 @@ impl Connection {
             opts: opts.clone(),
             status_sub,
             scene_sub,
+            object_names_sub,
             frame_sub,
             objects_sub,
             command_client,
@@ -326,6 +343,19 @@ impl Connection {
             });
         }
         Ok(s)
+    }
+
+    /// The next list of every object's name (once per generation; the first one comes from
+    /// history). `None` also when the server publishes no names.
+    ///
+    /// # Errors
+    /// iceoryx2 failures.
+    pub fn recv_object_names(&mut self) -> Result<Option<ObjectNamesSample>, IpcError> {
+        let Some((_, sub)) = &self.object_names_sub else {
+            return Ok(None);
+        };
+        sub.receive()
+            .map_err(|e| IpcError::iox("receive", &self.names.name("object_names"), e))
     }
 
     /// The next buffered frame, if any, oldest first.

@@ -7,6 +7,7 @@
 //! | service   | pattern              | payload / header                    | delivery |
 //! |-----------|----------------------|-------------------------------------|----------|
 //! | `scene`   | publish-subscribe    | `[SceneGaussian]` / `SceneHeader`   | history 1, overflow |
+//! | `object_names` | publish-subscribe | `[ObjectName]` / `FrameHeader`   | history 1, overflow |
 //! | `frame`   | publish-subscribe    | `[FrameGaussian]` / `FrameHeader`   | no overflow, backpressure |
 //! | `objects` | publish-subscribe    | `[ObjectState]` / `FrameHeader`     | no overflow, backpressure |
 //! | `status`  | publish-subscribe    | `Status`                            | history 1, overflow |
@@ -28,14 +29,16 @@ use iceoryx2::service::port_factory::{publish_subscribe, request_response};
 
 use crate::error::IpcError;
 use crate::wire::{
-    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, ObjectState, ReplyMsg, SceneGaussian,
-    SceneHeader, Status,
+    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, ObjectName, ObjectState, ReplyMsg,
+    SceneGaussian, SceneHeader, Status,
 };
 
 /// The iceoryx2 service flavour used everywhere (inter-process, single-threaded ports).
 pub type Iox = iceoryx2::service::ipc::Service;
 /// `scene` port factory.
 pub type SceneService = publish_subscribe::PortFactory<Iox, [SceneGaussian], SceneHeader>;
+/// `object_names` port factory.
+pub type ObjectNamesService = publish_subscribe::PortFactory<Iox, [ObjectName], FrameHeader>;
 /// `frame` port factory.
 pub type FrameService = publish_subscribe::PortFactory<Iox, [FrameGaussian], FrameHeader>;
 /// `objects` port factory.
@@ -212,6 +215,27 @@ pub fn scene_service(
         .max_publishers(1)
         .max_nodes(MAX_NODES);
     open_by_role!(b, role, names.name("scene"))
+}
+
+/// The `object_names` service: every object's name, once per generation with the scene,
+/// history 1 so late clients get it on connect.
+pub fn object_names_service(
+    node: &Node<Iox>,
+    names: &ServiceNames,
+    role: Role,
+) -> Result<ObjectNamesService, IpcError> {
+    let b = node
+        .service_builder(&names.service_name("object_names")?)
+        .publish_subscribe::<[ObjectName]>()
+        .user_header::<FrameHeader>()
+        .enable_safe_overflow(true)
+        .history_size(1)
+        .subscriber_max_buffer_size(1)
+        .subscriber_max_borrowed_samples(1)
+        .max_subscribers(MAX_SUBSCRIBERS)
+        .max_publishers(1)
+        .max_nodes(MAX_NODES);
+    open_by_role!(b, role, names.name("object_names"))
 }
 
 /// The `frame` service: per published step, the dynamic state of every visible Gaussian.

@@ -22,8 +22,11 @@ pub const LAYOUT_VERSION: u32 = 1;
 pub const MAX_SH_DEGREE: u32 = 3;
 /// SH coefficients per channel at [`MAX_SH_DEGREE`].
 pub const SH_COEFFS_PER_CHANNEL: usize = 16;
-/// Objects whose names fit into [`SceneHeader::object_names`].
+/// Objects whose names fit into [`SceneHeader::object_names`] (every object's name is on the
+/// `object_names` service as [`ObjectName`]s).
 pub const MAX_NAMED_OBJECTS: usize = 64;
+/// Bytes of one name in [`ObjectName`] (UTF-8, NUL padded, cut at a character boundary).
+pub const OBJECT_NAME_FULL_BYTES: usize = 64;
 /// Bytes per object name (UTF-8, NUL padded, no terminator needed when full).
 pub const OBJECT_NAME_BYTES: usize = 32;
 /// Bytes of the scene name in [`SceneHeader::scene_name`].
@@ -131,6 +134,32 @@ const _: () = assert!(size_of::<SceneHeader>() == 32 + SCENE_NAME_BYTES + 64 * 3
 impl Default for SceneHeader {
     fn default() -> Self {
         Zeroable::zeroed()
+    }
+}
+
+/// One object's name. `object_names` payload: `[M]` of these, indexed by object id, one for
+/// every object, published with the scene (once per generation) under a [`FrameHeader`] whose
+/// `count` is M. 64 bytes each.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::ObjectName")]
+pub struct ObjectName {
+    /// UTF-8, NUL padded.
+    pub name: [u8; OBJECT_NAME_FULL_BYTES],
+}
+const _: () = assert!(size_of::<ObjectName>() == OBJECT_NAME_FULL_BYTES);
+
+impl ObjectName {
+    /// `name`, cut at a character boundary to fit.
+    pub fn new(name: &str) -> Self {
+        let mut n = Self::zeroed();
+        write_fixed_str(&mut n.name, name);
+        n
+    }
+
+    /// The name as text.
+    pub fn text(&self) -> String {
+        read_fixed_str(&self.name)
     }
 }
 

@@ -47,7 +47,7 @@ fn leftovers(iox: &str) -> Vec<String> {
 }
 
 /// Tests of this binary.
-const TESTS: usize = 2;
+const TESTS: usize = 3;
 
 /// Marks a test done; the last one checks that nothing of `iox` is left in /dev/shm (before
 /// that, the other test's files may still exist).
@@ -213,6 +213,43 @@ fn a_command_sent_right_after_connecting_is_answered() {
         .command(&Command::Step { count: 1 }, Duration::from_secs(30))
         .expect("a reply to a command sent right after connecting");
     assert!(matches!(reply, Reply::Accepted { .. }), "{reply:?}");
+    drop(conn);
+    stop.store(true, Ordering::Release);
+    server.join().expect("server thread");
+    finish(&iox);
+}
+
+#[test]
+fn every_object_name_travels_beyond_the_scene_header() {
+    let iox = init();
+    let stop = Arc::new(AtomicBool::new(false));
+    let cfg = ServerConfig {
+        prefix: Some("t/names".into()),
+        start_paused: true,
+        stop: stop.clone(),
+        ..ServerConfig::default()
+    };
+    // More objects than the scene header names (64).
+    let objects = splatphys_ipc::wire::MAX_NAMED_OBJECTS + 6;
+    let server = std::thread::spawn(move || {
+        let mut sim = FreeFall::new("names", objects, 2, 0.01, None);
+        serve(&mut sim, &cfg).expect("server")
+    });
+    let mut opts = ClientOptions::new("t/names");
+    opts.connect_timeout = Duration::from_secs(30);
+    let mut conn = Connection::connect(&opts).expect("connect");
+    let t0 = Instant::now();
+    let names: Vec<String> = loop {
+        if let Some(n) = conn.recv_object_names().expect("names") {
+            assert_eq!(n.user_header().count as usize, objects);
+            break n.payload().iter().map(|n| n.text()).collect();
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "no object names");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    assert_eq!(names.len(), objects);
+    assert_eq!(names[0], "cube0");
+    assert_eq!(names[objects - 1], format!("cube{}", objects - 1));
     drop(conn);
     stop.store(true, Ordering::Release);
     server.join().expect("server thread");

@@ -1,17 +1,18 @@
 //! A connection to one server, for controllers: reads the scene header once (object names),
 //! resolves [`ObjectRef`]s to ids and sends commands with replies.
 //!
-//! Object references resolve by exact name first (names come from
-//! [`splatphys_ipc::wire::SceneHeader::object_names`], the first 64 objects), then as a number
-//! (`3` or `#3`). Numbered references need no scene header; named ones wait for it (it is
-//! kept in the `scene` service's history, so it arrives right after connecting).
+//! Object references resolve by exact name first (every object's name from the `object_names`
+//! service; from a server without it, the first 64 in
+//! [`splatphys_ipc::wire::SceneHeader::object_names`]), then as a number (`3` or `#3`).
+//! Numbered references need no scene header; named ones wait for it (it is kept in the `scene`
+//! service's history, so it arrives right after connecting).
 
 use std::time::{Duration, Instant};
 
 use splatphys_ipc::IpcError;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::command::{Command, Reply};
-use splatphys_ipc::wire::{MAX_NAMED_OBJECTS, SceneHeader, read_fixed_str};
+use splatphys_ipc::wire::{MAX_NAMED_OBJECTS, ObjectName, SceneHeader, read_fixed_str};
 
 use crate::action::{Action, ObjectRef};
 use crate::error::ControlError;
@@ -29,7 +30,8 @@ pub struct SceneInfo {
     pub object_count: u32,
     /// Simulated time between published frames, seconds.
     pub frame_dt_s: f64,
-    /// Names of the first `min(object_count, 64)` objects (empty when unnamed).
+    /// Object names by id: every object's once the `object_names` list of this generation
+    /// arrived, else the header's first `min(object_count, 64)` (empty when unnamed).
     pub object_names: Vec<String>,
 }
 
@@ -108,6 +110,8 @@ impl SessionOptions {
 pub struct Session {
     conn: Connection,
     scene: Option<SceneInfo>,
+    /// The newest `object_names` list and its scene generation.
+    names: Option<(u32, Vec<String>)>,
     reply_timeout: Duration,
 }
 
@@ -126,6 +130,7 @@ impl Session {
         Ok(Self {
             conn: Connection::connect(&c)?,
             scene: None,
+            names: None,
             reply_timeout: opts.reply_timeout,
         })
     }
@@ -147,6 +152,15 @@ impl Session {
     pub fn refresh_scene(&mut self) -> Result<(), ControlError> {
         while let Some(s) = self.conn.recv_scene()? {
             self.scene = Some(SceneInfo::from_header(s.user_header()));
+        }
+        while let Some(n) = self.conn.recv_object_names()? {
+            let names = n.payload().iter().map(ObjectName::text).collect();
+            self.names = Some((n.user_header().scene_generation, names));
+        }
+        if let (Some(scene), Some((generation, names))) = (&mut self.scene, &self.names)
+            && scene.generation == *generation
+        {
+            scene.object_names.clone_from(names);
         }
         Ok(())
     }

@@ -12,6 +12,8 @@ pub const POD_SCHEMA_ENCODING: &str = "splatphys-layout";
 
 /// `/scene`: `SceneHeader` (2144 B) + `[N] SceneGaussian` (228 B each); once per generation.
 pub const SCENE: &str = "/scene";
+/// `/object_names`: `FrameHeader` (48 B) + `[M] ObjectName` (64 B each); once per generation.
+pub const OBJECT_NAMES: &str = "/object_names";
 /// `/frame`: `FrameHeader` (48 B) + `[N] FrameGaussian` (52 B each); every frame.
 pub const FRAME: &str = "/frame";
 /// `/objects`: `FrameHeader` (48 B) + `[M] ObjectState` (64 B each); every frame.
@@ -24,11 +26,16 @@ pub const COMMANDS: &str = "/commands";
 pub const POINTCLOUD: &str = "/pointcloud";
 
 /// (topic, schema name, schema text) of the raw channels.
-pub const RAW_CHANNELS: [(&str, &str, &str); 5] = [
+pub const RAW_CHANNELS: [(&str, &str, &str); 6] = [
     (
         SCENE,
         "splatphys.Scene.v1",
         "SceneHeader{u32 scene_generation,u32 layout_version,u32 gaussian_count,u32 object_count,u32 sh_degree,u32 reserved,f64 frame_dt_s,u8[64] scene_name,u8[64][32] object_names} + SceneGaussian[N]{f32[48] sh,f32 opacity,f32[3] scale_m,f32[4] rotation_wxyz,u32 object_id}",
+    ),
+    (
+        OBJECT_NAMES,
+        "splatphys.ObjectNames.v1",
+        "FrameHeader + ObjectName[M]{u8[64] name} (UTF-8, NUL padded, index = object id)",
     ),
     (
         FRAME,

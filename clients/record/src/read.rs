@@ -8,9 +8,9 @@ use std::path::Path;
 
 use bytemuck::Pod;
 use mcap::read::{MessageStream, Options};
-use splatphys_ipc::wire::{FrameHeader, ObjectState, SceneHeader, read_fixed_str};
+use splatphys_ipc::wire::{FrameHeader, ObjectName, ObjectState, SceneHeader, read_fixed_str};
 
-use crate::channels::{FRAME, OBJECTS, SCENE};
+use crate::channels::{FRAME, OBJECT_NAMES, OBJECTS, SCENE};
 use crate::error::RecordError;
 use crate::objects_csv::ObjectsCsv;
 
@@ -136,10 +136,20 @@ pub fn frame_headers(
         .collect()
 }
 
-/// Object names from the first scene message of a recording (`names[id]`; the scene header
-/// names the first [`MAX_NAMED_OBJECTS`](splatphys_ipc::wire::MAX_NAMED_OBJECTS) objects).
-/// Empty when the recording holds no scene.
+/// Object names of a recording (`names[id]`): every object's from the first `/object_names`
+/// message, or, in a recording without one, the first scene header's (which names the first
+/// [`MAX_NAMED_OBJECTS`](splatphys_ipc::wire::MAX_NAMED_OBJECTS) objects). Empty when the
+/// recording holds neither.
 pub fn object_names(msgs: &[RecordedMessage]) -> Vec<String> {
+    if let Some(m) = msgs.iter().find(|m| m.topic == OBJECT_NAMES)
+        && m.data.len() >= size_of::<FrameHeader>()
+        && (m.data.len() - size_of::<FrameHeader>()).is_multiple_of(size_of::<ObjectName>())
+    {
+        return m.data[size_of::<FrameHeader>()..]
+            .chunks_exact(size_of::<ObjectName>())
+            .map(|c| bytemuck::pod_read_unaligned::<ObjectName>(c).text())
+            .collect();
+    }
     let Some(m) = msgs.iter().find(|m| m.topic == SCENE) else {
         return Vec::new();
     };
@@ -177,4 +187,50 @@ pub fn objects_csv(
     let rows = csv.rows();
     csv.finish().map_err(io)?;
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use splatphys_ipc::wire::{MAX_NAMED_OBJECTS, write_fixed_str};
+
+    use super::*;
+
+    fn message(topic: &str, data: Vec<u8>) -> RecordedMessage {
+        RecordedMessage {
+            topic: topic.into(),
+            sequence: 0,
+            log_time_ns: 0,
+            publish_time_ns: 0,
+            data,
+        }
+    }
+
+    #[test]
+    fn names_come_from_object_names_for_every_object_else_from_the_scene_header() {
+        let objects = MAX_NAMED_OBJECTS + 6;
+        let mut header = SceneHeader {
+            object_count: objects as u32,
+            ..SceneHeader::default()
+        };
+        for (i, n) in header.object_names.iter_mut().enumerate() {
+            write_fixed_str(n, &format!("obj{i}"));
+        }
+        let scene = message(SCENE, bytemuck::bytes_of(&header).to_vec());
+        // Without `/object_names` (an older recording): the header's first 64.
+        let from_header = object_names(std::slice::from_ref(&scene));
+        assert_eq!(from_header.len(), MAX_NAMED_OBJECTS);
+        assert_eq!(from_header[63], "obj63");
+        // With it: every object.
+        let mut data = bytemuck::bytes_of(&FrameHeader {
+            count: objects as u32,
+            ..FrameHeader::default()
+        })
+        .to_vec();
+        for i in 0..objects {
+            data.extend_from_slice(bytemuck::bytes_of(&ObjectName::new(&format!("obj{i}"))));
+        }
+        let all = object_names(&[scene, message(OBJECT_NAMES, data)]);
+        assert_eq!(all.len(), objects);
+        assert_eq!(all[objects - 1], format!("obj{}", objects - 1));
+    }
 }

@@ -71,6 +71,10 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
             w.scene(s.user_header(), s.payload())?;
             busy = true;
         }
+        while let Some(n) = conn.recv_object_names()? {
+            w.object_names(n.user_header(), n.payload())?;
+            busy = true;
+        }
         while let Some(c) = conn.recv_command_log()? {
             w.command(&c)?;
             busy = true;

@@ -22,15 +22,15 @@ use splatphys_ipc::heartbeat::Heartbeat;
 use splatphys_ipc::server::{frame_publisher, objects_publisher};
 use splatphys_ipc::services::{
     FrameService, ObjectsService, Role, ServiceNames, command_log_service, command_service,
-    create_node, frame_service, frame_subscribers, objects_service, objects_subscribers,
-    scene_service,
+    create_node, frame_service, frame_subscribers, object_names_service, objects_service,
+    objects_subscribers, scene_service,
 };
 use splatphys_ipc::wire::{
-    FrameGaussian, FrameHeader, ObjectState, STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader,
-    Status,
+    FrameGaussian, FrameHeader, ObjectName, ObjectState, STATUS_SHUTTING_DOWN, SceneGaussian,
+    SceneHeader, Status,
 };
 
-use crate::channels::{FRAME, OBJECTS, SCENE};
+use crate::channels::{FRAME, OBJECT_NAMES, OBJECTS, SCENE};
 use crate::error::RecordError;
 use crate::read::{messages, read_file, split};
 
@@ -118,6 +118,7 @@ pub fn replay(
     let node = create_node("splatphys-replay")?;
     let _ = node.try_cleanup_dead_nodes();
     let scene_s = scene_service(&node, &names, Role::Owner)?;
+    let names_s = object_names_service(&node, &names, Role::Owner)?;
     let frame_s = frame_service(&node, &names, Role::Owner)?;
     let objects_s = objects_service(&node, &names, Role::Owner)?;
     let _command_s = command_service(&node, &names, Role::Owner)?;
@@ -130,6 +131,11 @@ pub fn replay(
         counts: (usize::MAX, usize::MAX),
     };
     let scene_pub = scene_s
+        .publisher_builder()
+        .allocation_strategy(AllocationStrategy::PowerOfTwo)
+        .create()
+        .map_err(|e| iox("create publisher", e))?;
+    let names_pub = names_s
         .publisher_builder()
         .allocation_strategy(AllocationStrategy::PowerOfTwo)
         .create()
@@ -169,7 +175,19 @@ pub fn replay(
         scene_pub
             .update_connections()
             .map_err(|e| iox("update", e))?;
+        names_pub
+            .update_connections()
+            .map_err(|e| iox("update", e))?;
         match m.topic.as_str() {
+            OBJECT_NAMES => {
+                let (h, p): (FrameHeader, Vec<ObjectName>) = split(m, path, "object names")?;
+                let s = names_pub
+                    .loan_slice_uninit(p.len())
+                    .map_err(|e| iox("loan", e))?;
+                let mut s = s.write_from_slice(&p);
+                *s.user_header_mut() = h;
+                s.send().map_err(|e| iox("send", e))?;
+            }
             SCENE => {
                 let (h, p): (SceneHeader, Vec<SceneGaussian>) = split(m, path, "scene")?;
                 let s = scene_pub

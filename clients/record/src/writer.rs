@@ -11,12 +11,13 @@ use std::path::Path;
 use bytemuck::{Pod, bytes_of, cast_slice};
 use mcap::{Compression, WriteOptions, Writer, records::MessageHeader};
 use splatphys_ipc::wire::{
-    CommandLogEntry, FrameGaussian, FrameHeader, ObjectState, SceneGaussian, SceneHeader, Status,
+    CommandLogEntry, FrameGaussian, FrameHeader, ObjectName, ObjectState, SceneGaussian,
+    SceneHeader, Status,
 };
 
 use crate::channels::{
-    COMMANDS, FRAME, OBJECTS, POD_ENCODING, POD_SCHEMA_ENCODING, POINTCLOUD, POINTCLOUD_SCHEMA,
-    RAW_CHANNELS, SCENE, STATUS,
+    COMMANDS, FRAME, OBJECT_NAMES, OBJECTS, POD_ENCODING, POD_SCHEMA_ENCODING, POINTCLOUD,
+    POINTCLOUD_SCHEMA, RAW_CHANNELS, SCENE, STATUS,
 };
 use crate::error::RecordError;
 use crate::pointcloud::{colours, pointcloud_json};
@@ -69,6 +70,8 @@ pub struct WriteCounts {
     pub commands: u64,
     /// `/pointcloud` messages.
     pub pointclouds: u64,
+    /// `/object_names` messages.
+    pub object_names: u64,
 }
 
 /// An MCAP file being written.
@@ -234,6 +237,20 @@ impl RunWriter {
     ) -> Result<(), RecordError> {
         self.write(OBJECTS, header.time_s, &concat(header, payload))?;
         self.counts.objects += 1;
+        Ok(())
+    }
+
+    /// Writes every object's name (once per generation).
+    ///
+    /// # Errors
+    /// MCAP errors.
+    pub fn object_names(
+        &mut self,
+        header: &FrameHeader,
+        payload: &[ObjectName],
+    ) -> Result<(), RecordError> {
+        self.write(OBJECT_NAMES, 0.0, &concat(header, payload))?;
+        self.counts.object_names += 1;
         Ok(())
     }
 

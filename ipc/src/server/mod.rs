@@ -26,19 +26,21 @@ use crate::command::{Command, RejectCode, Reply};
 use crate::error::IpcError;
 use crate::heartbeat::Heartbeat;
 use crate::services::{
-    CommandLogService, CommandService, Iox, Role, SceneService, ServiceNames, command_log_service,
-    command_service, create_node, frame_service, objects_service, scene_service,
+    CommandLogService, CommandService, Iox, ObjectNamesService, Role, SceneService, ServiceNames,
+    command_log_service, command_service, create_node, frame_service, object_names_service,
+    objects_service, scene_service,
 };
 use crate::simulation::Simulation;
 use crate::validate::{Limits, validate};
 use crate::wire::{
-    CommandLogEntry, CommandMsg, ReplyMsg, STATUS_FINISHED, STATUS_LOSSLESS_LAGGING, STATUS_PAUSED,
-    STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status,
+    CommandLogEntry, CommandMsg, FrameHeader, ObjectName, ReplyMsg, STATUS_FINISHED,
+    STATUS_LOSSLESS_LAGGING, STATUS_PAUSED, STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader,
+    Status,
 };
 
 mod ports;
 
-use ports::{Ports, clean_dead_nodes, publish_frame, publish_scene};
+use ports::{Ports, clean_dead_nodes, publish_frame, publish_object_names, publish_scene};
 pub use ports::{frame_publisher, objects_publisher};
 
 /// How the server runs.
@@ -188,9 +190,11 @@ pub struct Server<'a, S: Simulation> {
     node: Node<Iox>,
     names: ServiceNames,
     _scene_service: SceneService,
+    _object_names_service: ObjectNamesService,
     _command_service: CommandService,
     _command_log_service: CommandLogService,
     scene_pub: Publisher<Iox, [SceneGaussian], SceneHeader>,
+    object_names_pub: Publisher<Iox, [ObjectName], FrameHeader>,
     command_log_pub: Publisher<Iox, CommandLogEntry, ()>,
     command_server: CommandServer<Iox, CommandMsg, (), ReplyMsg, ()>,
     heartbeat: Heartbeat,
@@ -226,6 +230,8 @@ impl<'a, S: Simulation> Server<'a, S> {
         clean_dead_nodes(&node);
 
         let scene_service = owned(scene_service(&node, &names, Role::Owner), &prefix)?;
+        let object_names_service =
+            owned(object_names_service(&node, &names, Role::Owner), &prefix)?;
         let frame_service = owned(frame_service(&node, &names, Role::Owner), &prefix)?;
         let objects_service = owned(objects_service(&node, &names, Role::Owner), &prefix)?;
         let command_service = owned(command_service(&node, &names, Role::Owner), &prefix)?;
@@ -237,6 +243,12 @@ impl<'a, S: Simulation> Server<'a, S> {
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .create()
             .map_err(|e| IpcError::iox("create publisher", &names.name("scene"), e))?;
+        let object_names_pub = object_names_service
+            .publisher_builder()
+            .initial_max_slice_len(sim.object_count().max(1))
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(|e| IpcError::iox("create publisher", &names.name("object_names"), e))?;
         let frame_book = LagBook::new(cfg.lossless_limit);
         let objects_book = LagBook::new(cfg.lossless_limit);
         let frame_pub = frame_publisher(&frame_service, &names, sim.gaussian_count(), &frame_book)?;
@@ -279,6 +291,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             publish_wall_s: 0.0,
         };
         publish_scene(sim, &scene_pub)?;
+        publish_object_names(sim, &object_names_pub)?;
         ports.refresh_subscribers(true);
         publish_frame(sim, &ports, 0)?;
         let now = Instant::now();
@@ -300,9 +313,11 @@ impl<'a, S: Simulation> Server<'a, S> {
             node,
             names,
             _scene_service: scene_service,
+            _object_names_service: object_names_service,
             _command_service: command_service,
             _command_log_service: command_log_service,
             scene_pub,
+            object_names_pub,
             command_log_pub,
             command_server,
             heartbeat,
@@ -323,11 +338,15 @@ impl<'a, S: Simulation> Server<'a, S> {
             .then_some(StopReason::StopFlag)
     }
 
-    /// Late subscribers get the scene from history when the publisher updates connections.
+    /// Late subscribers get the scene and the object names from history when the publishers
+    /// update connections.
     fn update_connections(&self) -> Result<(), IpcError> {
         self.scene_pub
             .update_connections()
-            .map_err(|e| IpcError::iox("update connections", &self.names.name("scene"), e))
+            .map_err(|e| IpcError::iox("update connections", &self.names.name("scene"), e))?;
+        self.object_names_pub
+            .update_connections()
+            .map_err(|e| IpcError::iox("update connections", &self.names.name("object_names"), e))
     }
 
     /// Drains and answers every pending command; logs each with its reply. Returns
@@ -418,6 +437,7 @@ impl<'a, S: Simulation> Server<'a, S> {
         }
         self.state.generation = self.sim.scene_generation();
         publish_scene(self.sim, &self.scene_pub)?;
+        publish_object_names(self.sim, &self.object_names_pub)?;
         self.publish()?;
         self.state.pace_origin = (Instant::now(), self.sim.time_s());
         Ok(())

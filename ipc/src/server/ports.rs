@@ -14,8 +14,8 @@ use crate::services::{
 };
 use crate::simulation::Simulation;
 use crate::wire::{
-    FrameGaussian, FrameHeader, LAYOUT_VERSION, MAX_NAMED_OBJECTS, ObjectState, SceneGaussian,
-    SceneHeader, write_fixed_str,
+    FrameGaussian, FrameHeader, LAYOUT_VERSION, MAX_NAMED_OBJECTS, ObjectName, ObjectState,
+    SceneGaussian, SceneHeader, write_fixed_str,
 };
 
 pub(super) struct Ports {
@@ -82,6 +82,37 @@ pub(super) fn publish_scene<S: Simulation>(
     sample
         .send()
         .map_err(|e| IpcError::iox("send scene", "scene", e))?;
+    Ok(())
+}
+
+/// Publishes every object's name (with the scene, once per generation).
+pub(super) fn publish_object_names<S: Simulation>(
+    sim: &S,
+    publisher: &Publisher<Iox, [ObjectName], FrameHeader>,
+) -> Result<(), IpcError> {
+    let m = sim.object_count();
+    let sample = publisher
+        .loan_slice_uninit(m)
+        .map_err(|e| IpcError::iox("loan object names", "object_names", e))?;
+    // SAFETY: as in `publish_scene`: shared memory is always initialised and `ObjectName` is
+    // Pod; every element is overwritten below.
+    let mut sample = unsafe { sample.assume_init() };
+    *sample.user_header_mut() = FrameHeader {
+        step: sim.step(),
+        time_s: sim.time_s(),
+        substeps: sim.substeps(),
+        frame_index: 0,
+        count: m as u32,
+        scene_generation: sim.scene_generation(),
+        layout_version: LAYOUT_VERSION,
+        reserved: 0,
+    };
+    for (id, n) in sample.payload_mut().iter_mut().enumerate() {
+        *n = ObjectName::new(sim.object_name(id as u32).unwrap_or(""));
+    }
+    sample
+        .send()
+        .map_err(|e| IpcError::iox("send object names", "object_names", e))?;
     Ok(())
 }
 
