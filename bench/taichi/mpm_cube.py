@@ -3,7 +3,7 @@
 users write it (the mpm88/mpm99/mpm3d examples: a dense grid of (1/dx)^3 nodes cleared every
 substep, atomic scatter, `ti.svd` for the polar decomposition), on the CPU backend.
 
-Problem (issue #2): an elastic cube of n^3 particles (side 0.3 m, corner (0.35, 0.35, 0.3) m) at
+Problem (the standard Taichi MLS-MPM CPU benchmark): an elastic cube of n^3 particles (side 0.3 m, corner (0.35, 0.35, 0.3) m) at
 1 m/s towards the floor (-z) of a 1 m cube domain, dx = 1/grid m, E = 1e5 Pa, nu = 0.3,
 1000 kg/m^3, fixed dt = 1e-4 s, gravity 9.8 m/s^2 (-z); `--warmup` substeps (kernel compilation
 happens there) then `--steps` timed substeps, `ti.sync()` before the clock stops.

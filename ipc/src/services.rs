@@ -196,6 +196,22 @@ macro_rules! open_by_role {
     };
 }
 
+/// The settings of the services published once per scene generation (`scene`,
+/// `object_names`): the last sample kept (history 1, overflow) so a late client gets it on
+/// connect.
+macro_rules! once_per_generation {
+    ($builder:expr) => {
+        $builder
+            .enable_safe_overflow(true)
+            .history_size(1)
+            .subscriber_max_buffer_size(1)
+            .subscriber_max_borrowed_samples(1)
+            .max_subscribers(MAX_SUBSCRIBERS)
+            .max_publishers(1)
+            .max_nodes(MAX_NODES)
+    };
+}
+
 /// The `scene` service: static Gaussian data, once per generation, history 1 so late clients
 /// get it on connect.
 pub fn scene_service(
@@ -206,14 +222,8 @@ pub fn scene_service(
     let b = node
         .service_builder(&names.service_name("scene")?)
         .publish_subscribe::<[SceneGaussian]>()
-        .user_header::<SceneHeader>()
-        .enable_safe_overflow(true)
-        .history_size(1)
-        .subscriber_max_buffer_size(1)
-        .subscriber_max_borrowed_samples(1)
-        .max_subscribers(MAX_SUBSCRIBERS)
-        .max_publishers(1)
-        .max_nodes(MAX_NODES);
+        .user_header::<SceneHeader>();
+    let b = once_per_generation!(b);
     open_by_role!(b, role, names.name("scene"))
 }
 
@@ -227,14 +237,8 @@ pub fn object_names_service(
     let b = node
         .service_builder(&names.service_name("object_names")?)
         .publish_subscribe::<[ObjectName]>()
-        .user_header::<FrameHeader>()
-        .enable_safe_overflow(true)
-        .history_size(1)
-        .subscriber_max_buffer_size(1)
-        .subscriber_max_borrowed_samples(1)
-        .max_subscribers(MAX_SUBSCRIBERS)
-        .max_publishers(1)
-        .max_nodes(MAX_NODES);
+        .user_header::<FrameHeader>();
+    let b = once_per_generation!(b);
     open_by_role!(b, role, names.name("object_names"))
 }
 

@@ -85,6 +85,21 @@ pub(super) fn publish_scene<S: Simulation>(
     Ok(())
 }
 
+/// The header of a `frame`, `objects` or `object_names` sample of `count` elements, stamped with
+/// the simulation's current step, time and generation.
+fn frame_header<S: Simulation>(sim: &S, frame_index: u64, count: usize) -> FrameHeader {
+    FrameHeader {
+        step: sim.step(),
+        time_s: sim.time_s(),
+        substeps: sim.substeps(),
+        frame_index,
+        count: count as u32,
+        scene_generation: sim.scene_generation(),
+        layout_version: LAYOUT_VERSION,
+        reserved: 0,
+    }
+}
+
 /// Publishes every object's name (with the scene, once per generation).
 pub(super) fn publish_object_names<S: Simulation>(
     sim: &S,
@@ -97,16 +112,7 @@ pub(super) fn publish_object_names<S: Simulation>(
     // SAFETY: as in `publish_scene`: shared memory is always initialised and `ObjectName` is
     // Pod; every element is overwritten below.
     let mut sample = unsafe { sample.assume_init() };
-    *sample.user_header_mut() = FrameHeader {
-        step: sim.step(),
-        time_s: sim.time_s(),
-        substeps: sim.substeps(),
-        frame_index: 0,
-        count: m as u32,
-        scene_generation: sim.scene_generation(),
-        layout_version: LAYOUT_VERSION,
-        reserved: 0,
-    };
+    *sample.user_header_mut() = frame_header(sim, 0, m);
     for (id, n) in sample.payload_mut().iter_mut().enumerate() {
         *n = ObjectName::new(sim.object_name(id as u32).unwrap_or(""));
     }
@@ -121,16 +127,7 @@ pub(super) fn publish_frame<S: Simulation>(
     ports: &Ports,
     frame_index: u64,
 ) -> Result<(), IpcError> {
-    let header = |count: usize| FrameHeader {
-        step: sim.step(),
-        time_s: sim.time_s(),
-        substeps: sim.substeps(),
-        frame_index,
-        count: count as u32,
-        scene_generation: sim.scene_generation(),
-        layout_version: LAYOUT_VERSION,
-        reserved: 0,
-    };
+    let header = |count: usize| frame_header(sim, frame_index, count);
     let n = sim.gaussian_count();
     let sample = ports
         .frame_pub
