@@ -6,7 +6,12 @@
 //! material, say) with a shared legend. Text is laid out with plotters' `ab_glyph` backend from a TrueType file found at
 //! run time ([`FONT_ENV`] first, then [`FONT_PATHS`]); nothing links fontconfig. Without a font
 //! the SVG is still written (series, grid and legend colours, but no text: the numbers are in the
-//! CSV) and the PNG is skipped with a message naming the package to install.
+//! CSV) and the PNG is skipped with a message naming the package to install. [`bar_chart`]
+//! ([`bars`]) draws grouped bars, panels side by side.
+
+pub mod bars;
+
+pub use bars::{BarPanel, bar_chart};
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};

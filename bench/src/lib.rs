@@ -5,11 +5,13 @@
 //! against Taichi in the same run; `bench ipc` ([`crate::ipc`]) measures the shared-memory frame path against a Unix
 //! socket and the server under a command flood; `bench compare` ([`crate::compare`]) the
 //! COM method against its baselines; `bench stability` ([`crate::stability`]) maps which
-//! E, nu, impact speed and time step each method and material survives. Charts go through
-//! [`crate::chart`].
+//! E, nu, impact speed and time step each method and material survives; `bench contact`
+//! ([`crate::contact`]) rigid stacking and piling against rapier3d in the same process. Charts
+//! go through [`crate::chart`].
 
 pub mod chart;
 pub mod compare;
+pub mod contact;
 pub mod flood;
 pub mod ipc;
 pub mod mpm;
@@ -67,6 +69,13 @@ pub enum BenchCommand {
         after_help = "Examples:\n  splatphys bench realtime\n  splatphys bench realtime --scenes scenes/donut_snow_push.toml --duration-s 0.6 --dx-m 0.005,0.01,0.02 --out-dir out/rt"
     )]
     Realtime(crate::realtime::RealtimeBenchArgs),
+    /// Rigid-body contact against rapier3d in the same process: a stack of 10 boxes, a pyramid
+    /// of 15 and a pile of 100 boxes and balls in an open box; COM drift, overlap, kinetic
+    /// energy and time per step (table, chart and CSV in --out-dir).
+    #[command(
+        after_help = "Examples:\n  splatphys bench contact\n  splatphys bench contact --duration-s 1 --pile-duration-s 1 --out-dir out/contact\n  splatphys bench contact --scenes stack --rapier-dt-s 0.0166667"
+    )]
+    Contact(crate::contact::ContactBenchArgs),
     /// A child process of `bench ipc` (subscriber, socket reader or command flood).
     #[command(hide = true)]
     IpcPeer(crate::peer::PeerArgs),
@@ -90,6 +99,7 @@ pub fn run(cmd: &BenchCommand, world: WorldSimFactory) -> Result<()> {
         BenchCommand::Stability(a) => crate::stability::run(a),
         BenchCommand::Subsets(a) => crate::subsets::run(a),
         BenchCommand::Realtime(a) => crate::realtime::run(a),
+        BenchCommand::Contact(a) => crate::contact::run(a),
         BenchCommand::IpcPeer(a) => crate::peer::run(a),
     }
 }

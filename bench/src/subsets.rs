@@ -168,7 +168,7 @@ pub(crate) fn run_scene(scene: &Scene, pb: &ProgressBar) -> Result<Trace> {
 
 /// CPU time of this process so far, user + system over all threads (s); `None` off Linux.
 /// /proc reports clock ticks, 100 per second on every Linux this runs on (`getconf CLK_TCK`).
-fn process_cpu_s() -> Option<f64> {
+pub(crate) fn process_cpu_s() -> Option<f64> {
     let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
     // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
     let rest = &stat[stat.rfind(')')? + 2..];

@@ -1,6 +1,9 @@
-//! Rigid objects skip MPM: semi-implicit Euler on the COM, orientation integrated from ω
-//! (q ← normalise(q + dt/2 · ω q)), and contacts with the grid colliders resolved with the same
-//! impulse law as object contacts (the collider is immovable) plus a positional push-out along
+//! Rigid objects skip MPM: semi-implicit Euler on the COM; rotation keeps the angular momentum
+//! L = I(R) ω rather than ω, so between impulses ω = I(R)⁻¹ L follows the orientation and an
+//! asymmetric body precesses and tumbles (the intermediate-axis instability). The orientation
+//! advances by the exponential map at the midpoint angular velocity (R_½ = exp(ω dt/2) R,
+//! ω_½ = I(R_½)⁻¹ L, R' = exp(ω_½ dt) R): second order, |L| exact. Contacts with the grid
+//! colliders are resolved with the same impulse law as object contacts (the collider is immovable) plus a positional push-out along
 //! the contact normal. Sticky surfaces stop all tangential sliding; slip and separate ones use
 //! Coulomb friction with the larger of the surface's and the object's coefficient.
 //!
@@ -32,10 +35,18 @@ pub fn step(
     let rs = &mut body.rigid;
     rs.velocity_m_s += gravity * dt_s;
     rs.com_m += rs.velocity_m_s * dt_s;
-    let w = rs.omega_rad_s;
+    // Free rotation keeps L = I(R) ω, not ω (module docs).
+    let i0 = rs.inertia_rest;
     let q = rs.orientation.as_dquat();
-    let dq = DQuat::from_xyzw(w.x, w.y, w.z, 0.0) * q * (0.5 * dt_s);
-    rs.orientation = (q + dq).normalize().as_quat();
+    let l = world_inertia(q, i0) * rs.omega_rad_s;
+    let omega_at = |q: DQuat| inverse_or_zero(world_inertia(q, i0)) * l;
+    let half = (DQuat::from_scaled_axis(rs.omega_rad_s * (0.5 * dt_s)) * q).normalize();
+    let q1 = (DQuat::from_scaled_axis(omega_at(half) * dt_s) * q).normalize();
+    rs.orientation = q1.as_quat();
+    // A degenerate inertia (a line of particles) has no inverse: ω stays.
+    if inverse_or_zero(i0) != DMat3::ZERO {
+        rs.omega_rad_s = omega_at(q1);
+    }
     body.sync_rigid_particles();
     let mut touched = 0;
     let resting = 2.0 * gravity.length() * dt_s;
@@ -88,6 +99,12 @@ pub fn step(
         body.sync_rigid_particles();
     }
     touched
+}
+
+/// The world inertia R I0 Rᵀ of rest inertia `i0` at orientation `q`.
+fn world_inertia(q: DQuat, i0: DMat3) -> DMat3 {
+    let r = DMat3::from_quat(q);
+    r * i0 * r.transpose()
 }
 
 /// One contact point of a manifold with its accumulated impulses (N·s).
