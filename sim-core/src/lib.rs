@@ -6,6 +6,7 @@
 //! layer, stage 2) -> [`kinematics`] (particle state back to Gaussians).
 
 pub mod collider;
+pub mod contact;
 pub mod fill;
 pub mod formats;
 pub mod gaussians;

@@ -1,6 +1,6 @@
 //! The splatphys side of `bench contact`: a [`ContactScene`] through the scene builder into a
-//! [`World`] (objects in contact never sleep there, so nothing resting on another has its
-//! velocity zeroed), stepped frame by frame with the substeps the world picks (CFL).
+//! [`World`] (sleeping off: `[simulation] sleep = false`, so nothing at rest has its velocity
+//! zeroed), stepped frame by frame with the substeps the world picks (CFL).
 
 use std::time::Instant;
 

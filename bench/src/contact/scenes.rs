@@ -159,7 +159,8 @@ impl ContactScene {
 
     /// The splatphys scene: every body a rigid procedural object of the given density on a
     /// lattice of spacing dx, the ground and the walls as slip colliders with the same friction,
-    /// simulated for `duration_s` with the COM method, gravity (0, 0, −9.81) m/s². Frames are
+    /// simulated for `duration_s` with the COM method, gravity (0, 0, −9.81) m/s², sleeping
+    /// off. Frames are
     /// one largest substep long ([`MAX_DT_S`]), so frame boundaries never shorten a substep
     /// while the bodies are slow.
     ///
@@ -173,8 +174,8 @@ impl ContactScene {
             .frame_rate_hz(1.0 / f64::from(MAX_DT_S))
             .grid_dx_m(s.dx_m)
             .seed(s.seed)
-            // Objects in contact never sleep, so resting comes from contact, not from zeroed
-            // velocities.
+            // Resting must come from contact, not from zeroed velocities.
+            .sleep(false)
             .collider(
                 ColliderSpec::ground("ground")
                     .surface(Surface::Slip)
@@ -384,6 +385,7 @@ mod tests {
             let scene = c.to_scene(&settings, 0.1).expect("builds");
             assert_eq!(scene.objects.len(), c.bodies.len());
             assert!(scene.objects.iter().all(|o| o.kind == ObjectKind::Rigid));
+            assert!(!scene.simulation.sleep, "sleeping must not hold a stack up");
             assert_eq!(scene.colliders.len(), 1 + c.walls.len());
         }
     }

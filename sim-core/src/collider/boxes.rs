@@ -42,6 +42,29 @@ impl BoxShape {
         Some(n)
     }
 
+    /// Signed distance (m, negative inside) of `x` from the box surface and the outward normal
+    /// of the nearest face, edge or corner.
+    pub fn signed_distance(&self, x: Vec3A) -> (f32, Vec3A) {
+        let c = (self.min_m + self.max_m) * 0.5;
+        let d = x - c;
+        let q = d.abs() - (self.max_m - self.min_m) * 0.5;
+        let outside = q.max(Vec3A::ZERO);
+        let len = outside.length();
+        if len > 0.0 {
+            return (len, outside * d.signum() / len);
+        }
+        let axis = if q.x >= q.y && q.x >= q.z {
+            0
+        } else if q.y >= q.z {
+            1
+        } else {
+            2
+        };
+        let mut n = Vec3A::ZERO;
+        n[axis] = if d[axis] >= 0.0 { 1.0 } else { -1.0 };
+        (q[axis], n)
+    }
+
     /// Inward normal (pointing back into the box) if `x` is outside the box: the domain bound.
     #[inline]
     pub fn outside_normal(&self, x: Vec3A) -> Option<Vec3A> {

@@ -114,6 +114,24 @@ impl Collider {
         }
     }
 
+    /// Signed distance (m, negative inside the solid) of point `x` at time `t_s` and the
+    /// outward normal of the nearest surface; `None` while inactive. A domain bound's solid is
+    /// everything outside its box.
+    pub fn signed_distance(&self, x: Vec3A, t_s: f64) -> Option<(f32, Vec3A)> {
+        if !self.is_active(t_s) {
+            return None;
+        }
+        let x = x - self.offset(t_s);
+        Some(match &self.shape {
+            Shape::Plane(p) => (p.signed_distance(x), p.normal),
+            Shape::Box(b) => b.signed_distance(x),
+            Shape::DomainBound(b) => {
+                let (d, n) = b.signed_distance(x);
+                (-d, -n)
+            }
+        })
+    }
+
     /// Applies the boundary condition to grid velocity `v` (m/s) at node position `x` (m).
     #[inline]
     pub fn apply(&self, x: Vec3A, v: Vec3A, t_s: f64) -> Vec3A {

@@ -141,6 +141,11 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
             "must be > 0",
         )?;
     }
+    ctx.check(
+        (0.0..=1.0).contains(&s.background_min_opacity),
+        "simulation.background_min_opacity",
+        "must be in [0, 1]",
+    )?;
     Ok(SimulationSettings {
         method: s.method,
         duration_s: s.duration_s,
@@ -153,6 +158,9 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
         domain_m: s.domain_m,
         seed: s.seed,
         physics_spacing_m: s.physics_spacing_m,
+        sleep: s.sleep,
+        background_collision: s.background_collision,
+        background_min_opacity: s.background_min_opacity,
     })
 }
 
@@ -531,6 +539,7 @@ fn object(
         gaussians,
         visible,
         physics_spacing_m,
+        shape: o.shape,
     })
 }
 

@@ -150,6 +150,18 @@ impl SceneBuilder {
         self
     }
 
+    /// Whether still objects sleep. Default true.
+    pub fn sleep(mut self, sleep: bool) -> Self {
+        self.file.simulation.sleep = sleep;
+        self
+    }
+
+    /// Whether the captured background collides. Default true.
+    pub fn background_collision(mut self, collide: bool) -> Self {
+        self.file.simulation.background_collision = collide;
+        self
+    }
+
     /// Adds an object (after the ones already added: it is `object[i]` in errors).
     pub fn object(mut self, object: ObjectBuilder) -> Self {
         self.file.object.push(object.toml);

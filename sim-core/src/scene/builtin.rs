@@ -12,10 +12,13 @@ impl Scene {
         let spacing = 0.01;
         let mk = |shape: Shape, color: [f32; 3], seed: u64| {
             // Fixed, valid parameters: filling cannot fail.
-            shape_gaussians(&shape, spacing, color, seed).unwrap_or_default()
+            (
+                shape_gaussians(&shape, spacing, color, seed).unwrap_or_default(),
+                Some(shape),
+            )
         };
         let n_of = |c: &crate::gaussians::GaussianCloud| vec![true; c.len()];
-        let table = mk(
+        let (table, table_shape) = mk(
             Shape::Box {
                 min_m: [-0.25, -0.25, 0.0],
                 max_m: [0.25, 0.25, 0.06],
@@ -23,7 +26,7 @@ impl Scene {
             [0.55, 0.38, 0.22],
             1,
         );
-        let jelly = mk(
+        let (jelly, jelly_shape) = mk(
             Shape::Sphere {
                 center_m: [0.0, 0.0, 0.35],
                 radius_m: 0.06,
@@ -31,7 +34,7 @@ impl Scene {
             [0.9, 0.2, 0.3],
             2,
         );
-        let snow = mk(
+        let (snow, snow_shape) = mk(
             Shape::Box {
                 min_m: [0.1, -0.15, 0.06],
                 max_m: [0.2, -0.05, 0.16],
@@ -50,6 +53,7 @@ impl Scene {
                 visible: n_of(&table),
                 gaussians: table,
                 physics_spacing_m: None,
+                shape: table_shape,
             },
             SceneObject {
                 name: "jelly".into(),
@@ -61,6 +65,7 @@ impl Scene {
                 visible: n_of(&jelly),
                 gaussians: jelly,
                 physics_spacing_m: None,
+                shape: jelly_shape,
             },
             SceneObject {
                 name: "snow".into(),
@@ -72,6 +77,7 @@ impl Scene {
                 visible: n_of(&snow),
                 gaussians: snow,
                 physics_spacing_m: None,
+                shape: snow_shape,
             },
         ];
         Scene {
@@ -87,6 +93,9 @@ impl Scene {
                 domain_m: Some([[-0.5, -0.5, -0.02], [0.5, 0.5, 0.8]]),
                 seed: 0,
                 physics_spacing_m: None,
+                sleep: true,
+                background_collision: true,
+                background_min_opacity: 0.5,
             },
             objects,
             background: Default::default(),

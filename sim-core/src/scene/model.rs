@@ -99,6 +99,13 @@ pub struct SimulationSettings {
     /// Default physics-particle spacing of deformable and rigid objects, m (see
     /// [`SceneObject::physics_spacing_m`]). Default `None`.
     pub physics_spacing_m: Option<f32>,
+    /// Objects that stay still put to sleep (skip all work until touched). Default true.
+    pub sleep: bool,
+    /// The captured background (Gaussians no object selects) is a static collision surface.
+    /// Default true.
+    pub background_collision: bool,
+    /// Opacity a background Gaussian needs to count as solid, in [0, 1]. Default 0.5.
+    pub background_min_opacity: f32,
 }
 
 /// One simulated (or static) object.
@@ -124,6 +131,10 @@ pub struct SceneObject {
     /// of side h and carries its Gaussians along (`crate::world::carry`). `None` (the default,
     /// and always for static objects): every Gaussian is a particle.
     pub physics_spacing_m: Option<f32>,
+    /// The procedural shape the object fills, when it is one: contact then uses its exact
+    /// surface. `None` for objects selected from a capture (their surface is sampled from
+    /// their particles, `crate::contact::LevelSet`).
+    pub shape: Option<crate::procedural::Shape>,
 }
 
 /// Collider geometry.

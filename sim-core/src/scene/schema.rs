@@ -84,6 +84,23 @@ pub struct SimulationToml {
     pub seed: u64,
     /// Default physics-particle spacing of deformable and rigid objects, m.
     pub physics_spacing_m: Option<f32>,
+    /// Let still objects sleep.
+    #[serde(default = "default_true")]
+    pub sleep: bool,
+    /// The captured background collides.
+    #[serde(default = "default_true")]
+    pub background_collision: bool,
+    /// Opacity a background Gaussian needs to be solid.
+    #[serde(default = "default_background_opacity")]
+    pub background_min_opacity: f32,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+fn default_background_opacity() -> f32 {
+    0.5
 }
 
 impl Default for SimulationToml {
@@ -100,6 +117,9 @@ impl Default for SimulationToml {
             domain_m: None,
             seed: 0,
             physics_spacing_m: None,
+            sleep: true,
+            background_collision: true,
+            background_min_opacity: default_background_opacity(),
         }
     }
 }

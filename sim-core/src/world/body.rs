@@ -9,8 +9,10 @@
 use glam::{DMat3, DVec3, Mat3A, Quat, Vec3A};
 
 use super::WorldError;
+use crate::contact::{Collision, Geometry, LevelSet};
 use crate::material::{ConstitutiveModel, Material};
 use crate::mpm::{MpmSolver, Particles};
+use crate::procedural::Shape;
 use crate::scene::{ObjectKind, SceneObject};
 
 /// Object-level state, measured from the particles in f64 in index order.
@@ -209,7 +211,14 @@ pub struct Body {
     pub max_speed_m_s: f32,
     /// Contact impulses received, summed over the run (N s).
     pub impulse_total_n_s: f64,
+    /// Collision surface of a rigid or static object (`None` for a deformable one).
+    pub collision: Option<Collision>,
+    /// The contact solver's push-out pseudo-velocities (m/s, rad/s) for this substep.
+    pub push: (DVec3, DVec3),
 }
+
+/// Most cells of an object's sampled surface before its cell size grows.
+pub const MAX_SURFACE_CELLS: usize = 8_000_000;
 
 impl Body {
     /// Builds the body of scene object `object`, number `index` in the scene (the particles'
@@ -276,8 +285,13 @@ impl Body {
             contacts: 0,
             max_speed_m_s: v0.length(),
             impulse_total_n_s: 0.0,
+            collision: None,
+            push: (DVec3::ZERO, DVec3::ZERO),
         };
         body.capture_rigid_pose();
+        if o.kind != ObjectKind::Deformable {
+            body.build_collision(o.shape);
+        }
         if o.kind == ObjectKind::Static {
             body.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
             body.max_speed_m_s = 0.0;
@@ -359,6 +373,34 @@ impl Body {
             p.f[i] = r;
             p.c[i] = skew;
         }
+    }
+
+    /// Builds the collision surface in the current rest frame (call after
+    /// [`Self::capture_rigid_pose`]): `shape`'s exact surface, or a level set of the particles
+    /// with cells of the grid's size.
+    pub fn build_collision(&mut self, shape: Option<Shape>) {
+        let dx = self.solver.dx_m;
+        let geometry = match shape {
+            Some(s) => Geometry::Analytic(s),
+            None => match LevelSet::from_points(&self.particles.x, dx, MAX_SURFACE_CELLS) {
+                Some(ls) => Geometry::Sampled(ls),
+                None => {
+                    self.collision = None;
+                    return;
+                }
+            },
+        };
+        self.collision = Some(Collision::new(geometry, dx, self.rigid.com_m.as_vec3a()));
+    }
+
+    /// Gives rigid body impulse `j` (N s) at `point` (m).
+    pub fn apply_rigid_impulse(&mut self, j: DVec3, point: DVec3) {
+        let inv_i = inverse_or_zero(self.rigid_world_inertia());
+        let rs = &mut self.rigid;
+        rs.velocity_m_s += j / rs.mass_kg.max(f64::MIN_POSITIVE);
+        rs.omega_rad_s += inv_i * (point - rs.com_m).cross(j);
+        self.impulse_total_n_s += j.length();
+        self.sync_rigid_particles();
     }
 
     /// World inertia of the rigid state, R I0 Rᵀ.

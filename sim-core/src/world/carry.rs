@@ -1,9 +1,11 @@
 //! Physics-particle subsets: an object simulates fewer MPM particles than it has
 //! Gaussians, and every Gaussian is carried along by the particles around it.
 //!
-//! **Volumes.** [`particle_volumes`] gives each Gaussian of the object the volume V_i of its
-//! occupied grid cell (side dx) split evenly among the Gaussians in that cell, exactly what a
-//! one-particle-per-Gaussian object uses, so a surface-only capture gets the volume of its shell.
+//! **Volumes** ([`volume`]). Each Gaussian of the object (fill included) gets a volume V_i, its
+//! share of the volume of the solid the Gaussians fill, measured on voxels finer than their
+//! spacing and independent of the grid's dx: a sphere's total is its 4/3 π r³ to about 1 %, and
+//! a closed surface-only capture gets the volume it encloses. This is exactly what a
+//! one-particle-per-Gaussian object uses.
 //!
 //! **Subset** ([`physics_particles`]). The Gaussian centres X_i are binned into world-aligned
 //! cubes of side h (`physics_spacing_m`), cube key ⌊X_i / h⌋. Each occupied cube j becomes one
@@ -50,7 +52,7 @@
 use std::collections::HashMap;
 use std::num::NonZero;
 
-use glam::{DVec3, I64Vec3, IVec3, Mat3A, Vec3A};
+use glam::{DVec3, I64Vec3, Mat3A, Vec3A};
 use kiddo::SquaredEuclidean;
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use rayon::prelude::*;
@@ -58,20 +60,11 @@ use rayon::prelude::*;
 use super::Body;
 use crate::mpm::Particles;
 
+pub mod volume;
+pub use volume::particle_volumes;
+
 /// Most particles a Gaussian is carried by (k).
 pub const CARRY_NEIGHBOURS: usize = 8;
-
-/// Particle volumes (m³): each occupied cell of size `dx_m` split evenly among its particles, so a
-/// surface-only capture gets the volume of the shell of cells it occupies.
-pub fn particle_volumes(x: &[Vec3A], dx_m: f32) -> Vec<f32> {
-    let mut counts: HashMap<IVec3, u32> = HashMap::new();
-    let cells: Vec<IVec3> = x.iter().map(|p| (*p / dx_m).floor().as_ivec3()).collect();
-    for c in &cells {
-        *counts.entry(*c).or_default() += 1;
-    }
-    let v = dx_m * dx_m * dx_m;
-    cells.iter().map(|c| v / counts[c] as f32).collect()
-}
 
 /// Cube key of `x` for side `h_m` (i64: a tiny h cannot wrap; a key past i64 saturates).
 fn cube(x: Vec3A, h_m: f32) -> I64Vec3 {

@@ -95,7 +95,7 @@ impl World {
         let s = measure(&b.particles, dx);
         let point = point_m.map(|p| p.as_dvec3()).unwrap_or(s.com_m);
         match b.kind {
-            ObjectKind::Rigid => self.give_impulse(id, j_n_s.as_dvec3(), point, &[]),
+            ObjectKind::Rigid => b.apply_rigid_impulse(j_n_s.as_dvec3(), point),
             _ => {
                 // The zone: particles within 3 cells of the point (all of them for the COM).
                 let r2 = (3.0 * dx as f64).powi(2);
@@ -161,6 +161,7 @@ impl World {
                 source,
             })?;
             let rho = m.density_kg_m3();
+            let ratio = (rho / b.materials[0].density_kg_m3()) as f64;
             for (mass, vol) in b.particles.mass_kg.iter_mut().zip(&b.particles.volume0_m3) {
                 *mass = rho * vol;
             }
@@ -169,9 +170,9 @@ impl World {
                 b.particles.plastic.iter_mut().for_each(|p| *p = p0);
             }
             b.materials[0] = m;
-            if b.kind == ObjectKind::Rigid {
-                b.capture_rigid_pose();
-            }
+            // One density throughout: mass and inertia scale, the pose and surface stay.
+            b.rigid.mass_kg *= ratio;
+            b.rigid.inertia_rest *= ratio;
         }
         if let Some(e) = restitution {
             b.restitution = e.clamp(0.0, 1.0);
@@ -192,8 +193,17 @@ impl World {
             .bodies
             .get_mut(id)
             .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
-        if kind == ObjectKind::Rigid && b.kind != ObjectKind::Rigid {
+        let solid = |k: ObjectKind| k != ObjectKind::Deformable;
+        if solid(kind) && !solid(b.kind) {
+            // The current shape becomes the rest shape and the collision surface.
             b.capture_rigid_pose();
+            b.build_collision(None);
+        } else if !solid(kind) {
+            b.collision = None;
+        }
+        if kind == ObjectKind::Static {
+            b.rigid.velocity_m_s = glam::DVec3::ZERO;
+            b.rigid.omega_rad_s = glam::DVec3::ZERO;
         }
         if kind == ObjectKind::Static {
             b.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);

@@ -1,362 +1,296 @@
-//! Object-object contact at the COM level (the paper's stage 2, eqs. 3-6, written as the standard
-//! impulse law; docs/com-layer.md maps one to the other).
+//! The world's contact pass, once per substep after the velocity half of the rigid step
+//! ([`crate::contact`] says which pairs come here and which are grid boundaries).
 //!
-//! Broad phase: bounding spheres (eq. 3: |c_i - c_j| <= r_i + r_j) and boxes. Narrow phase: the
-//! overlap of the two objects' occupied grid cells, so a donut and a vase collide where their
-//! particles meet. The contact zone of each object is its particles in cells the other occupies;
-//! the contact point is the midpoint of the two zones' centroids, and the normal n (from A to B)
-//! is the difference of the objects' outward normals there, each estimated as the direction from
-//! the centroid of that object's particles within 3 cells of the point to the point.
+//! 1. Manifolds: rigid and static objects against each other, and rigid objects against the
+//!    grid colliders and the captured background, on their surfaces
+//!    ([`crate::contact::manifold`]).
+//! 2. One solve of all points ([`crate::contact::solver`]), warm-started from the previous
+//!    substep's impulses of the nearest point of the same pair ([`ContactCache`]).
+//! 3. Rigid objects keep the solved velocities and the push-out for the position half.
 //!
-//! Response, for approaching pairs only (v_rel·n < 0, v_rel = v_B - v_A at the contact point):
-//! j_n = -(1 + e) v_rel·n / (1/m_A + 1/m_B + n·[(I_A⁻¹ (r_A × n)) × r_A + (I_B⁻¹ (r_B × n)) × r_B]),
-//! Coulomb friction j_t <= μ j_n against the tangential velocity, impulse J = j_n n + j_t t on B and
-//! -J on A, at the contact point, so linear and angular momentum are both conserved.
-//!
-//! The world's contact pass (`World::resolve_contacts`, once per substep over every pair with an
-//! awake object) and the impulse hand-out to rigid and deformable objects are at the end.
+//! Deformable objects never come here: against a solid they meet its boundary nodes on their
+//! grid, against each other the COM-level impulse of `deformable_pair.rs`.
 
-use glam::{DMat3, DVec3, IVec3};
-use rayon::prelude::*;
+use std::collections::HashMap;
 
-use super::body::{self, Body, BodyState, measure};
-use super::{World, coherence};
-use crate::scene::{Method, ObjectKind};
+use glam::{DVec3, Quat, Vec3A};
 
-/// A detected contact between bodies `a` and `b`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Contact {
-    /// Unit normal from A to B.
-    pub normal: DVec3,
-    /// Contact point (m).
-    pub point_m: DVec3,
-    /// A's particles in cells B occupies.
-    pub zone_a: Vec<u32>,
-    /// B's particles in cells A occupies.
-    pub zone_b: Vec<u32>,
+use super::World;
+use super::body;
+use crate::contact::manifold::{self, Placed, RawContact};
+use crate::contact::{
+    ContactPoint, SolverBody, SolverSettings, mix_friction, mix_restitution, solver,
+};
+use crate::scene::ObjectKind;
+
+/// The other side of a contact point: an object, a grid collider or the background.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Other {
+    /// Object index.
+    Object(u32),
+    /// Grid collider index.
+    Collider(u32),
+    /// The captured background.
+    Background,
 }
 
-#[inline]
-fn cell(x: glam::Vec3A, inv_h: f32) -> IVec3 {
-    (x * inv_h).floor().as_ivec3()
+/// A pair across substeps: object A and the other side.
+pub type PairKey = (u32, Other);
+
+/// Accumulated impulses of the last substep's points, for warm starting: per pair, each point in
+/// A's rest frame with its normal and tangential impulse. A new point takes the impulses of the
+/// nearest old point of its pair within [`WARM_RADIUS_CELLS`] (each old point once), so warm
+/// starting survives a manifold that picks different surface points as the bodies move.
+#[derive(Debug, Clone, Default)]
+pub struct ContactCache {
+    pairs: HashMap<PairKey, Vec<(Vec3A, f64, DVec3)>>,
+    dt_s: f64,
 }
 
-/// Broad phase: bounding spheres and boxes (expanded by `margin_m`) overlap.
-pub fn broad_phase(a: &BodyState, b: &BodyState, margin_m: f64) -> bool {
-    let d = (a.com_m - b.com_m).length();
-    if d > a.radius_m + b.radius_m + margin_m {
-        return false;
-    }
-    let m = DVec3::splat(margin_m);
-    (a.aabb_m.0 - m).cmple(b.aabb_m.1).all() && (b.aabb_m.0 - m).cmple(a.aabb_m.1).all()
-}
+/// How near, in grid cells, an old point must be to warm-start a new one.
+pub const WARM_RADIUS_CELLS: f32 = 0.5;
 
-/// Narrow phase on occupied cells of size `cell_m`; `None` when no cell is shared.
-pub fn narrow_phase(
-    a: &Body,
-    sa: &BodyState,
-    b: &Body,
-    sb: &BodyState,
-    cell_m: f32,
-) -> Option<Contact> {
-    let inv_h = 1.0 / cell_m;
-    // Only particles inside the boxes' overlap (grown by a cell) can share a cell, and the
-    // normal below looks 3 cells around the contact point (which lies in that grown overlap):
-    // one pass per body keeps the particles of the overlap grown by 4 cells, and everything
-    // after works on those.
-    let lo = sa.aabb_m.0.max(sb.aabb_m.0) - DVec3::splat(cell_m as f64);
-    let hi = sa.aabb_m.1.min(sb.aabb_m.1) + DVec3::splat(cell_m as f64);
-    let (lo3, hi3) = (
-        (lo - DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
-        (hi + DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
-    );
-    let near = |body: &Body| -> Vec<u32> {
-        (0..body.particles.len() as u32)
-            .filter(|&i| {
-                let x = body.particles.x[i as usize];
-                x.cmpge(lo3).all() && x.cmple(hi3).all()
-            })
-            .collect()
-    };
-    let (near_a, near_b) = (near(a), near(b));
-    if near_a.is_empty() || near_b.is_empty() {
-        return None;
-    }
-    let inside = |x: glam::Vec3A| {
-        let x = x.as_dvec3();
-        x.cmpge(lo).all() && x.cmple(hi).all()
-    };
-    // Occupied cells as a sorted, deduplicated list (binary search; no hashing).
-    let cells_of = |body: &Body, near: &[u32]| -> Vec<[i32; 3]> {
-        let mut c: Vec<[i32; 3]> = near
+impl ContactCache {
+    /// Takes the impulses of the nearest unclaimed old point of `pair` within `radius_m` of
+    /// `local` (A's rest frame).
+    fn take(&mut self, pair: PairKey, local: Vec3A, radius_m: f32) -> Option<(f64, DVec3)> {
+        let old = self.pairs.get_mut(&pair)?;
+        let (i, d2) = old
             .iter()
-            .map(|&i| body.particles.x[i as usize])
-            .filter(|x| inside(*x))
-            .map(|x| cell(x, inv_h).to_array())
-            .collect();
-        c.sort_unstable();
-        c.dedup();
-        c
-    };
-    let cells_b = cells_of(b, &near_b);
-    if cells_b.is_empty() {
-        return None;
-    }
-    let zone = |body: &Body, near: &[u32], other: &[[i32; 3]]| -> Vec<u32> {
-        near.iter()
-            .copied()
-            .filter(|&i| {
-                let x = body.particles.x[i as usize];
-                inside(x) && other.binary_search(&cell(x, inv_h).to_array()).is_ok()
-            })
-            .collect()
-    };
-    let zone_a = zone(a, &near_a, &cells_b);
-    if zone_a.is_empty() {
-        return None;
-    }
-    let cells_a = cells_of(a, &near_a);
-    let zone_b = zone(b, &near_b, &cells_a);
-    if zone_b.is_empty() {
-        return None;
-    }
-    let centroid = |body: &Body, z: &[u32]| {
-        let mut m = 0.0;
-        let mut mx = DVec3::ZERO;
-        for &i in z {
-            let mi = body.particles.mass_kg[i as usize] as f64;
-            m += mi;
-            mx += body.particles.x[i as usize].as_dvec3() * mi;
+            .enumerate()
+            .map(|(i, (x, _, _))| (i, (*x - local).length_squared()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?;
+        if d2 > radius_m * radius_m {
+            return None;
         }
-        mx / m.max(f64::MIN_POSITIVE)
-    };
-    let ca = centroid(a, &zone_a);
-    let cb = centroid(b, &zone_b);
-    let point = (ca + cb) * 0.5;
-    // Local-centroid normals: each object's particles within 3 cells of the contact point lie
-    // mostly behind its surface, so point - their centroid is its outward normal there. Robust
-    // even when the zones hold a handful of particles (zone centroids alone are not).
-    let reach2 = (3.0 * cell_m as f64).powi(2);
-    let outward = |body: &Body, near: &[u32]| {
-        let mut m = 0.0;
-        let mut mx = DVec3::ZERO;
-        for &i in near {
-            let (x, mi) = (
-                body.particles.x[i as usize],
-                body.particles.mass_kg[i as usize],
-            );
-            let x = x.as_dvec3();
-            if (x - point).length_squared() <= reach2 {
-                m += mi as f64;
-                mx += x * mi as f64;
-            }
-        }
-        if m > 0.0 {
-            (point - mx / m).try_normalize()
-        } else {
-            None
-        }
-    };
-    let normal = match (outward(a, &near_a), outward(b, &near_b)) {
-        (Some(na), Some(nb)) => (na - nb).try_normalize(),
-        (Some(na), None) => Some(na),
-        (None, Some(nb)) => Some(-nb),
-        (None, None) => None,
-    }
-    .or_else(|| (cb - ca).try_normalize())
-    .or_else(|| (sb.com_m - sa.com_m).try_normalize())
-    .unwrap_or(DVec3::Z);
-    Some(Contact {
-        normal,
-        point_m: point,
-        zone_a,
-        zone_b,
-    })
-}
-
-/// Per-body quantities the impulse law needs.
-#[derive(Debug, Clone, Copy)]
-pub struct Dynamics {
-    /// COM (m).
-    pub com_m: DVec3,
-    /// COM velocity (m/s).
-    pub velocity_m_s: DVec3,
-    /// Angular velocity (rad/s).
-    pub omega_rad_s: DVec3,
-    /// 1/m (zero: immovable).
-    pub inverse_mass: f64,
-    /// I⁻¹ about the COM (zero: immovable).
-    pub inverse_inertia: DMat3,
-}
-
-impl Dynamics {
-    fn point_velocity(&self, p: DVec3) -> DVec3 {
-        self.velocity_m_s + self.omega_rad_s.cross(p - self.com_m)
-    }
-
-    fn effective(&self, p: DVec3, dir: DVec3) -> f64 {
-        let r = p - self.com_m;
-        self.inverse_mass + dir.dot((self.inverse_inertia * r.cross(dir)).cross(r))
+        let (_, p_n, p_t) = old.swap_remove(i);
+        Some((p_n, p_t))
     }
 }
 
-/// The impulse on B (−it on A) for a contact at `point` with normal `n` (A to B), restitution
-/// `e` and friction `mu`; `None` when the bodies are not approaching there. Approach speeds
-/// below `resting_speed_m_s` are treated as resting contact (e = 0), so gravity's per-substep
-/// velocity does not make resting objects bounce.
-pub fn impulse(
-    a: &Dynamics,
-    b: &Dynamics,
-    point: DVec3,
-    n: DVec3,
-    e: f64,
-    mu: f64,
-    resting_speed_m_s: f64,
-) -> Option<DVec3> {
-    let v_rel = b.point_velocity(point) - a.point_velocity(point);
-    let vn = v_rel.dot(n);
-    if vn >= 0.0 {
-        return None;
-    }
-    let k_n = a.effective(point, n) + b.effective(point, n);
-    if k_n <= 0.0 || !k_n.is_finite() {
-        return None;
-    }
-    let e = if -vn < resting_speed_m_s { 0.0 } else { e };
-    let jn = -(1.0 + e) * vn / k_n;
-    let vt = v_rel - n * vn;
-    let mut j = n * jn;
-    if let Some(t) = vt.try_normalize() {
-        let k_t = a.effective(point, t) + b.effective(point, t);
-        if k_t > 0.0 {
-            // Sticking needs |vt| / k_t; Coulomb caps it at mu j_n.
-            let jt = (vt.length() / k_t).min(mu * jn);
-            j -= t * jt;
-        }
-    }
-    j.is_finite().then_some(j)
+/// One contact of the last substep, for diagnostics and tests.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactReport {
+    /// Object A.
+    pub a: u32,
+    /// The other side.
+    pub b: Other,
+    /// Point (m).
+    pub point_m: DVec3,
+    /// Normal from A to B.
+    pub normal: DVec3,
+    /// Separation (m), negative when penetrating.
+    pub separation_m: f64,
+    /// Normal impulse on B (N s).
+    pub normal_impulse_n_s: f64,
+}
+
+fn overlaps(a: (Vec3A, Vec3A), b: (Vec3A, Vec3A), margin: f32) -> bool {
+    (a.0 - margin).cmple(b.1).all() && (b.0 - margin).cmple(a.1).all()
 }
 
 impl World {
-    fn dynamics(&self, k: usize, s: &BodyState) -> Dynamics {
+    /// The surface of solid object `k` where it is now; `None` for a deformable object.
+    pub(super) fn placed(&self, k: usize) -> Option<Placed<'_>> {
         let b = &self.bodies[k];
-        if b.kind == ObjectKind::Rigid {
-            let rs = &b.rigid;
-            Dynamics {
-                com_m: rs.com_m,
-                velocity_m_s: rs.velocity_m_s,
-                omega_rad_s: rs.omega_rad_s,
-                inverse_mass: 1.0 / rs.mass_kg.max(f64::MIN_POSITIVE),
-                inverse_inertia: body::inverse_or_zero(b.rigid_world_inertia()),
-            }
+        if b.kind == ObjectKind::Deformable {
+            return None;
+        }
+        let c = b.collision.as_ref()?;
+        Some(c.placed(b.rigid.com_m, b.rigid.orientation))
+    }
+
+    /// The captured background's surface, when it collides.
+    pub(super) fn placed_background(&self) -> Option<Placed<'_>> {
+        let c = self.background_collision.as_ref()?;
+        Some(c.placed(c.rest_com_m.as_dvec3(), Quat::IDENTITY))
+    }
+
+    /// Object `k` as the solver sees it: an awake rigid object moves, anything else does not.
+    fn solver_body(&self, k: usize) -> SolverBody {
+        let b = &self.bodies[k];
+        if b.kind == ObjectKind::Rigid && !b.sleeping {
+            SolverBody::new(
+                b.rigid.com_m,
+                b.rigid.velocity_m_s,
+                b.rigid.omega_rad_s,
+                1.0 / b.rigid.mass_kg.max(f64::MIN_POSITIVE),
+                body::inverse_or_zero(b.rigid_world_inertia()),
+            )
         } else {
-            Dynamics {
-                com_m: s.com_m,
-                velocity_m_s: if b.kind == ObjectKind::Static {
-                    DVec3::ZERO
-                } else {
-                    s.velocity_m_s
-                },
-                omega_rad_s: if b.kind == ObjectKind::Static {
-                    DVec3::ZERO
-                } else {
-                    s.angular_velocity()
-                },
-                inverse_mass: b.inverse_mass(s),
-                inverse_inertia: b.inverse_inertia(s),
-            }
+            let mut s = SolverBody::immovable(DVec3::ZERO);
+            s.com_m = b.rigid.com_m;
+            s
         }
     }
 
-    /// Step 2 and 3 of a COM substep (module docs): every pair of objects, one of them awake,
-    /// through the broad and narrow phase; an approaching contact gets the impulse law's
-    /// impulse, the zone and the object-level state ([`super::coherence`]). Pairs of
-    /// deformable objects are left to the grid in the `mpm` and `multi-field` baselines.
-    pub(super) fn resolve_contacts(&mut self, dt: f64) {
+    /// Steps 1-3 of the module docs for a substep of `dt_s`.
+    pub(super) fn solve_contacts(&mut self, dt_s: f64) {
         let n = self.bodies.len();
-        if n < 2 {
-            return;
-        }
         let dx = self.dx_m();
-        // Static and sleeping objects do not move: their state is measured once and cached
-        // (cleared when they wake or are edited).
-        // Awake objects get the broad phase's bounds only; the full state (inertia, angular
-        // momentum) is measured for the objects of a pair that passes it.
-        let mut states: Vec<(BodyState, bool)> = self
-            .bodies
-            .par_iter_mut()
-            .map(|b| {
-                if b.is_active() {
-                    b.state_cache = None;
-                    return (body::measure_bounds(&b.particles, dx), false);
-                }
-                let s = *b
-                    .state_cache
-                    .get_or_insert_with(|| measure(&b.particles, dx));
-                (s, true)
-            })
-            .collect();
-        let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
+        // Speculative margin: points within a cell are contacts (the gap may close).
+        let margin = dx;
+        let mut raw: Vec<(usize, Other, RawContact)> = Vec::new();
+        let placed: Vec<Option<Placed<'_>>> = (0..n).map(|k| self.placed(k)).collect();
         for i in 0..n {
             for j in i + 1..n {
                 let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-                if !(bi.is_active() || bj.is_active()) {
+                let (Some(a), Some(b)) = (&placed[i], &placed[j]) else {
                     continue;
-                }
-                if self.settings.method != Method::Com
-                    && bi.kind == ObjectKind::Deformable
-                    && bj.kind == ObjectKind::Deformable
+                };
+                if !(bi.is_active() || bj.is_active()) || !overlaps(a.bounds_m, b.bounds_m, margin)
                 {
-                    continue; // the grid handles these in the baselines
-                }
-                if !broad_phase(&states[i].0, &states[j].0, dx as f64) {
                     continue;
                 }
-                for k in [i, j] {
-                    if !states[k].1 {
-                        states[k] = (measure(&self.bodies[k].particles, dx), true);
-                    }
-                }
-                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-                let Some(c) = narrow_phase(bi, &states[i].0, bj, &states[j].0, dx) else {
-                    continue;
-                };
-                self.bodies[i].contacts += 1;
-                self.bodies[j].contacts += 1;
-                for k in [i, j] {
-                    self.bodies[k].wake_on_contact();
-                }
-                let (da, db) = (
-                    self.dynamics(i, &states[i].0),
-                    self.dynamics(j, &states[j].0),
-                );
-                let e = self.bodies[i].restitution.min(self.bodies[j].restitution) as f64;
-                let mu = ((self.bodies[i].friction * self.bodies[j].friction) as f64).sqrt();
-                let Some(jv) = impulse(&da, &db, c.point_m, c.normal, e, mu, resting) else {
-                    continue;
-                };
-                self.stats.contact_impulses += 1;
-                self.give_impulse(i, -jv, c.point_m, &c.zone_a);
-                self.give_impulse(j, jv, c.point_m, &c.zone_b);
+                let points = manifold::between(a, b, margin);
+                raw.extend(points.into_iter().map(|c| (i, Other::Object(j as u32), c)));
             }
         }
-    }
-
-    /// Gives impulse `j` (N s) at `point` (m) to object `k`: rigid objects through their rigid
-    /// state, deformable ones through the particles of `zone` ([`super::coherence`]).
-    pub(super) fn give_impulse(&mut self, k: usize, j: DVec3, point: DVec3, zone: &[u32]) {
-        let b = &mut self.bodies[k];
-        b.impulse_total_n_s += j.length();
-        match b.kind {
-            ObjectKind::Static => {}
-            ObjectKind::Rigid => {
-                let inv_i = body::inverse_or_zero(b.rigid_world_inertia());
-                let rs = &mut b.rigid;
-                rs.velocity_m_s += j / rs.mass_kg;
-                rs.omega_rad_s += inv_i * (point - rs.com_m).cross(j);
-                b.sync_rigid_particles();
+        // Rigid objects against colliders and the background.
+        for (k, (b, a)) in self.bodies.iter().zip(&placed).enumerate() {
+            let Some(a) = a else { continue };
+            if b.kind != ObjectKind::Rigid || b.sleeping {
+                continue;
             }
-            ObjectKind::Deformable => coherence::apply_impulse(b, j, point, zone),
+            for (ci, collider) in self.colliders.iter().enumerate() {
+                let pts = manifold::against_collider(a, collider, self.time_s, margin);
+                raw.extend(pts.into_iter().map(|c| (k, Other::Collider(ci as u32), c)));
+            }
+            if let Some(bg) = self.placed_background()
+                && overlaps(a.bounds_m, bg.bounds_m, margin)
+            {
+                let pts = manifold::between(a, &bg, margin);
+                raw.extend(pts.into_iter().map(|c| (k, Other::Background, c)));
+            }
+        }
+        let poses: Vec<Option<crate::contact::Pose>> =
+            placed.iter().map(|p| p.map(|p| p.pose)).collect();
+        if raw.is_empty() {
+            self.contact_cache.pairs.clear();
+            self.last_contacts.clear();
+            return;
+        }
+        // A moving object wakes a sleeping one it touches; a still one leans on it as on an
+        // immovable support (both join one island once awake, `sleep.rs`).
+        for (a, other, _) in &raw {
+            if let Other::Object(b) = other {
+                let b = *b as usize;
+                if self.bodies[b].sleeping && self.bodies[*a].is_moving() {
+                    self.bodies[b].wake_on_contact();
+                } else if self.bodies[*a].sleeping && self.bodies[b].is_moving() {
+                    self.bodies[*a].wake_on_contact();
+                }
+            }
+        }
+        // Solver bodies: objects first, then colliders, then the background.
+        let mut bodies: Vec<SolverBody> = (0..n).map(|k| self.solver_body(k)).collect();
+        let collider0 = bodies.len();
+        for c in &self.colliders {
+            bodies.push(SolverBody::immovable(c.velocity_at(self.time_s).as_dvec3()));
+        }
+        let background = bodies.len();
+        bodies.push(SolverBody::immovable(DVec3::ZERO));
+        let ratio = if self.contact_cache.dt_s > 0.0 {
+            dt_s / self.contact_cache.dt_s
+        } else {
+            1.0
+        };
+        let local = |a: usize, x: Vec3A| poses[a].map_or(x, |p| p.to_rest(x));
+        let mut cache = std::mem::take(&mut self.contact_cache);
+        let mut points: Vec<ContactPoint> = raw
+            .iter()
+            .map(|(a, other, c)| {
+                let ba = &self.bodies[*a];
+                let (b, friction, restitution) = match other {
+                    Other::Object(j) => {
+                        let bj = &self.bodies[*j as usize];
+                        (
+                            *j as usize,
+                            mix_friction(ba.friction, bj.friction) as f64,
+                            mix_restitution(ba.restitution, bj.restitution) as f64,
+                        )
+                    }
+                    Other::Collider(ci) => {
+                        let col = &self.colliders[*ci as usize];
+                        let mu = match col.surface {
+                            crate::collider::Surface::Sticky => f64::INFINITY,
+                            _ => mix_friction(ba.friction, col.friction) as f64,
+                        };
+                        (collider0 + *ci as usize, mu, ba.restitution as f64)
+                    }
+                    Other::Background => (
+                        background,
+                        mix_friction(ba.friction, self.background_friction) as f64,
+                        ba.restitution as f64,
+                    ),
+                };
+                let warm = cache.take(
+                    (*a as u32, *other),
+                    local(*a, c.point_m),
+                    WARM_RADIUS_CELLS * dx,
+                );
+                let (p_n, p_t) = warm.unwrap_or((0.0, DVec3::ZERO));
+                ContactPoint {
+                    a: *a,
+                    b,
+                    point_m: c.point_m.as_dvec3(),
+                    normal: c.normal.as_dvec3(),
+                    separation_m: c.separation_m as f64,
+                    restitution,
+                    friction,
+                    normal_impulse: p_n * ratio,
+                    tangent_impulse: p_t * ratio,
+                }
+            })
+            .collect();
+        let settings = SolverSettings {
+            resting_speed_m_s: 2.0 * self.gravity_m_s2.length() as f64 * dt_s,
+            ..SolverSettings::default()
+        };
+        solver::solve(&mut bodies, &mut points, dt_s, &settings);
+        self.stats.contact_impulses +=
+            points.iter().filter(|p| p.normal_impulse > 0.0).count() as u64;
+        let mut pairs: HashMap<PairKey, Vec<(Vec3A, f64, DVec3)>> = HashMap::new();
+        for ((a, other, c), p) in raw.iter().zip(&points) {
+            pairs.entry((*a as u32, *other)).or_default().push((
+                local(*a, c.point_m),
+                p.normal_impulse,
+                p.tangent_impulse,
+            ));
+        }
+        self.contact_cache = ContactCache { pairs, dt_s };
+        self.last_contacts = raw
+            .iter()
+            .zip(&points)
+            .map(|((a, other, _), p)| ContactReport {
+                a: *a as u32,
+                b: *other,
+                point_m: p.point_m,
+                normal: p.normal,
+                separation_m: p.separation_m,
+                normal_impulse_n_s: p.normal_impulse,
+            })
+            .collect();
+        for (a, other, _) in &raw {
+            self.bodies[*a].contacts += 1;
+            if let Other::Object(j) = other {
+                self.bodies[*j as usize].contacts += 1;
+            }
+        }
+        // Write back: impulses received, then the rigid objects' new velocities and push-out.
+        for p in &points {
+            let j = (p.normal * p.normal_impulse + p.tangent_impulse).length();
+            for k in [p.a, p.b].into_iter().filter(|&k| k < n) {
+                self.bodies[k].impulse_total_n_s += j;
+            }
+        }
+        for (k, s) in bodies.iter().enumerate().take(n) {
+            let b = &mut self.bodies[k];
+            if b.kind == ObjectKind::Rigid && !b.sleeping {
+                b.rigid.velocity_m_s = s.velocity_m_s;
+                b.rigid.omega_rad_s = s.omega_rad_s;
+                b.push = (s.push_m_s, s.push_rad_s);
+            }
         }
     }
 }

@@ -21,11 +21,13 @@
 //! contact resolution is in [`contact`]; sleeping and waking (an object still and untouched for
 //! [`SLEEP_AFTER_S`] skips all work) in `sleep.rs`.
 
+pub mod background;
 pub mod body;
 pub mod carry;
 pub mod coherence;
 mod commands;
 pub mod contact;
+mod deformable_pair;
 pub mod explain;
 mod mpm_step;
 mod output;
@@ -41,6 +43,7 @@ pub use body::{Body, BodyState, RigidState, measure};
 pub use sleep::{SLEEP_AFTER_S, SLEEP_SPEED_M_S};
 
 use crate::collider::{BoxShape, Collider, Plane, Shape, Surface};
+use crate::contact::boundary;
 use crate::gaussians::GaussianCloud;
 use crate::kinematics::{GaussianState, pack_symmetric};
 use crate::material::{ConstitutiveModel, MaterialError};
@@ -176,7 +179,19 @@ pub struct World {
     shared: MpmSolver,
     /// Counters.
     pub stats: WorldStats,
+    /// The captured background's collision surface (`None`: it does not collide).
+    pub background_collision: Option<crate::contact::Collision>,
+    /// What the background became.
+    pub background_report: background::BackgroundReport,
+    /// Coulomb friction of the captured background.
+    pub background_friction: f32,
+    contact_cache: contact::ContactCache,
+    /// The contact points of the last substep.
+    pub last_contacts: Vec<contact::ContactReport>,
 }
+
+/// Friction coefficient of the captured background.
+pub const BACKGROUND_FRICTION: f32 = 0.5;
 
 fn collider_from_spec(c: &scene::ColliderSpec) -> Result<Collider, WorldError> {
     let bad = |reason| WorldError::Collider {
@@ -292,6 +307,11 @@ impl World {
         let background_state = background_state(&scene.background);
         let mut events = scene.events.clone();
         events.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+        let (background_collision, background_report) = if s.background_collision {
+            background::collision(&scene.background, &bodies, dx, s.background_min_opacity)
+        } else {
+            (None, background::BackgroundReport::default())
+        };
         Ok(Self {
             settings: s.clone(),
             initial: bodies.clone(),
@@ -311,6 +331,11 @@ impl World {
                 dt_min_s: f64::INFINITY,
                 ..Default::default()
             },
+            background_collision,
+            background_report,
+            background_friction: BACKGROUND_FRICTION,
+            contact_cache: Default::default(),
+            last_contacts: Vec::new(),
         })
     }
 
@@ -395,6 +420,9 @@ impl World {
             }
             vmax = vmax.max(b.max_speed_m_s);
         }
+        for c in self.colliders.iter().filter(|c| c.is_active(self.time_s)) {
+            vmax = vmax.max(c.velocity_m_s.length());
+        }
         let dt = self
             .policy
             .next_dt_s(self.dx_m(), wave, vmax, max_dt_s)
@@ -404,14 +432,16 @@ impl World {
                 source,
             })?;
         let t0 = Instant::now();
-        match self.settings.method {
+        let reactions = match self.settings.method {
             Method::Mpm => self.mpm_shared_substep(dt)?,
             Method::MultiField => self.multi_field_substep(dt)?,
             Method::Com => self.mpm_per_object_substep(dt)?,
-        }
+        };
         let t1 = Instant::now();
-        self.rigid_substep(dt as f64);
-        self.resolve_contacts(dt as f64);
+        self.rigid_velocities(dt as f64, &reactions);
+        self.resolve_deformable_pairs(dt as f64);
+        self.solve_contacts(dt as f64);
+        self.rigid_positions(dt as f64);
         self.update_sleep(dt as f64);
         let t2 = Instant::now();
         self.stats.mpm_wall_s += (t1 - t0).as_secs_f64();
@@ -423,18 +453,34 @@ impl World {
         Ok(dt as f64)
     }
 
-    fn rigid_substep(&mut self, dt: f64) {
+    /// Velocity half of the rigid step: gravity and the reactions of deformable objects' grids
+    /// (`reactions[k]`: the impulse and angular impulse object k received this substep).
+    fn rigid_velocities(&mut self, dt: f64, reactions: &[boundary::Reaction]) {
         let g = self.gravity_m_s2.as_dvec3();
+        for (k, b) in self.bodies.iter_mut().enumerate() {
+            if b.kind != ObjectKind::Rigid {
+                continue;
+            }
+            let r = reactions.get(k).copied().unwrap_or_default();
+            if b.sleeping {
+                // A moving deformable object pushing on it wakes it.
+                if r.nodes == 0 || r.impulse_n_s.length() < b.rigid.mass_kg * g.length() * dt {
+                    continue;
+                }
+                b.sleeping = false;
+                b.still_s = 0.0;
+            }
+            rigid::integrate_velocity(b, g, dt, r.impulse_n_s, r.angular_impulse_n_m_s);
+            b.push = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+        }
+    }
+
+    /// Position half of the rigid step, with the contact solver's push-out.
+    fn rigid_positions(&mut self, dt: f64) {
         for b in &mut self.bodies {
             if b.kind == ObjectKind::Rigid && !b.sleeping {
-                rigid::step(b, g, dt, &self.colliders, self.time_s);
-                let rs = &b.rigid;
-                let arm = b
-                    .rest_offsets
-                    .iter()
-                    .map(|r| r.length())
-                    .fold(0.0f32, f32::max) as f64;
-                b.max_speed_m_s = (rs.velocity_m_s.length() + rs.omega_rad_s.length() * arm) as f32;
+                let (pv, pw) = b.push;
+                rigid::integrate_position(b, dt, pv, pw);
             }
         }
     }
@@ -446,5 +492,7 @@ impl World {
         self.frame = 0;
         self.next_event = 0;
         self.generation += 1;
+        self.contact_cache = Default::default();
+        self.last_contacts.clear();
     }
 }

@@ -1,15 +1,18 @@
 //! The MPM part of a world substep, one function per method: `com` (every awake deformable
 //! object on its own grid), `multi-field` (per-object fields coupled at shared nodes, Bardenhagen
 //! et al. 2000, [`crate::mpm::multi_field`]) and `mpm` (every awake deformable object on one
-//! shared grid, contact through the grid). Rigid and static objects never reach this file; the
-//! COM layer steps them afterwards.
+//! shared grid, contact through the grid). Rigid and static objects and the captured background
+//! are boundaries on these grids ([`crate::contact::boundary`]); each function returns the
+//! reaction every object received, for the rigid step.
 
 use glam::Vec3A;
 
 use super::{Body, World, WorldError, WorldStats};
 use crate::collider::Collider;
+use crate::contact::boundary::{self, Obstacle, Reaction};
+use crate::contact::mix_friction;
 use crate::material::Material;
-use crate::mpm::{MpmError, Particles, SubstepInput, SubstepReport, multi_field};
+use crate::mpm::{MpmError, MpmSolver, Particles, SubstepInput, SubstepReport, multi_field};
 use crate::scene::ObjectKind;
 
 /// Whether `b` runs MPM this substep.
@@ -72,27 +75,131 @@ impl<'a> Step<'a> {
     }
 }
 
+/// Which object an obstacle is (`None`: the background).
+type ObstacleOf = Option<usize>;
+
 impl World {
-    /// Method `com`: every awake deformable object runs a whole substep on its own grid.
-    pub(super) fn mpm_per_object_substep(&mut self, dt_s: f32) -> Result<(), WorldError> {
-        let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
-        for b in &mut self.bodies {
-            if !simulated(b) {
-                b.substeps_skipped += 1;
+    /// The solids near `bounds` (m) as boundaries for a deformable of friction `friction`.
+    fn obstacles(
+        &self,
+        bounds: (Vec3A, Vec3A),
+        friction: f32,
+    ) -> (Vec<Obstacle<'_>>, Vec<ObstacleOf>) {
+        let margin = 2.0 * self.dx_m();
+        let near = |b: (Vec3A, Vec3A)| {
+            (bounds.0 - margin).cmple(b.1).all() && (b.0 - margin).cmple(bounds.1).all()
+        };
+        let mut out = Vec::new();
+        let mut of = Vec::new();
+        for (k, b) in self.bodies.iter().enumerate() {
+            let Some(placed) = self.placed(k) else {
+                continue;
+            };
+            if !near(placed.bounds_m) {
                 continue;
             }
-            let r = b
-                .solver
-                .substep(&mut b.particles, &step.input(&b.materials));
+            let moving = b.kind == ObjectKind::Rigid && !b.sleeping;
+            out.push(Obstacle {
+                placed,
+                velocity_m_s: if moving {
+                    b.rigid.velocity_m_s.as_vec3a()
+                } else {
+                    Vec3A::ZERO
+                },
+                omega_rad_s: if moving {
+                    b.rigid.omega_rad_s.as_vec3a()
+                } else {
+                    Vec3A::ZERO
+                },
+                friction: mix_friction(friction, b.friction),
+            });
+            of.push(Some(k));
+        }
+        if let Some(placed) = self.placed_background()
+            && near(placed.bounds_m)
+        {
+            out.push(Obstacle {
+                placed,
+                velocity_m_s: Vec3A::ZERO,
+                omega_rad_s: Vec3A::ZERO,
+                friction: mix_friction(friction, self.background_friction),
+            });
+            of.push(None);
+        }
+        (out, of)
+    }
+
+    /// Applies the solids near `particles` as boundaries on `solver`'s grid and adds their
+    /// reactions to `reactions`.
+    fn apply_obstacles(
+        &self,
+        solver: &mut MpmSolver,
+        particles: &Particles,
+        friction: f32,
+        reactions: &mut [Reaction],
+    ) {
+        if particles.is_empty() {
+            return;
+        }
+        let mut lo = Vec3A::splat(f32::INFINITY);
+        let mut hi = Vec3A::splat(f32::NEG_INFINITY);
+        for x in &particles.x {
+            lo = lo.min(*x);
+            hi = hi.max(*x);
+        }
+        let (obstacles, of) = self.obstacles((lo, hi), friction);
+        if obstacles.is_empty() {
+            return;
+        }
+        let v_ref = solver.reference_velocity_m_s();
+        let dx = solver.dx_m;
+        let r = boundary::apply(solver.grid_mut(), dx, v_ref, &obstacles);
+        for (r, k) in r.iter().zip(of) {
+            if let Some(k) = k {
+                reactions[k].impulse_n_s += r.impulse_n_s;
+                reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
+                reactions[k].nodes += r.nodes;
+            }
+        }
+    }
+
+    /// Method `com`: every awake deformable object runs a whole substep on its own grid, with
+    /// the solids as boundaries.
+    pub(super) fn mpm_per_object_substep(
+        &mut self,
+        dt_s: f32,
+    ) -> Result<Vec<Reaction>, WorldError> {
+        let mut reactions = vec![Reaction::default(); self.bodies.len()];
+        for k in 0..self.bodies.len() {
+            if !simulated(&self.bodies[k]) {
+                self.bodies[k].substeps_skipped += 1;
+                continue;
+            }
+            let dx = self.dx_m();
+            let b = &mut self.bodies[k];
+            let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx));
+            let mut particles = std::mem::take(&mut b.particles);
+            let friction = b.friction;
+            let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
+            let materials = &self.bodies[k].materials;
+            let r = solver.scatter_and_update(&particles, &step.input(materials));
+            if r.is_ok() {
+                self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
+            }
+            let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
+            let b = &mut self.bodies[k];
+            b.solver = solver;
+            b.particles = particles;
             step.finish(&mut self.stats, b, r)?;
         }
-        Ok(())
+        Ok(reactions)
     }
 
     /// Method `multi-field`: per-object P2G and grid update, multi-field contact at shared
-    /// nodes, per-object G2P.
-    pub(super) fn multi_field_substep(&mut self, dt_s: f32) -> Result<(), WorldError> {
+    /// nodes, the solids as boundaries, per-object G2P.
+    pub(super) fn multi_field_substep(&mut self, dt_s: f32) -> Result<Vec<Reaction>, WorldError> {
         let dx_m = self.dx_m();
+        let mut reactions = vec![Reaction::default(); self.bodies.len()];
         let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
         for b in &mut self.bodies {
             if !simulated(b) {
@@ -120,33 +227,54 @@ impl World {
         let r = multi_field::couple(&mut fields, dx_m, step.colliders, step.time_s);
         drop(fields);
         self.stats.contact_nodes += r.corrected as u64;
+        for k in 0..self.bodies.len() {
+            if !simulated(&self.bodies[k]) {
+                continue;
+            }
+            let b = &mut self.bodies[k];
+            let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx_m));
+            let friction = b.friction;
+            let particles = std::mem::take(&mut b.particles);
+            self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
+            let b = &mut self.bodies[k];
+            b.solver = solver;
+            b.particles = particles;
+        }
         for b in self.bodies.iter_mut().filter(|b| simulated(b)) {
             let r = b.solver.gather(&mut b.particles, &step.input(&b.materials));
             step.finish(&mut self.stats, b, r)?;
         }
-        Ok(())
+        Ok(reactions)
     }
 
     /// Method `mpm`: every awake deformable object on one shared grid; each object's particles
     /// are copied in, stepped together and copied back.
-    pub(super) fn mpm_shared_substep(&mut self, dt_s: f32) -> Result<(), WorldError> {
+    pub(super) fn mpm_shared_substep(&mut self, dt_s: f32) -> Result<Vec<Reaction>, WorldError> {
+        let mut reactions = vec![Reaction::default(); self.bodies.len()];
         let ids: Vec<usize> = (0..self.bodies.len())
             .filter(|&k| simulated(&self.bodies[k]))
             .collect();
         let mut all = Particles::default();
         let mut materials = Vec::new();
+        let mut friction = 0.0f32;
         for &k in &ids {
             let b = &self.bodies[k];
             let start = all.len();
             all.extend_from(&b.particles);
             all.material[start..].fill(materials.len() as u16);
             materials.push(b.materials[0].clone());
+            friction = friction.max(b.friction);
         }
         let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
-        let r = self
-            .shared
-            .substep(&mut all, &step.input(&materials))
-            .map_err(|e| step.error(&self.stats, "shared grid", e))?;
+        let dx = self.dx_m();
+        let mut shared = std::mem::replace(&mut self.shared, MpmSolver::new(dx));
+        let r = shared.scatter_and_update(&all, &step.input(&materials));
+        if r.is_ok() {
+            self.apply_obstacles(&mut shared, &all, friction, &mut reactions);
+        }
+        let r = r.and_then(|()| shared.gather(&mut all, &step.input(&materials)));
+        self.shared = shared;
+        let r = r.map_err(|e| step.error(&self.stats, "shared grid", e))?;
         self.stats.mpm_particle_substeps += all.len() as u64;
         let mut start = 0;
         for &k in &ids {
@@ -162,6 +290,6 @@ impl World {
             b.max_speed_m_s = r.max_speed_m_s;
             start = end;
         }
-        Ok(())
+        Ok(reactions)
     }
 }

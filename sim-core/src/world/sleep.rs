@@ -1,27 +1,55 @@
-//! Sleeping: an object that stays still and touches nothing for a while skips all work until a
-//! contact, a command or an event wakes it (as in rigid-body engines, per object rather than
-//! per island). A sleeping object's velocities are zero and its object-level state is
-//! cached ([`Body::state_cache`]).
+//! Sleeping: objects that stay still skip all work until something moving touches them, a
+//! command or an event (as in rigid-body engines). Objects in contact sleep together, as an
+//! island (the objects connected by contacts this substep): an island sleeps once every member
+//! has been slower than [`SLEEP_SPEED_M_S`] for [`SLEEP_AFTER_S`]. A sleeping object is
+//! immovable to the contact solver; it wakes when a moving object touches it (a contact, or for
+//! a deformable object the bounds of a moving solid or an active moving collider reaching it).
+//! A sleeping object's velocities are zero and its object-level state is cached
+//! ([`Body::state_cache`]). `[simulation] sleep = false` turns sleeping off.
 
 use glam::{DVec3, Mat3A, Vec3A};
 
+use super::contact::Other;
 use super::{Body, World};
 use crate::scene::ObjectKind;
 
 /// Speed below which an object counts as still (m/s).
 pub const SLEEP_SPEED_M_S: f32 = 5e-3;
-/// How long an object must stay still, touching nothing, before it sleeps (s).
+/// How long an island must stay still before it sleeps (s).
 pub const SLEEP_AFTER_S: f64 = 0.25;
 
 impl Body {
-    /// Wakes the body when a contact touches it. Its cached state stays: the contact pass
-    /// measured it this substep, and an awake body's cache is dropped on the next one.
+    /// Wakes the body because something moving touches it.
     pub(super) fn wake_on_contact(&mut self) {
         if self.sleeping {
             self.sleeping = false;
             self.still_s = 0.0;
+            self.state_cache = None;
         }
     }
+
+    /// Whether the body moves fast enough to wake what it touches.
+    pub(super) fn is_moving(&self) -> bool {
+        self.is_active() && self.max_speed_m_s >= SLEEP_SPEED_M_S
+    }
+
+    fn fall_asleep(&mut self) {
+        self.sleeping = true;
+        self.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
+        self.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
+        self.rigid.velocity_m_s = DVec3::ZERO;
+        self.rigid.omega_rad_s = DVec3::ZERO;
+        self.max_speed_m_s = 0.0;
+    }
+}
+
+/// Union-find root of `k`, with path halving.
+fn root(parent: &mut [usize], mut k: usize) -> usize {
+    while parent[k] != k {
+        parent[k] = parent[parent[k]];
+        k = parent[k];
+    }
+    k
 }
 
 impl World {
@@ -32,24 +60,79 @@ impl World {
         self.bodies[id].still_s = 0.0;
     }
 
-    /// Puts to sleep every object that has been still (slower than [`SLEEP_SPEED_M_S`]) and
-    /// touching nothing for [`SLEEP_AFTER_S`]; its velocities become zero.
+    /// Counts still time, puts still islands to sleep and wakes sleeping deformable objects that
+    /// a moving solid or collider reaches.
     pub(super) fn update_sleep(&mut self, dt: f64) {
+        if !self.settings.sleep {
+            return;
+        }
+        let n = self.bodies.len();
         for b in &mut self.bodies {
-            if b.kind == ObjectKind::Static || b.sleeping {
+            if b.is_active() {
+                if b.max_speed_m_s < SLEEP_SPEED_M_S {
+                    b.still_s += dt;
+                } else {
+                    b.still_s = 0.0;
+                }
+            }
+        }
+        // Islands of awake objects joined by contacts; an island is ready when all are still.
+        let mut parent: Vec<usize> = (0..n).collect();
+        for c in &self.last_contacts {
+            let (a, b) = match c.b {
+                Other::Object(b) => (c.a as usize, b as usize),
+                _ => continue,
+            };
+            if self.bodies[a].is_active() && self.bodies[b].is_active() {
+                let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                parent[ra.max(rb)] = ra.min(rb);
+            }
+        }
+        let mut ready = vec![true; n];
+        for k in 0..n {
+            let r = root(&mut parent, k);
+            if self.bodies[k].is_active() && self.bodies[k].still_s < SLEEP_AFTER_S {
+                ready[r] = false;
+            }
+        }
+        for k in 0..n {
+            let r = root(&mut parent, k);
+            if self.bodies[k].is_active() && ready[r] {
+                self.bodies[k].fall_asleep();
+            }
+        }
+        // Sleeping objects reached by a moving collider, and sleeping deformable objects reached
+        // by a moving solid, wake up (solids touching solids wake through contacts, solids under
+        // deformable objects through grid reactions).
+        let dx = self.dx_m();
+        for k in 0..n {
+            let b = &self.bodies[k];
+            if !b.sleeping {
                 continue;
             }
-            if b.max_speed_m_s < SLEEP_SPEED_M_S && b.contacts == 0 {
-                b.still_s += dt;
-                if b.still_s >= SLEEP_AFTER_S {
-                    b.sleeping = true;
-                    b.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
-                    b.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
-                    b.rigid.velocity_m_s = DVec3::ZERO;
-                    b.rigid.omega_rad_s = DVec3::ZERO;
+            let (lo, hi) = match (self.placed(k), b.state_cache.as_ref()) {
+                (Some(p), _) => p.bounds_m,
+                (None, Some(s)) => (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a()),
+                (None, None) => {
+                    let s = super::body::measure_bounds(&b.particles, dx);
+                    (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a())
                 }
-            } else {
-                b.still_s = 0.0;
+            };
+            let reach =
+                |o: (Vec3A, Vec3A)| (lo - dx).cmple(o.1).all() && (o.0 - dx).cmple(hi).all();
+            let by_solid = b.kind == ObjectKind::Deformable
+                && (0..n).any(|j| {
+                    j != k
+                        && self.bodies[j].is_moving()
+                        && self.placed(j).is_some_and(|p| reach(p.bounds_m))
+                });
+            let by_collider = self.colliders.iter().any(|c| {
+                c.velocity_at(self.time_s) != Vec3A::ZERO
+                    && c.signed_distance((lo + hi) * 0.5, self.time_s)
+                        .is_some_and(|(d, _)| d < (hi - lo).length() * 0.5 + dx)
+            });
+            if by_solid || by_collider {
+                self.wake(k);
             }
         }
     }

@@ -1,0 +1,37 @@
+//! Contact between objects, the captured background and grid colliders.
+//!
+//! Which mechanism handles which pair, so that nothing is pushed twice (docs/com-layer.md):
+//!
+//! | pair | mechanism |
+//! |---|---|
+//! | deformable – static, rigid, background, collider | boundary nodes on the deformable's grid ([`boundary`]; colliders in the grid update); a rigid object gets the reaction |
+//! | rigid – rigid, static, background, collider | the contact solver ([`solver`]) on manifolds ([`manifold`]) |
+//! | deformable – deformable | one COM-level impulse per pair and substep with the restitution law (the paper's stage 2; `world::deformable_pair`) |
+//!
+//! Surfaces are [`geometry::Geometry`]: an analytic signed distance for procedural shapes, a
+//! [`level_set::LevelSet`] built from particles or opaque Gaussians otherwise.
+//!
+//! Pair coefficients (one rule everywhere): friction μ = √(μ_A μ_B), restitution
+//! e = max(e_A, e_B) (Box2D's mixing rules). Grid colliders and the captured background have a
+//! friction coefficient and no restitution of their own (e = the object's); a sticky collider
+//! acts on a rigid object as infinite friction.
+
+pub mod boundary;
+pub mod geometry;
+pub mod level_set;
+pub mod manifold;
+pub mod solver;
+
+pub use geometry::{Collision, Geometry, Pose};
+pub use level_set::LevelSet;
+pub use solver::{ContactPoint, SolverBody, SolverSettings};
+
+/// Pair friction μ = √(μ_A μ_B).
+pub fn mix_friction(a: f32, b: f32) -> f32 {
+    (a.max(0.0) * b.max(0.0)).sqrt()
+}
+
+/// Pair restitution e = max(e_A, e_B).
+pub fn mix_restitution(a: f32, b: f32) -> f32 {
+    a.max(b).clamp(0.0, 1.0)
+}

@@ -1,0 +1,97 @@
+//! The captured background as a static collision surface: the Gaussians no object selects (the
+//! table, the floor, the ground) become a [`LevelSet`] that objects rest on.
+//!
+//! Which Gaussians count: opacity at least `background_min_opacity`; not a floater (a cell of
+//! size dx holding opaque Gaussians with no other such cell within [`FLOATER_REACH_CELLS`]);
+//! not in a cell an object occupies at t = 0, dilated by one cell, so an object standing on or
+//! sunk into the captured ground is not shot out of it.
+
+use std::collections::HashSet;
+
+use glam::{IVec3, Vec3A};
+
+use super::body::{Body, MAX_SURFACE_CELLS};
+use crate::contact::{Collision, Geometry, LevelSet};
+use crate::gaussians::GaussianCloud;
+
+/// A cell of opaque Gaussians with no other within this many cells is a floater.
+pub const FLOATER_REACH_CELLS: i32 = 2;
+
+/// What the background became.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct BackgroundReport {
+    /// Background Gaussians.
+    pub gaussians: usize,
+    /// Of them, opaque enough.
+    pub opaque: usize,
+    /// Opaque ones dropped as floaters.
+    pub floaters: usize,
+    /// Opaque ones dropped because an object occupies their cell at t = 0.
+    pub under_objects: usize,
+    /// Gaussians in the collision surface.
+    pub solid: usize,
+}
+
+fn cell(x: Vec3A, dx: f32) -> IVec3 {
+    (x / dx).floor().as_ivec3()
+}
+
+/// The background's collision surface (cells of `dx_m`) and the counts behind it; `None` when
+/// no Gaussian qualifies.
+pub fn collision(
+    background: &GaussianCloud,
+    bodies: &[Body],
+    dx_m: f32,
+    min_opacity: f32,
+) -> (Option<Collision>, BackgroundReport) {
+    let mut report = BackgroundReport {
+        gaussians: background.len(),
+        ..Default::default()
+    };
+    let opaque: Vec<Vec3A> = (0..background.len())
+        .filter(|&g| background.opacity(g) >= min_opacity)
+        .map(|g| Vec3A::from(background.positions[g]))
+        .filter(|x| x.is_finite())
+        .collect();
+    report.opaque = opaque.len();
+    let cells: HashSet<IVec3> = opaque.iter().map(|x| cell(*x, dx_m)).collect();
+    let r = FLOATER_REACH_CELLS;
+    let isolated = |c: IVec3| {
+        !(-r..=r).any(|z| {
+            (-r..=r).any(|y| {
+                (-r..=r).any(|x| {
+                    let d = IVec3::new(x, y, z);
+                    d != IVec3::ZERO && cells.contains(&(c + d))
+                })
+            })
+        })
+    };
+    let mut occupied: HashSet<IVec3> = HashSet::new();
+    for b in bodies {
+        for x in &b.particles.x {
+            let c = cell(*x, dx_m);
+            for z in -1..=1 {
+                for y in -1..=1 {
+                    for xx in -1..=1 {
+                        occupied.insert(c + IVec3::new(xx, y, z));
+                    }
+                }
+            }
+        }
+    }
+    let mut solid = Vec::with_capacity(opaque.len());
+    for x in opaque {
+        let c = cell(x, dx_m);
+        if isolated(c) {
+            report.floaters += 1;
+        } else if occupied.contains(&c) {
+            report.under_objects += 1;
+        } else {
+            solid.push(x);
+        }
+    }
+    report.solid = solid.len();
+    let surface = LevelSet::from_points(&solid, dx_m, MAX_SURFACE_CELLS)
+        .map(|ls| Collision::new(Geometry::Sampled(ls), dx_m, Vec3A::ZERO));
+    (surface, report)
+}

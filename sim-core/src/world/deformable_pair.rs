@@ -1,0 +1,316 @@
+//! Contact between two deformable objects (method `com`): the paper's stage 2 (eqs. 3-6), one
+//! impulse per pair and substep at the COM level, written as the standard impulse law
+//! (docs/com-layer.md maps one to the other).
+//!
+//! Broad phase: bounding spheres (eq. 3: |c_i - c_j| <= r_i + r_j) and boxes. Narrow phase: the
+//! overlap of the two objects' occupied grid cells. The contact zone of each object is its
+//! particles in cells the other occupies; the contact point is the midpoint of the two zones'
+//! centroids, and the normal n (from A to B) is the difference of the objects' outward normals
+//! there, each estimated as the direction from the centroid of that object's particles within 3
+//! cells of the point to the point. Volume means over the overlap keep a head-on impact on its
+//! axis, which the restitution law needs to 1 %.
+//!
+//! Response, for approaching pairs only (v_rel·n < 0, v_rel = v_B - v_A at the contact point):
+//! j_n = -(1 + e) v_rel·n / (1/m_A + 1/m_B + n·[(I_A⁻¹ (r_A × n)) × r_A + (I_B⁻¹ (r_B × n)) × r_B]),
+//! Coulomb friction j_t <= μ j_n against the tangential velocity, impulse J = j_n n + j_t t on B and
+//! -J on A, at the contact point, so linear and angular momentum are both conserved; the
+//! particles receive it through [`super::coherence::apply_impulse`].
+
+use glam::{DMat3, DVec3, IVec3};
+
+use super::body::{Body, BodyState, measure};
+use super::{World, coherence};
+use crate::contact::{mix_friction, mix_restitution};
+use crate::scene::{Method, ObjectKind};
+
+/// A detected contact between bodies `a` and `b`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    /// Unit normal from A to B.
+    pub normal: DVec3,
+    /// Contact point (m).
+    pub point_m: DVec3,
+    /// A's particles in cells B occupies.
+    pub zone_a: Vec<u32>,
+    /// B's particles in cells A occupies.
+    pub zone_b: Vec<u32>,
+}
+
+#[inline]
+fn cell(x: glam::Vec3A, inv_h: f32) -> IVec3 {
+    (x * inv_h).floor().as_ivec3()
+}
+
+/// Broad phase: bounding spheres and boxes (expanded by `margin_m`) overlap.
+pub fn broad_phase(a: &BodyState, b: &BodyState, margin_m: f64) -> bool {
+    let d = (a.com_m - b.com_m).length();
+    if d > a.radius_m + b.radius_m + margin_m {
+        return false;
+    }
+    let m = DVec3::splat(margin_m);
+    (a.aabb_m.0 - m).cmple(b.aabb_m.1).all() && (b.aabb_m.0 - m).cmple(a.aabb_m.1).all()
+}
+
+/// Narrow phase on occupied cells of size `cell_m`; `None` when no cell is shared.
+pub fn narrow_phase(
+    a: &Body,
+    sa: &BodyState,
+    b: &Body,
+    sb: &BodyState,
+    cell_m: f32,
+) -> Option<Contact> {
+    let inv_h = 1.0 / cell_m;
+    // Only particles inside the boxes' overlap (grown by a cell) can share a cell, and the
+    // normal below looks 3 cells around the contact point (which lies in that grown overlap):
+    // one pass per body keeps the particles of the overlap grown by 4 cells, and everything
+    // after works on those.
+    let lo = sa.aabb_m.0.max(sb.aabb_m.0) - DVec3::splat(cell_m as f64);
+    let hi = sa.aabb_m.1.min(sb.aabb_m.1) + DVec3::splat(cell_m as f64);
+    let (lo3, hi3) = (
+        (lo - DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
+        (hi + DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
+    );
+    let near = |body: &Body| -> Vec<u32> {
+        (0..body.particles.len() as u32)
+            .filter(|&i| {
+                let x = body.particles.x[i as usize];
+                x.cmpge(lo3).all() && x.cmple(hi3).all()
+            })
+            .collect()
+    };
+    let (near_a, near_b) = (near(a), near(b));
+    if near_a.is_empty() || near_b.is_empty() {
+        return None;
+    }
+    let inside = |x: glam::Vec3A| {
+        let x = x.as_dvec3();
+        x.cmpge(lo).all() && x.cmple(hi).all()
+    };
+    // Occupied cells as a sorted, deduplicated list (binary search; no hashing).
+    let cells_of = |body: &Body, near: &[u32]| -> Vec<[i32; 3]> {
+        let mut c: Vec<[i32; 3]> = near
+            .iter()
+            .map(|&i| body.particles.x[i as usize])
+            .filter(|x| inside(*x))
+            .map(|x| cell(x, inv_h).to_array())
+            .collect();
+        c.sort_unstable();
+        c.dedup();
+        c
+    };
+    let cells_b = cells_of(b, &near_b);
+    if cells_b.is_empty() {
+        return None;
+    }
+    let zone = |body: &Body, near: &[u32], other: &[[i32; 3]]| -> Vec<u32> {
+        near.iter()
+            .copied()
+            .filter(|&i| {
+                let x = body.particles.x[i as usize];
+                inside(x) && other.binary_search(&cell(x, inv_h).to_array()).is_ok()
+            })
+            .collect()
+    };
+    let zone_a = zone(a, &near_a, &cells_b);
+    if zone_a.is_empty() {
+        return None;
+    }
+    let cells_a = cells_of(a, &near_a);
+    let zone_b = zone(b, &near_b, &cells_a);
+    if zone_b.is_empty() {
+        return None;
+    }
+    let centroid = |body: &Body, z: &[u32]| {
+        let mut m = 0.0;
+        let mut mx = DVec3::ZERO;
+        for &i in z {
+            let mi = body.particles.mass_kg[i as usize] as f64;
+            m += mi;
+            mx += body.particles.x[i as usize].as_dvec3() * mi;
+        }
+        mx / m.max(f64::MIN_POSITIVE)
+    };
+    let ca = centroid(a, &zone_a);
+    let cb = centroid(b, &zone_b);
+    let point = (ca + cb) * 0.5;
+    // Local-centroid normals: each object's particles within 3 cells of the contact point lie
+    // mostly behind its surface, so point - their centroid is its outward normal there. Robust
+    // even when the zones hold a handful of particles (zone centroids alone are not).
+    let reach2 = (3.0 * cell_m as f64).powi(2);
+    let outward = |body: &Body, near: &[u32]| {
+        let mut m = 0.0;
+        let mut mx = DVec3::ZERO;
+        for &i in near {
+            let (x, mi) = (
+                body.particles.x[i as usize],
+                body.particles.mass_kg[i as usize],
+            );
+            let x = x.as_dvec3();
+            if (x - point).length_squared() <= reach2 {
+                m += mi as f64;
+                mx += x * mi as f64;
+            }
+        }
+        if m > 0.0 {
+            (point - mx / m).try_normalize()
+        } else {
+            None
+        }
+    };
+    let normal = match (outward(a, &near_a), outward(b, &near_b)) {
+        (Some(na), Some(nb)) => (na - nb).try_normalize(),
+        (Some(na), None) => Some(na),
+        (None, Some(nb)) => Some(-nb),
+        (None, None) => None,
+    }
+    .or_else(|| (cb - ca).try_normalize())
+    .or_else(|| (sb.com_m - sa.com_m).try_normalize())
+    .unwrap_or(DVec3::Z);
+    Some(Contact {
+        normal,
+        point_m: point,
+        zone_a,
+        zone_b,
+    })
+}
+
+/// Per-body quantities the impulse law needs.
+#[derive(Debug, Clone, Copy)]
+pub struct Dynamics {
+    /// COM (m).
+    pub com_m: DVec3,
+    /// COM velocity (m/s).
+    pub velocity_m_s: DVec3,
+    /// Angular velocity (rad/s).
+    pub omega_rad_s: DVec3,
+    /// 1/m (zero: immovable).
+    pub inverse_mass: f64,
+    /// I⁻¹ about the COM (zero: immovable).
+    pub inverse_inertia: DMat3,
+}
+
+impl Dynamics {
+    fn point_velocity(&self, p: DVec3) -> DVec3 {
+        self.velocity_m_s + self.omega_rad_s.cross(p - self.com_m)
+    }
+
+    fn effective(&self, p: DVec3, dir: DVec3) -> f64 {
+        let r = p - self.com_m;
+        self.inverse_mass + dir.dot((self.inverse_inertia * r.cross(dir)).cross(r))
+    }
+}
+
+/// The impulse on B (−it on A) for a contact at `point` with normal `n` (A to B), restitution
+/// `e` and friction `mu`; `None` when the bodies are not approaching there. Approach speeds
+/// below `resting_speed_m_s` are treated as resting contact (e = 0), so gravity's per-substep
+/// velocity does not make resting objects bounce.
+pub fn impulse(
+    a: &Dynamics,
+    b: &Dynamics,
+    point: DVec3,
+    n: DVec3,
+    e: f64,
+    mu: f64,
+    resting_speed_m_s: f64,
+) -> Option<DVec3> {
+    let v_rel = b.point_velocity(point) - a.point_velocity(point);
+    let vn = v_rel.dot(n);
+    if vn >= 0.0 {
+        return None;
+    }
+    let k_n = a.effective(point, n) + b.effective(point, n);
+    if k_n <= 0.0 || !k_n.is_finite() {
+        return None;
+    }
+    let e = if -vn < resting_speed_m_s { 0.0 } else { e };
+    let jn = -(1.0 + e) * vn / k_n;
+    let vt = v_rel - n * vn;
+    let mut j = n * jn;
+    if let Some(t) = vt.try_normalize() {
+        let k_t = a.effective(point, t) + b.effective(point, t);
+        if k_t > 0.0 {
+            // Sticking needs |vt| / k_t; Coulomb caps it at mu j_n.
+            let jt = (vt.length() / k_t).min(mu * jn);
+            j -= t * jt;
+        }
+    }
+    j.is_finite().then_some(j)
+}
+
+impl World {
+    /// Every pair of deformable objects, one of them awake, through the broad and narrow phase;
+    /// an approaching contact gets the impulse law's impulse (module docs). Only for method
+    /// `com`: the baselines couple deformable objects on their grids.
+    pub(super) fn resolve_deformable_pairs(&mut self, dt: f64) {
+        if self.settings.method != Method::Com {
+            return;
+        }
+        let dx = self.dx_m();
+        let ids: Vec<usize> = (0..self.bodies.len())
+            .filter(|&k| self.bodies[k].kind == ObjectKind::Deformable)
+            .collect();
+        if ids.len() < 2 {
+            return;
+        }
+        let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
+        for (x, &i) in ids.iter().enumerate() {
+            for &j in &ids[x + 1..] {
+                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+                if !(bi.is_active() || bj.is_active()) {
+                    continue;
+                }
+                let (si, sj) = (measure(&bi.particles, dx), measure(&bj.particles, dx));
+                if !broad_phase(&si, &sj, dx as f64) {
+                    continue;
+                }
+                let Some(c) = narrow_phase(bi, &si, bj, &sj, dx) else {
+                    continue;
+                };
+                let moving = [bi.is_moving(), bj.is_moving()];
+                self.bodies[i].contacts += 1;
+                self.bodies[j].contacts += 1;
+                for (k, other_moving) in [(i, moving[1]), (j, moving[0])] {
+                    if self.bodies[k].sleeping && other_moving {
+                        self.bodies[k].wake_on_contact();
+                    }
+                }
+                let dynamics = |b: &Body, s: &BodyState| Dynamics {
+                    com_m: s.com_m,
+                    velocity_m_s: if b.sleeping {
+                        DVec3::ZERO
+                    } else {
+                        s.velocity_m_s
+                    },
+                    omega_rad_s: if b.sleeping {
+                        DVec3::ZERO
+                    } else {
+                        s.angular_velocity()
+                    },
+                    inverse_mass: if b.sleeping { 0.0 } else { b.inverse_mass(s) },
+                    inverse_inertia: if b.sleeping {
+                        DMat3::ZERO
+                    } else {
+                        b.inverse_inertia(s)
+                    },
+                };
+                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+                let (da, db) = (dynamics(bi, &si), dynamics(bj, &sj));
+                let e = mix_restitution(bi.restitution, bj.restitution) as f64;
+                let mu = mix_friction(bi.friction, bj.friction) as f64;
+                let Some(jv) = impulse(&da, &db, c.point_m, c.normal, e, mu, resting) else {
+                    continue;
+                };
+                self.stats.contact_impulses += 1;
+                for (k, jk, zone) in [(i, -jv, &c.zone_a), (j, jv, &c.zone_b)] {
+                    let b = &mut self.bodies[k];
+                    if b.sleeping {
+                        continue;
+                    }
+                    b.impulse_total_n_s += jk.length();
+                    coherence::apply_impulse(b, jk, c.point_m, zone);
+                    b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+                }
+            }
+        }
+    }
+}
