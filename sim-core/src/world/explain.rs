@@ -58,6 +58,9 @@ pub struct Explanation {
     pub limited_by: Option<String>,
     /// Per object.
     pub objects: Vec<ObjectExplanation>,
+    /// What the captured background became, in words.
+    #[serde(default)]
+    pub background: String,
 }
 
 impl World {
@@ -133,6 +136,37 @@ impl World {
             },
             limited_by,
             objects,
+            background: self.background_in_words(),
+        }
+    }
+
+    fn background_in_words(&self) -> String {
+        let r = &self.background_report;
+        if r.gaussians == 0 {
+            return "no background".into();
+        }
+        if !self.settings.background_collision {
+            return format!(
+                "{} Gaussians, drawn only (background_collision = false)",
+                r.gaussians
+            );
+        }
+        match &self.background_collision {
+            Some(_) => format!(
+                "{} Gaussians: {} opaque (>= {}), {} floaters and {} under objects dropped, {} \
+                 form a static collision surface (cells of {} m)",
+                r.gaussians,
+                r.opaque,
+                self.settings.background_min_opacity,
+                r.floaters,
+                r.under_objects,
+                r.solid,
+                self.dx_m()
+            ),
+            None => format!(
+                "{} Gaussians, none solid (opacity >= {}): drawn only",
+                r.gaussians, self.settings.background_min_opacity
+            ),
         }
     }
 }
@@ -152,6 +186,7 @@ impl Explanation {
                 .as_ref()
                 .map_or_else(String::new, |o| format!(", dt set by {o}"))
         );
+        s.push_str(&format!("background: {}\n", self.background));
         s.push_str(&format!(
             "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>9} {:>10}  modelled as\n",
             "object",

@@ -1,0 +1,216 @@
+//! Objects on static objects (release build): a jelly resting on a static box matches the same
+//! jelly on a collider plane at the box's top; boxes on a tilted support stick or slide at the
+//! Coulomb acceleration; impacts on two supports at once stay symmetric and follow e.
+
+use splatphys_core::material::MaterialSpec;
+use splatphys_core::scene::{
+    ColliderSpec, ObjectBuilder, ObjectKind, Scene, SceneBuilder, SceneObject, Surface,
+};
+use splatphys_core::world::World;
+
+/// COM (m) and COM velocity (m/s) of object `k`, from its particles.
+fn com(w: &World, k: usize) -> ([f64; 3], [f64; 3]) {
+    let o = &w.objects()[k];
+    (o.com_m, o.velocity_m_s)
+}
+
+fn run_until(w: &mut World, t_s: f64) {
+    while w.time_s < t_s - 1e-9 && !w.is_finished() {
+        w.advance_frame().expect("step");
+    }
+}
+
+fn jelly_cube(z0: f32) -> ObjectBuilder {
+    SceneObject::cuboid("jelly", [-0.05, -0.05, z0], [0.05, 0.05, z0 + 0.1])
+        .spacing_m(0.005)
+        .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
+        .friction(0.5)
+}
+
+#[test]
+fn a_jelly_on_a_static_box_rests_like_a_jelly_on_a_plane() {
+    let base = || {
+        Scene::builder()
+            .grid_dx_m(0.005)
+            .duration_s(5.0)
+            .frame_rate_hz(20.0)
+            .sleep(false)
+    };
+    let on_box = base()
+        .object(
+            SceneObject::cuboid("table", [-0.15, -0.15, 0.0], [0.15, 0.15, 0.1])
+                .kind(ObjectKind::Static)
+                .friction(0.5),
+        )
+        .object(jelly_cube(0.101))
+        .build()
+        .expect("scene");
+    let on_plane = base()
+        .collider(
+            ColliderSpec::plane("top", [0.0, 0.0, 0.1], [0.0, 0.0, 1.0])
+                .surface(Surface::Separate)
+                .friction(0.5),
+        )
+        .object(jelly_cube(0.101))
+        .build()
+        .expect("scene");
+    let (mut a, mut b) = (
+        World::from_scene(&on_box).expect("world"),
+        World::from_scene(&on_plane).expect("world"),
+    );
+    let mut worst = 0.0f64;
+    for t in [1.0, 2.0, 3.0, 4.0, 5.0] {
+        run_until(&mut a, t);
+        run_until(&mut b, t);
+        let (za, zb) = (com(&a, 1).0[2], com(&b, 0).0[2]);
+        println!("t = {t} s: on the box {za:.5} m, on the plane {zb:.5} m");
+        worst = worst.max((za - zb).abs());
+    }
+    // The same boundary rule on the same surface: equal to well within a millimetre (the
+    // issue's bound; the elastic sag itself is ~0.5 mm).
+    assert!(worst < 1e-3, "differs by {:.3} mm", worst * 1e3);
+    // And resting: not sinking (the sag of a 10 cm jelly at E = 2e5 Pa is below 1 mm).
+    let (z, v) = com(&a, 1);
+    assert!(
+        z[2] > 0.15 - 1e-3 && v[2].abs() < 1e-2,
+        "z = {} v = {}",
+        z[2],
+        v[2]
+    );
+}
+
+/// Gravity tilted by θ about y: a horizontal support becomes a ramp of angle θ (down-slope +x).
+fn ramp(theta_deg: f64) -> SceneBuilder {
+    let (s, c) = theta_deg.to_radians().sin_cos();
+    Scene::builder()
+        .grid_dx_m(0.01)
+        .frame_rate_hz(50.0)
+        .duration_s(1.0)
+        .sleep(false)
+        .gravity_m_s2([(9.81 * s) as f32, 0.0, (-9.81 * c) as f32])
+}
+
+fn slide(mover: ObjectBuilder, mu: f32) -> f64 {
+    let scene = ramp(30.0)
+        .object(
+            SceneObject::cuboid("ramp", [-1.0, -0.3, -0.1], [1.0, 0.3, 0.0])
+                .kind(ObjectKind::Static)
+                .friction(mu),
+        )
+        .object(mover.friction(mu).restitution(0.0))
+        .build()
+        .expect("scene");
+    let mut w = World::from_scene(&scene).expect("world");
+    run_until(&mut w, 0.3);
+    let v0 = com(&w, 1).1[0];
+    run_until(&mut w, 0.8);
+    let v1 = com(&w, 1).1[0];
+    (v1 - v0) / 0.5
+}
+
+#[test]
+fn a_rigid_box_on_a_ramp_sticks_or_slides_at_the_coulomb_acceleration() {
+    let rigid = || {
+        SceneObject::cuboid("box", [-0.05, -0.05, 0.0005], [0.05, 0.05, 0.1005])
+            .kind(ObjectKind::Rigid)
+    };
+    let g = 9.81f64;
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let a = slide(rigid(), 0.3);
+    let expected = g * (s - 0.3 * c);
+    println!("rigid, mu = 0.3: a = {a:.4} m/s², law {expected:.4}");
+    assert!((a - expected).abs() < 0.03 * expected);
+    let a = slide(rigid(), 0.8);
+    println!("rigid, mu = 0.8: a = {a:.5} m/s²");
+    assert!(a.abs() < 1e-2, "sticks");
+}
+
+#[test]
+fn a_jelly_on_a_ramp_slides_at_the_coulomb_acceleration() {
+    let jelly = || {
+        SceneObject::cuboid("jelly", [-0.05, -0.05, 0.0005], [0.05, 0.05, 0.1005])
+            .spacing_m(0.005)
+            .material(MaterialSpec::jelly(1e6, 0.3, 1000.0))
+    };
+    let g = 9.81f64;
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let a = slide(jelly(), 0.3);
+    let expected = g * (s - 0.3 * c);
+    println!("jelly, mu = 0.3: a = {a:.4} m/s², law {expected:.4}");
+    assert!((a - expected).abs() < 0.05 * expected);
+}
+
+/// A block falling at 1 m/s (no gravity) onto two static supports under its ends (e = 0, so
+/// the pair's e = max(e_block, 0) is the block's).
+fn two_supports(block: ObjectBuilder) -> World {
+    let scene = Scene::builder()
+        .grid_dx_m(0.01)
+        .frame_rate_hz(100.0)
+        .duration_s(0.4)
+        .gravity_m_s2([0.0; 3])
+        .sleep(false)
+        .object(
+            SceneObject::cuboid("left", [-0.2, -0.1, -0.1], [-0.1, 0.1, 0.0])
+                .kind(ObjectKind::Static)
+                .restitution(0.0)
+                .friction(0.0),
+        )
+        .object(
+            SceneObject::cuboid("right", [0.1, -0.1, -0.1], [0.2, 0.1, 0.0])
+                .kind(ObjectKind::Static)
+                .restitution(0.0)
+                .friction(0.0),
+        )
+        .object(block.velocity([0.0, 0.0, -1.0]).friction(0.0))
+        .build()
+        .expect("scene");
+    let mut w = World::from_scene(&scene).expect("world");
+    while !w.is_finished() {
+        w.advance_frame().expect("step");
+    }
+    w
+}
+
+#[test]
+fn impacts_on_two_supports_stay_symmetric_and_follow_e() {
+    let block = |e: f32, kind: ObjectKind| {
+        SceneObject::cuboid("block", [-0.18, -0.05, 0.005], [0.18, 0.05, 0.055])
+            .kind(kind)
+            .restitution(e)
+            .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
+    };
+    for (e, kind) in [
+        (0.0, ObjectKind::Rigid),
+        (1.0, ObjectKind::Rigid),
+        (0.0, ObjectKind::Deformable),
+    ] {
+        let w = two_supports(block(e, kind));
+        let (_, v) = com(&w, 2);
+        let sideways = (v[0] * v[0] + v[1] * v[1]).sqrt();
+        println!("{kind:?} e = {e}: v = {v:?}");
+        // 1 % of the 1 m/s impact speed.
+        assert!(
+            sideways <= 0.01,
+            "{kind:?} e = {e}: sideways {sideways:.4} m/s"
+        );
+        if kind == ObjectKind::Rigid {
+            let b = &w.bodies[2];
+            let ke = 0.5 * b.rigid.mass_kg * b.rigid.velocity_m_s.length_squared()
+                + 0.5
+                    * b.rigid
+                        .omega_rad_s
+                        .dot(b.rigid_world_inertia() * b.rigid.omega_rad_s);
+            let ke0 = 0.5 * b.rigid.mass_kg;
+            if e == 0.0 {
+                assert!(v[2].abs() <= 0.01, "bounced at {} m/s", v[2]);
+            } else {
+                assert!(
+                    ke <= 1.01 * ke0,
+                    "energy grew by {:.2} %",
+                    (ke / ke0 - 1.0) * 100.0
+                );
+                assert!(v[2] > 0.95, "e = 1 bounce {}", v[2]);
+            }
+        }
+    }
+}
