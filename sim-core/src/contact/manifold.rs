@@ -86,10 +86,10 @@ fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<R
     }
 }
 
-/// The manifold a pair keeps: at most [`MAX_POINTS`] points spanning the largest area, as in
-/// Bullet's and Box2D's manifold reduction: the deepest point, the point farthest from it, the
-/// point farthest from their line, the point farthest beyond the triangle's plane side; then, up
-/// to the limit, the remaining points farthest from those already kept. Sequential impulses on a
+/// The manifold a pair keeps: at most [`MAX_POINTS`] points, four spanning the largest area as
+/// in Bullet's and Box2D's manifold reduction (the deepest point, the point farthest from it, the
+/// point farthest from their line, the point farthest beyond the triangle's edges), then, up to
+/// the limit, the points farthest from those kept. Sequential impulses on a
 /// hundred coplanar points converge slowly in rotation and rock a stack; a few points at the
 /// corners of the support hold it. Ties go to the lowest feature, and the result is in feature
 /// order.
@@ -146,6 +146,7 @@ fn reduce(out: Vec<RawContact>, margin_m: f32) -> Vec<RawContact> {
             .fold(0.0, f32::max)
     });
     take(&mut rest, &mut kept, i);
+    // Then the points farthest from those kept.
     while kept.len() < MAX_POINTS && !rest.is_empty() {
         let far = |c: &RawContact| {
             kept.iter()

@@ -4,7 +4,8 @@
 //! Which Gaussians count: opacity at least `background_min_opacity`; not a floater (a cell of
 //! size dx holding opaque Gaussians with no other such cell within [`FLOATER_REACH_CELLS`]);
 //! not in a cell an object occupies at t = 0, dilated by one cell, so an object standing on or
-//! sunk into the captured ground is not shot out of it.
+//! sunk into the captured ground is not shot out of it. The solid is thickened by
+//! [`THICKEN_CELLS`] along gravity: a capture holds only the skin of the ground.
 
 use std::collections::HashSet;
 
@@ -16,6 +17,8 @@ use crate::gaussians::GaussianCloud;
 
 /// A cell of opaque Gaussians with no other within this many cells is a floater.
 pub const FLOATER_REACH_CELLS: i32 = 2;
+/// Cells the background's solid is thickened by along gravity.
+pub const THICKEN_CELLS: usize = 3;
 
 /// What the background became.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -36,13 +39,14 @@ fn cell(x: Vec3A, dx: f32) -> IVec3 {
     (x / dx).floor().as_ivec3()
 }
 
-/// The background's collision surface (cells of `dx_m`) and the counts behind it; `None` when
-/// no Gaussian qualifies.
+/// The background's collision surface (cells of `dx_m`, thickened along `gravity_m_s2`) and the
+/// counts behind it; `None` when no Gaussian qualifies.
 pub fn collision(
     background: &GaussianCloud,
     bodies: &[Body],
     dx_m: f32,
     min_opacity: f32,
+    gravity_m_s2: Vec3A,
 ) -> (Option<Collision>, BackgroundReport) {
     let mut report = BackgroundReport {
         gaussians: background.len(),
@@ -79,7 +83,7 @@ pub fn collision(
             }
         }
     }
-    let mut solid = Vec::with_capacity(opaque.len());
+    let mut solid = Vec::with_capacity(opaque.len() * (1 + THICKEN_CELLS));
     for x in opaque {
         let c = cell(x, dx_m);
         if isolated(c) {
@@ -91,6 +95,18 @@ pub fn collision(
         }
     }
     report.solid = solid.len();
+    // A captured surface is a skin one or two cells thick; thicken it downwards (along gravity)
+    // so material pressed onto it meets interior nodes whose normal points out of the top, not
+    // a skin it can squeeze through.
+    if let Some(down) = gravity_m_s2.try_normalize() {
+        let skin = solid.len();
+        for k in 1..=THICKEN_CELLS {
+            for i in 0..skin {
+                let x = solid[i] + down * (k as f32 * dx_m);
+                solid.push(x);
+            }
+        }
+    }
     let surface = LevelSet::from_points(&solid, dx_m, MAX_SURFACE_CELLS)
         .map(|ls| Collision::new(Geometry::Sampled(ls), dx_m, Vec3A::ZERO));
     (surface, report)

@@ -308,7 +308,13 @@ impl World {
         let mut events = scene.events.clone();
         events.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
         let (background_collision, background_report) = if s.background_collision {
-            background::collision(&scene.background, &bodies, dx, s.background_min_opacity)
+            background::collision(
+                &scene.background,
+                &bodies,
+                dx,
+                s.background_min_opacity,
+                Vec3A::from(s.gravity_m_s2),
+            )
         } else {
             (None, background::BackgroundReport::default())
         };
