@@ -4,6 +4,9 @@
 //! quaternions), so that PLY -> [`GaussianCloud`] -> PLY is bit-exact. Use the decoding
 //! accessors ([`GaussianCloud::scale`], [`GaussianCloud::opacity`],
 //! [`GaussianCloud::rotation`], [`GaussianCloud::covariance`]) to get physical values.
+//! [`sh_rotation`] turns the SH colour coefficients along with a rotation of the cloud.
+
+pub mod sh_rotation;
 
 use glam::{Mat3, Quat, Vec3};
 

@@ -4,9 +4,9 @@
 //! boundaries as in Jiang et al. 2016, "The material point method for simulating continuum
 //! materials", SIGGRAPH course, section 12).
 //!
-//! A node of the deformable's grid whose signed distance in a solid is ≤ 0 takes the surface rule
-//! ("separate" with Coulomb friction, the rule whose grid friction matches the analytic law)
-//! relative to the solid's velocity there. The momentum this takes out of the grid, m (v' − v)
+//! A node of the deformable's grid whose signed distance in a solid is ≤ 0 takes the solid's
+//! surface rule (sticky, slip, or by default "separate" with Coulomb friction, the rule whose grid
+//! friction matches the analytic law) relative to the solid's velocity there. The momentum this takes out of the grid, m (v' − v)
 //! summed over the solid's nodes, is the impulse the material gave the solid, reversed; it is
 //! returned with its moment about the solid's COM so a rigid object receives the reaction and the
 //! pair conserves momentum. Sums run per grid block in parallel and are added in block order, so
@@ -31,6 +31,8 @@ pub struct Obstacle<'a> {
     pub omega_rad_s: Vec3A,
     /// Coulomb friction μ of the pair.
     pub friction: f32,
+    /// The solid's boundary rule.
+    pub surface: Surface,
 }
 
 /// Impulse a solid received from the grid in one substep.
@@ -110,8 +112,7 @@ pub fn apply(
                     let r = x - pose.com_m;
                     let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
                     let v = vel[l] + v_ref;
-                    let v_new =
-                        apply_surface(v - solid_v, normal, Surface::Separate, o.friction) + solid_v;
+                    let v_new = apply_surface(v - solid_v, normal, o.surface, o.friction) + solid_v;
                     let dp = (v_new - v).as_dvec3() * m as f64;
                     vel[l] = v_new - v_ref;
                     let reaction = &mut out[k];

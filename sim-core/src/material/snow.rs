@@ -29,6 +29,9 @@ pub const THETA_C: f32 = 2.5e-2;
 /// which the Taichi side-by-side benchmarks run, so that both sides run the same material and
 /// the published snow figures stay comparable. Set `critical_stretch = 7.5e-3` for the paper's.
 pub const THETA_S: f32 = 4.5e-3;
+/// Smallest Jp kept (a fully crushed trial F must not zero it for good).
+const MIN_JP: f32 = 1e-6;
+
 /// Bounds of the hardening factor e^{ξ(1 - Jp)}.
 const HARDENING_RANGE: (f32, f32) = (0.1, 5.0);
 
@@ -110,9 +113,11 @@ impl ConstitutiveModel for Snow {
             1.0 + self.theta_s,
             p.lambda_pa / (2.0 * p.mu_pa),
         );
-        let old_j = sigma.x * sigma.y * sigma.z;
+        // An inverted trial F (det < 0, one negative singular value) is returned into the box,
+        // i.e. un-inverted: Jp = det Fp takes |det F| so it stays positive.
+        let old_j = (sigma.x * sigma.y * sigma.z).abs();
         let new_j = clamped.x * clamped.y * clamped.z;
-        *jp *= old_j / new_j;
+        *jp = (*jp * old_j / new_j).max(MIN_JP);
         *f = u * Mat3A::from_diagonal(clamped.into()) * v.transpose();
     }
     fn initial_plastic_state(&self) -> f32 {
@@ -236,6 +241,21 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn an_inverted_f_keeps_jp_positive() {
+        let snow = Snow::new(
+            crate::material::elastic::ElasticParams::new("snow", 1.4e5, 0.2, 400.0).unwrap(),
+            10.0,
+        )
+        .unwrap();
+        // A reflection with a stretch: det F < 0.
+        let mut f = Mat3A::from_diagonal(glam::Vec3::new(-1.2, 1.0, 0.9));
+        let mut jp = 1.0f32;
+        snow.project(&mut f, &mut jp, 1e-4);
+        assert!(jp > 0.0 && jp.is_finite(), "Jp = {jp}");
+        assert!(f.determinant() > 0.0, "F stays inverted: {f}");
     }
 
     #[test]

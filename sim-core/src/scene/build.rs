@@ -540,6 +540,7 @@ fn object(
         visible,
         physics_spacing_m,
         shape: o.shape,
+        surface: o.surface.unwrap_or(super::model::Surface::Separate),
     })
 }
 

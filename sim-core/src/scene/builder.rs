@@ -234,6 +234,7 @@ impl ObjectBuilder {
                 material: None,
                 restitution: None,
                 friction: None,
+                surface: None,
                 velocity_m_s: [0.0; 3],
                 fill: None,
                 physics_spacing_m: None,
@@ -268,6 +269,13 @@ impl ObjectBuilder {
     /// Coulomb friction coefficient (>= 0). Default 0.3.
     pub fn friction(mut self, friction: f32) -> Self {
         self.toml.friction = Some(friction);
+        self
+    }
+
+    /// The boundary rule a static or rigid object imposes on deformable objects' grids.
+    /// Default [`Surface::Separate`].
+    pub fn surface(mut self, surface: Surface) -> Self {
+        self.toml.surface = Some(surface);
         self
     }
 

@@ -54,6 +54,7 @@ impl Scene {
                 gaussians: table,
                 physics_spacing_m: None,
                 shape: table_shape,
+                surface: Surface::Separate,
             },
             SceneObject {
                 name: "jelly".into(),
@@ -66,6 +67,7 @@ impl Scene {
                 gaussians: jelly,
                 physics_spacing_m: None,
                 shape: jelly_shape,
+                surface: Surface::Separate,
             },
             SceneObject {
                 name: "snow".into(),
@@ -78,6 +80,7 @@ impl Scene {
                 gaussians: snow,
                 physics_spacing_m: None,
                 shape: snow_shape,
+                surface: Surface::Separate,
             },
         ];
         Scene {

@@ -135,6 +135,9 @@ pub struct SceneObject {
     /// surface. `None` for objects selected from a capture (their surface is sampled from
     /// their particles, `crate::contact::LevelSet`).
     pub shape: Option<crate::procedural::Shape>,
+    /// The boundary rule this object imposes, as a static or rigid object, on deformable
+    /// objects' grids. Default [`Surface::Separate`].
+    pub surface: Surface,
 }
 
 /// Collider geometry.

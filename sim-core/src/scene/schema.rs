@@ -227,6 +227,8 @@ pub struct ObjectToml {
     pub restitution: Option<f32>,
     /// Coulomb friction coefficient.
     pub friction: Option<f32>,
+    /// Boundary rule a static or rigid object imposes on deformable objects' grids.
+    pub surface: Option<super::model::Surface>,
     /// Initial velocity, m/s.
     #[serde(default)]
     pub velocity_m_s: [f32; 3],

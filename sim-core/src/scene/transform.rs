@@ -1,11 +1,13 @@
 //! Placing a source in the world and slicing clouds. A similarity transform p' = s R p + t acts
 //! on a Gaussian as: centre p' = s R p + t; rotation q' = R ⊗ q (raw quaternion, its length kept);
-//! log scales + ln s; normals R n. SH coefficients of degree >= 1 are left in the file frame
-//! (the real scenes here are degree 0; rotating higher bands is not implemented).
+//! log scales + ln s; normals R n; SH coefficients of degrees 1 to 3 rotated band by band
+//! ([`rotate_cloud_sh`]) so each Gaussian shows towards R d the colour it showed towards d.
+//! Translation and scale leave SH unchanged.
 
 use glam::{Quat, Vec3};
 
 use crate::gaussians::GaussianCloud;
+use crate::gaussians::sh_rotation::rotate_cloud_sh;
 
 /// Rotation from Euler angles in degrees, x then y then z about the fixed world axes
 /// (R = Rz · Ry · Rx).
@@ -14,7 +16,8 @@ pub fn euler_xyz_deg(rotation_deg: [f32; 3]) -> Quat {
     Quat::from_rotation_z(z) * Quat::from_rotation_y(y) * Quat::from_rotation_x(x)
 }
 
-/// Applies p' = `scale` · R · p + `translation` to every Gaussian of `cloud` in place.
+/// Applies p' = `scale` · R · p + `translation` to every Gaussian of `cloud` in place, SH
+/// coefficients included (a no-op for them when R is the identity or the cloud is degree 0).
 pub fn apply_similarity(cloud: &mut GaussianCloud, scale: f32, rotation: Quat, translation: Vec3) {
     let ln_s = scale.ln();
     for p in &mut cloud.positions {
@@ -32,6 +35,7 @@ pub fn apply_similarity(cloud: &mut GaussianCloud, scale: f32, rotation: Quat, t
             *n = (rotation * Vec3::from(*n)).to_array();
         }
     }
+    rotate_cloud_sh(cloud, rotation);
 }
 
 /// The Gaussians `indices` of `cloud`, in that order, every field (extras included).

@@ -211,6 +211,8 @@ pub struct Body {
     pub max_speed_m_s: f32,
     /// Contact impulses received, summed over the run (N s).
     pub impulse_total_n_s: f64,
+    /// The boundary rule it imposes, as a static or rigid object, on deformable objects' grids.
+    pub surface: crate::collider::Surface,
     /// Collision surface of a rigid or static object (`None` for a deformable one).
     pub collision: Option<Collision>,
     /// The contact solver's push-out pseudo-velocities (m/s, rad/s) for this substep.
@@ -285,6 +287,11 @@ impl Body {
             contacts: 0,
             max_speed_m_s: v0.length(),
             impulse_total_n_s: 0.0,
+            surface: match o.surface {
+                crate::scene::Surface::Sticky => crate::collider::Surface::Sticky,
+                crate::scene::Surface::Slip => crate::collider::Surface::Slip,
+                crate::scene::Surface::Separate => crate::collider::Surface::Separate,
+            },
             collision: None,
             push: (DVec3::ZERO, DVec3::ZERO),
         };

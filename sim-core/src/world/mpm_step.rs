@@ -112,6 +112,7 @@ impl World {
                     Vec3A::ZERO
                 },
                 friction: mix_friction(friction, b.friction),
+                surface: b.surface,
             });
             of.push(Some(k));
         }
@@ -123,6 +124,7 @@ impl World {
                 velocity_m_s: Vec3A::ZERO,
                 omega_rad_s: Vec3A::ZERO,
                 friction: mix_friction(friction, self.background_friction),
+                surface: crate::collider::Surface::Separate,
             });
             of.push(None);
         }
