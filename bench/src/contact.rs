@@ -161,7 +161,7 @@ pub struct ContactRow {
     pub bench: &'static str,
     /// Scene name.
     pub scene: &'static str,
-    /// "splatphys" or "rapier3d <version>".
+    /// "splatphys" or "rapier3d" with its version.
     pub engine: String,
     /// Rigid bodies.
     pub bodies: usize,

@@ -246,7 +246,7 @@ impl LevelSet {
         self.h_m
     }
 
-    /// Bounds of the grid (m): outside them [`Self::distance`] is at least the distance to the box.
+    /// Bounds of the grid (m): outside them [`Self::sample`] is at least the distance to the box.
     pub fn bounds_m(&self) -> (Vec3A, Vec3A) {
         let [nx, ny, nz] = self.dims;
         let extent = Vec3A::new(nx as f32 - 1.0, ny as f32 - 1.0, nz as f32 - 1.0) * self.h_m;

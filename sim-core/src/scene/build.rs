@@ -9,7 +9,7 @@ use glam::Vec3;
 
 use super::SceneError;
 use super::model::*;
-use super::schema::{MaterialToml, ObjectToml, SceneFile, SelectToml};
+use super::schema::{MaterialToml, ObjectToml, PlaneChoice, SceneFile, SelectToml};
 use super::transform::{apply_similarity, concat, euler_xyz_deg, subset, voxel_subsample};
 use crate::formats::read_gaussians;
 use crate::gaussians::GaussianCloud;
@@ -544,12 +544,61 @@ fn object(
     })
 }
 
-fn colliders(ctx: &Ctx, f: &SceneFile) -> Result<Vec<ColliderSpec>, SceneError> {
+/// Most Gaussians the automatic support plane is fitted to (an even stride over the rest).
+const AUTO_PLANE_SAMPLE: usize = 50_000;
+
+/// The support plane of the placed sources (RANSAC, as automatic selection finds it), over their
+/// Gaussians at least half opaque, as (point on it, normal to the side objects stand on).
+fn auto_plane(sources: &[Placed], seed: u64) -> Option<([f32; 3], [f32; 3])> {
+    let points: Vec<[f32; 3]> = sources
+        .iter()
+        .flat_map(|p| {
+            (0..p.cloud.len())
+                .filter(|&g| p.cloud.opacity(g) >= 0.5)
+                .map(|g| p.cloud.positions[g])
+        })
+        .collect();
+    let stride = points.len().div_ceil(AUTO_PLANE_SAMPLE).max(1);
+    let sample: Vec<[f32; 3]> = points.into_iter().step_by(stride).collect();
+    let params = crate::selection::auto::AutoParams {
+        seed,
+        ..Default::default()
+    };
+    let fit = crate::selection::auto::ransac_plane(
+        &sample,
+        params.ransac_iterations,
+        params.plane_tolerance_m,
+        params.seed,
+    )?;
+    let n = Vec3::from(fit.normal);
+    Some(((n * fit.offset_m).to_array(), fit.normal))
+}
+
+fn colliders(
+    ctx: &Ctx,
+    f: &SceneFile,
+    sources: &[Placed],
+    seed: u64,
+) -> Result<Vec<ColliderSpec>, SceneError> {
     let mut out = Vec::new();
     for (i, c) in f.collider.iter().enumerate() {
         let key = format!("collider[{i}]");
         let shape = match (&c.plane, &c.box_) {
-            (Some(p), None) => {
+            (Some(PlaneChoice::Keyword(k)), None) => {
+                ctx.check(
+                    k == "auto",
+                    format!("{key}.plane"),
+                    format!("a plane is a table {{ point_m, normal }} or \"auto\", not {k:?}"),
+                )?;
+                let (point_m, normal) = auto_plane(sources, seed).ok_or_else(|| {
+                    ctx.invalid(
+                        format!("{key}.plane"),
+                        "\"auto\" found no support plane in the sources (none, or too few opaque Gaussians)",
+                    )
+                })?;
+                ColliderShape::Plane { point_m, normal }
+            }
+            (Some(PlaneChoice::Given(p)), None) => {
                 ctx.finite3(p.point_m, format!("{key}.plane.point_m"))?;
                 let n = Vec3::from(p.normal);
                 ctx.check(
@@ -631,7 +680,7 @@ pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene,
         let rest: Vec<usize> = (0..p.cloud.len()).filter(|&i| !p.claimed[i]).collect();
         background = concat(&background, &subset(&p.cloud, &rest));
     }
-    let colliders = colliders(&ctx, f)?;
+    let colliders = colliders(&ctx, f, &sources, simulation.seed)?;
     let mut warnings = Vec::new();
     let events = super::events::events(&ctx, f, &objects, &mut warnings)?;
     for (i, c) in f.camera.iter().enumerate() {

@@ -38,7 +38,9 @@ use super::model::{
     self, CameraSpec, ColliderShape, ColliderSpec, EventSpec, MaterialSpec, Method, ObjectKind,
     Scene, SceneObject, Surface,
 };
-use super::schema::{BoxToml, ColliderToml, ObjectToml, PlaneToml, SceneFile, SimulationToml};
+use super::schema::{
+    BoxToml, ColliderToml, ObjectToml, PlaneChoice, PlaneToml, SceneFile, SimulationToml,
+};
 use super::{SceneError, build_scene};
 use crate::procedural::Shape;
 use splatphys_types::CommandToml;
@@ -171,7 +173,10 @@ impl SceneBuilder {
     /// Adds a kinematic collider.
     pub fn collider(mut self, collider: ColliderSpec) -> Self {
         let (plane, box_) = match collider.shape {
-            ColliderShape::Plane { point_m, normal } => (Some(PlaneToml { point_m, normal }), None),
+            ColliderShape::Plane { point_m, normal } => (
+                Some(PlaneChoice::Given(PlaneToml { point_m, normal })),
+                None,
+            ),
             ColliderShape::Box { min_m, max_m } => (None, Some(BoxToml { min_m, max_m })),
         };
         self.file.collider.push(ColliderToml {

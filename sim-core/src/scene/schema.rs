@@ -256,8 +256,8 @@ pub struct FillToml {
 pub struct ColliderToml {
     /// Name.
     pub name: String,
-    /// A plane.
-    pub plane: Option<PlaneToml>,
+    /// A plane, or `"auto"`: the support plane automatic selection finds.
+    pub plane: Option<PlaneChoice>,
     /// Or a box.
     #[serde(rename = "box")]
     pub box_: Option<BoxToml>,
@@ -272,6 +272,16 @@ pub struct ColliderToml {
     pub velocity_m_s: [f32; 3],
     /// Active window `[start, end]`, s.
     pub active_s: Option<[f64; 2]>,
+}
+
+/// `plane = {...}` or `plane = "auto"`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum PlaneChoice {
+    /// Given by a point and a normal.
+    Given(PlaneToml),
+    /// A keyword; `"auto"` is the only one.
+    Keyword(String),
 }
 
 /// `plane = {...}`.
