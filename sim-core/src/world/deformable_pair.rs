@@ -17,8 +17,9 @@
 //! particles receive it through [`super::coherence::apply_impulse`].
 
 use glam::{DMat3, DVec3, IVec3};
+use rayon::prelude::*;
 
-use super::body::{Body, BodyState, measure};
+use super::body::{Body, BodyState, measure, measure_bounds};
 use super::{World, coherence};
 use crate::contact::{mix_friction, mix_restitution};
 use crate::scene::{Method, ObjectKind};
@@ -253,16 +254,30 @@ impl World {
             return;
         }
         let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
-        for (x, &i) in ids.iter().enumerate() {
-            for &j in &ids[x + 1..] {
+        // Bounds for the broad phase (one pass per object); the full state (inertia, angular
+        // momentum) only for objects of a pair that passes it, once per substep.
+        let bounds: Vec<BodyState> = ids
+            .par_iter()
+            .map(|&k| measure_bounds(&self.bodies[k].particles, dx))
+            .collect();
+        let mut full: Vec<Option<BodyState>> = vec![None; ids.len()];
+        for x in 0..ids.len() {
+            for y in x + 1..ids.len() {
+                let (i, j) = (ids[x], ids[y]);
                 let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-                if !(bi.is_active() || bj.is_active()) {
+                if !(bi.is_active() || bj.is_active())
+                    || !broad_phase(&bounds[x], &bounds[y], dx as f64)
+                {
                     continue;
                 }
-                let (si, sj) = (measure(&bi.particles, dx), measure(&bj.particles, dx));
-                if !broad_phase(&si, &sj, dx as f64) {
-                    continue;
+                for (z, k) in [(x, i), (y, j)] {
+                    if full[z].is_none() {
+                        full[z] = Some(measure(&self.bodies[k].particles, dx));
+                    }
                 }
+                let (Some(si), Some(sj)) = (full[x], full[y]) else {
+                    continue;
+                };
                 let Some(c) = narrow_phase(bi, &si, bj, &sj, dx) else {
                     continue;
                 };
@@ -310,6 +325,9 @@ impl World {
                     coherence::apply_impulse(b, jk, c.point_m, zone);
                     b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
                 }
+                // Their velocities changed: a later pair re-measures them.
+                full[x] = None;
+                full[y] = None;
             }
         }
     }
