@@ -29,6 +29,7 @@ mod commands;
 pub mod contact;
 mod deformable_pair;
 pub mod explain;
+mod impact;
 mod mpm_step;
 mod output;
 pub mod overlap;
@@ -186,6 +187,10 @@ pub struct World {
     /// Coulomb friction of the captured background.
     pub background_friction: f32,
     contact_cache: contact::ContactCache,
+    /// This substep's deformable–solid grid contacts: (deformable, solid, impulse on it in N s).
+    boundary_touches: Vec<(usize, impact::SolidOf, glam::DVec3)>,
+    /// Open deformable–solid impacts (`impact.rs`).
+    impacts: std::collections::HashMap<(usize, impact::SolidOf), impact::Impact>,
     /// The contact points of the last substep.
     pub last_contacts: Vec<contact::ContactReport>,
 }
@@ -341,6 +346,8 @@ impl World {
             background_report,
             background_friction: BACKGROUND_FRICTION,
             contact_cache: Default::default(),
+            boundary_touches: Vec::new(),
+            impacts: Default::default(),
             last_contacts: Vec::new(),
         })
     }
@@ -444,6 +451,8 @@ impl World {
             Method::Com => self.mpm_per_object_substep(dt)?,
         };
         let t1 = Instant::now();
+        let touches = std::mem::take(&mut self.boundary_touches);
+        self.boundary_restitution(&touches);
         self.rigid_velocities(dt as f64, &reactions);
         self.resolve_deformable_pairs(dt as f64);
         self.solve_contacts(dt as f64);
@@ -500,5 +509,6 @@ impl World {
         self.generation += 1;
         self.contact_cache = Default::default();
         self.last_contacts.clear();
+        self.impacts.clear();
     }
 }

@@ -5,7 +5,7 @@
 //! are boundaries on these grids ([`crate::contact::boundary`]); each function returns the
 //! reaction every object received, for the rigid step.
 
-use glam::Vec3A;
+use glam::{DVec3, Vec3A};
 
 use super::{Body, World, WorldError, WorldStats};
 use crate::collider::Collider;
@@ -139,9 +139,9 @@ impl World {
         particles: &Particles,
         friction: f32,
         reactions: &mut [Reaction],
-    ) {
+    ) -> Vec<(ObstacleOf, DVec3)> {
         if particles.is_empty() {
-            return;
+            return Vec::new();
         }
         let mut lo = Vec3A::splat(f32::INFINITY);
         let mut hi = Vec3A::splat(f32::NEG_INFINITY);
@@ -151,18 +151,24 @@ impl World {
         }
         let (obstacles, of) = self.obstacles((lo, hi), friction);
         if obstacles.is_empty() {
-            return;
+            return Vec::new();
         }
         let v_ref = solver.reference_velocity_m_s();
         let dx = solver.dx_m;
         let r = boundary::apply(solver.grid_mut(), dx, v_ref, &obstacles);
+        let mut touched = Vec::new();
         for (r, k) in r.iter().zip(of) {
+            if r.nodes > 0 {
+                // The grid's impulse on the deformable is the solid's reaction reversed.
+                touched.push((k, -r.impulse_n_s));
+            }
             if let Some(k) = k {
                 reactions[k].impulse_n_s += r.impulse_n_s;
                 reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
                 reactions[k].nodes += r.nodes;
             }
         }
+        touched
     }
 
     /// Method `com`: every awake deformable object runs a whole substep on its own grid, with
@@ -172,6 +178,7 @@ impl World {
         dt_s: f32,
     ) -> Result<Vec<Reaction>, WorldError> {
         let mut reactions = vec![Reaction::default(); self.bodies.len()];
+        let mut touches = Vec::new();
         for k in 0..self.bodies.len() {
             if !simulated(&self.bodies[k]) {
                 self.bodies[k].substeps_skipped += 1;
@@ -186,7 +193,8 @@ impl World {
             let materials = &self.bodies[k].materials;
             let r = solver.scatter_and_update(&particles, &step.input(materials));
             if r.is_ok() {
-                self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
+                let t = self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
+                touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
             }
             let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
             let b = &mut self.bodies[k];
@@ -194,6 +202,7 @@ impl World {
             b.particles = particles;
             step.finish(&mut self.stats, b, r)?;
         }
+        self.boundary_touches = touches;
         Ok(reactions)
     }
 
@@ -202,6 +211,7 @@ impl World {
     pub(super) fn multi_field_substep(&mut self, dt_s: f32) -> Result<Vec<Reaction>, WorldError> {
         let dx_m = self.dx_m();
         let mut reactions = vec![Reaction::default(); self.bodies.len()];
+        let mut touches = Vec::new();
         let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
         for b in &mut self.bodies {
             if !simulated(b) {
@@ -237,7 +247,8 @@ impl World {
             let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx_m));
             let friction = b.friction;
             let particles = std::mem::take(&mut b.particles);
-            self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
+            let t = self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
+            touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
             let b = &mut self.bodies[k];
             b.solver = solver;
             b.particles = particles;
@@ -246,6 +257,7 @@ impl World {
             let r = b.solver.gather(&mut b.particles, &step.input(&b.materials));
             step.finish(&mut self.stats, b, r)?;
         }
+        self.boundary_touches = touches;
         Ok(reactions)
     }
 
@@ -272,7 +284,8 @@ impl World {
         let mut shared = std::mem::replace(&mut self.shared, MpmSolver::new(dx));
         let r = shared.scatter_and_update(&all, &step.input(&materials));
         if r.is_ok() {
-            self.apply_obstacles(&mut shared, &all, friction, &mut reactions);
+            // One grid for every object: no per-object impacts to follow.
+            let _ = self.apply_obstacles(&mut shared, &all, friction, &mut reactions);
         }
         let r = r.and_then(|()| shared.gather(&mut all, &step.input(&materials)));
         self.shared = shared;
@@ -292,6 +305,7 @@ impl World {
             b.max_speed_m_s = r.max_speed_m_s;
             start = end;
         }
+        self.boundary_touches.clear();
         Ok(reactions)
     }
 }
