@@ -67,20 +67,23 @@ struct Placed {
 
 /// Validates and converts a material table.
 fn material(ctx: &Ctx, m: &MaterialToml, key: &str) -> Result<MaterialSpec, SceneError> {
+    // The bounds a material edit command gets (`world::limits`).
+    use crate::world::limits::{DENSITY_RANGE_KG_M3, MAX_POISSON_RATIO, MAX_YOUNGS_MODULUS_PA};
     ctx.check(
-        m.youngs_modulus_pa.is_finite() && m.youngs_modulus_pa > 0.0,
+        m.youngs_modulus_pa > 0.0 && m.youngs_modulus_pa <= MAX_YOUNGS_MODULUS_PA,
         format!("{key}.youngs_modulus_pa"),
-        "must be > 0",
+        format!("must be > 0 and at most {MAX_YOUNGS_MODULUS_PA:e} Pa"),
     )?;
     ctx.check(
-        m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5,
+        m.poisson_ratio > -1.0 && m.poisson_ratio <= MAX_POISSON_RATIO,
         format!("{key}.poisson_ratio"),
-        "must be in (-1, 0.5)",
+        format!("must be in (-1, {MAX_POISSON_RATIO}]"),
     )?;
+    let (lo, hi) = DENSITY_RANGE_KG_M3;
     ctx.check(
-        m.density_kg_m3.is_finite() && m.density_kg_m3 > 0.0,
+        (lo..=hi).contains(&m.density_kg_m3),
         format!("{key}.density_kg_m3"),
-        "must be > 0",
+        format!("must be in [{lo}, {hi}] kg/m³"),
     )?;
     let opts = [
         ("friction_angle_deg", m.friction_angle_deg),

@@ -89,6 +89,7 @@ impl World {
                 reason: "non-finite impulse".into(),
             });
         }
+        self.check_impulse(id, j_n_s.as_dvec3(), point_m.map(|p| p.as_dvec3()))?;
         self.wake(id);
         let dx = self.dx_m();
         let b = &mut self.bodies[id];
@@ -126,6 +127,7 @@ impl World {
                 reason: "non-finite velocity".into(),
             });
         }
+        self.check_velocity(id, v_m_s.as_dvec3())?;
         self.wake(id);
         let dx = self.dx_m();
         let b = &mut self.bodies[id];
@@ -151,15 +153,40 @@ impl World {
         restitution: Option<f32>,
         friction: Option<f32>,
     ) -> Result<(), WorldError> {
-        let b = self
+        let name = &self
             .bodies
-            .get_mut(id)
-            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
-        if let Some(spec) = spec {
-            let m = Material::from_spec(spec).map_err(|source| WorldError::Material {
-                object: b.name.clone(),
-                source,
-            })?;
+            .get(id)
+            .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?
+            .name;
+        let checked = match spec {
+            Some(spec) => {
+                let m = Material::from_spec(spec).map_err(|source| WorldError::Material {
+                    object: name.clone(),
+                    source,
+                })?;
+                self.check_material(id, spec, &m)?;
+                Some(m)
+            }
+            None => None,
+        };
+        if let Some(e) = restitution
+            && !(0.0..=1.0).contains(&e)
+        {
+            return Err(WorldError::Refused {
+                object: name.clone(),
+                reason: format!("restitution {e} is outside [0, 1]"),
+            });
+        }
+        if let Some(mu) = friction
+            && !(mu.is_finite() && mu >= 0.0)
+        {
+            return Err(WorldError::Refused {
+                object: name.clone(),
+                reason: format!("friction {mu} must be finite and >= 0"),
+            });
+        }
+        let b = &mut self.bodies[id];
+        if let Some(m) = checked {
             let rho = m.density_kg_m3();
             let ratio = (rho / b.materials[0].density_kg_m3()) as f64;
             for (mass, vol) in b.particles.mass_kg.iter_mut().zip(&b.particles.volume0_m3) {

@@ -30,6 +30,7 @@ pub mod contact;
 mod deformable_pair;
 pub mod explain;
 mod impact;
+pub mod limits;
 mod mpm_step;
 mod output;
 pub mod overlap;
@@ -193,6 +194,8 @@ pub struct World {
     impacts: std::collections::HashMap<(usize, impact::SolidOf), impact::Impact>,
     /// The contact points of the last substep.
     pub last_contacts: Vec<contact::ContactReport>,
+    /// Most particle-substeps per frame a material edit may require ([`limits`]).
+    pub max_particle_substeps_per_frame: f64,
 }
 
 /// Friction coefficient of the captured background.
@@ -347,6 +350,7 @@ impl World {
             background_friction: BACKGROUND_FRICTION,
             contact_cache: Default::default(),
             boundary_touches: Vec::new(),
+            max_particle_substeps_per_frame: limits::DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME,
             impacts: Default::default(),
             last_contacts: Vec::new(),
         })

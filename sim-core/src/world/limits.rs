@@ -1,0 +1,157 @@
+//! What a command may do to an object, checked before it is applied so that no command can make
+//! the next step non-finite or stall it: the speed an impulse or a set-velocity gives the object
+//! (linear plus the spin's speed at its farthest particle), material values that fit the
+//! solver's f32, and a substep budget for material edits.
+//!
+//! The budget: a stiffer or lighter material raises the wave speed c_p and shrinks the CFL
+//! substep dt = C dx / c_p, so one frame needs (frame time / dt) substeps over the object's
+//! particles. An edit that would raise the world above [`World::max_particle_substeps_per_frame`]
+//! particle-substeps per frame (all objects) is refused, naming the limit and the value; an edit
+//! that does not raise the cost is never refused by it, so a large scene can still be softened.
+//! The number is a count, not a time, so the same edit is accepted or refused on every machine.
+
+use glam::DVec3;
+
+use super::{World, WorldError, measure};
+use crate::material::{ConstitutiveModel, Material, MaterialSpec};
+use crate::scene::ObjectKind;
+
+/// Fastest a command may make any particle of an object move (m/s).
+pub const MAX_COMMAND_SPEED_M_S: f64 = 100.0;
+/// Default particle-substeps per published frame a material edit may raise the world to (all
+/// objects): about 10 s of stepping per frame on a 2-core machine.
+pub const DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME: f64 = 1e8;
+/// Largest Young's modulus accepted (Pa): steel is 2e11; beyond 1e13 the stress overflows f32.
+pub const MAX_YOUNGS_MODULUS_PA: f64 = 1e13;
+/// Density range accepted (kg/m³): aerogel to osmium, with margin.
+pub const DENSITY_RANGE_KG_M3: (f64, f64) = (0.1, 1e5);
+/// Largest Poisson's ratio accepted: λ = E ν / ((1 + ν)(1 − 2ν)) stays finite in f32.
+pub const MAX_POISSON_RATIO: f64 = 0.499;
+
+impl World {
+    fn refuse(&self, id: usize, reason: String) -> WorldError {
+        WorldError::Refused {
+            object: self.bodies[id].name.clone(),
+            reason,
+        }
+    }
+
+    /// Refuses impulse `j_n_s` (N s) at `point_m` on object `id` when it would move a particle
+    /// faster than [`MAX_COMMAND_SPEED_M_S`]: Δv = J/m plus |I⁻¹ (r × J)| times the object's
+    /// farthest particle distance from its COM.
+    pub(super) fn check_impulse(
+        &self,
+        id: usize,
+        j_n_s: DVec3,
+        point_m: Option<DVec3>,
+    ) -> Result<(), WorldError> {
+        let b = &self.bodies[id];
+        let s = measure(&b.particles, self.dx_m());
+        if s.mass_kg <= 0.0 {
+            return Ok(());
+        }
+        let (inv_i, com) = if b.kind == ObjectKind::Rigid {
+            (
+                super::body::inverse_or_zero(b.rigid_world_inertia()),
+                b.rigid.com_m,
+            )
+        } else {
+            (super::body::inverse_or_zero(s.inertia), s.com_m)
+        };
+        let r = point_m.map_or(DVec3::ZERO, |p| p - com);
+        let spin = (inv_i * r.cross(j_n_s)).length() * s.radius_m;
+        let speed = s.velocity_m_s.length() + j_n_s.length() / s.mass_kg + spin;
+        if !(speed <= MAX_COMMAND_SPEED_M_S) {
+            return Err(self.refuse(
+                id,
+                format!(
+                    "the impulse would move it at up to {speed:.3e} m/s ({:.3e} m/s from the \
+                     impulse on {:.3} kg, {spin:.3e} m/s from the spin about a lever arm of \
+                     {:.3} m); the limit is {MAX_COMMAND_SPEED_M_S} m/s",
+                    j_n_s.length() / s.mass_kg,
+                    s.mass_kg,
+                    r.length()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses a COM velocity above [`MAX_COMMAND_SPEED_M_S`].
+    pub(super) fn check_velocity(&self, id: usize, v_m_s: DVec3) -> Result<(), WorldError> {
+        let speed = v_m_s.length();
+        if !(speed <= MAX_COMMAND_SPEED_M_S) {
+            return Err(self.refuse(
+                id,
+                format!("speed {speed:.3e} m/s is above the limit of {MAX_COMMAND_SPEED_M_S} m/s"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses a material spec for object `id` whose values do not fit the solver, or whose CFL
+    /// substep would exceed the particle-substep budget (module docs).
+    pub(super) fn check_material(
+        &self,
+        id: usize,
+        spec: &MaterialSpec,
+        material: &Material,
+    ) -> Result<(), WorldError> {
+        let e = spec.youngs_modulus_pa;
+        if !(e <= MAX_YOUNGS_MODULUS_PA) {
+            return Err(self.refuse(
+                id,
+                format!("youngs_modulus_pa = {e:e} is above {MAX_YOUNGS_MODULUS_PA:e} Pa"),
+            ));
+        }
+        let (lo, hi) = DENSITY_RANGE_KG_M3;
+        let rho = spec.density_kg_m3;
+        if !(lo..=hi).contains(&rho) {
+            return Err(self.refuse(
+                id,
+                format!("density_kg_m3 = {rho} is outside [{lo}, {hi}] kg/m³"),
+            ));
+        }
+        let nu = spec.poisson_ratio;
+        if !(nu <= MAX_POISSON_RATIO) {
+            return Err(self.refuse(
+                id,
+                format!("poisson_ratio = {nu} is above {MAX_POISSON_RATIO}"),
+            ));
+        }
+        if self.bodies[id].kind != ObjectKind::Deformable {
+            return Ok(());
+        }
+        // The substep budget with the new material in place of the old.
+        let cfl = match self.policy {
+            crate::mpm::TimeStepPolicy::Cfl { number } => number as f64,
+            crate::mpm::TimeStepPolicy::Fixed { .. } => return Ok(()),
+        };
+        let mut others = 0.0f64;
+        for (k, b) in self.bodies.iter().enumerate() {
+            if k != id && b.kind == ObjectKind::Deformable {
+                others = others.max(b.materials[0].max_wave_speed_m_s() as f64);
+            }
+        }
+        let particles = self.particle_count() as f64;
+        let need = |wave: f64| {
+            let dt = cfl * self.dx_m() as f64 / wave.max(f64::MIN_POSITIVE);
+            (dt, (self.frame_dt_s() / dt).ceil() * particles)
+        };
+        let old_wave = others.max(self.bodies[id].materials[0].max_wave_speed_m_s() as f64);
+        let wave = others.max(material.max_wave_speed_m_s() as f64);
+        let (dt, needed) = need(wave);
+        if !(needed <= self.max_particle_substeps_per_frame || needed <= need(old_wave).1) {
+            return Err(self.refuse(
+                id,
+                format!(
+                    "that material needs substeps of {dt:.2e} s (c_p = {wave:.3e} m/s): \
+                     {needed:.3e} particle-substeps per frame, above the limit of {:.3e} \
+                     (max_particle_substeps_per_frame)",
+                    self.max_particle_substeps_per_frame
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
