@@ -61,7 +61,7 @@ impl World {
         let r = point_m.map_or(DVec3::ZERO, |p| p - com);
         let spin = (inv_i * r.cross(j_n_s)).length() * s.radius_m;
         let speed = s.velocity_m_s.length() + j_n_s.length() / s.mass_kg + spin;
-        if !(speed <= MAX_COMMAND_SPEED_M_S) {
+        if !speed.is_finite() || speed > MAX_COMMAND_SPEED_M_S {
             return Err(self.refuse(
                 id,
                 format!(
@@ -80,7 +80,7 @@ impl World {
     /// Refuses a COM velocity above [`MAX_COMMAND_SPEED_M_S`].
     pub(super) fn check_velocity(&self, id: usize, v_m_s: DVec3) -> Result<(), WorldError> {
         let speed = v_m_s.length();
-        if !(speed <= MAX_COMMAND_SPEED_M_S) {
+        if !speed.is_finite() || speed > MAX_COMMAND_SPEED_M_S {
             return Err(self.refuse(
                 id,
                 format!("speed {speed:.3e} m/s is above the limit of {MAX_COMMAND_SPEED_M_S} m/s"),
@@ -98,7 +98,7 @@ impl World {
         material: &Material,
     ) -> Result<(), WorldError> {
         let e = spec.youngs_modulus_pa;
-        if !(e <= MAX_YOUNGS_MODULUS_PA) {
+        if !e.is_finite() || e > MAX_YOUNGS_MODULUS_PA {
             return Err(self.refuse(
                 id,
                 format!("youngs_modulus_pa = {e:e} is above {MAX_YOUNGS_MODULUS_PA:e} Pa"),
@@ -113,7 +113,7 @@ impl World {
             ));
         }
         let nu = spec.poisson_ratio;
-        if !(nu <= MAX_POISSON_RATIO) {
+        if nu.is_nan() || nu > MAX_POISSON_RATIO {
             return Err(self.refuse(
                 id,
                 format!("poisson_ratio = {nu} is above {MAX_POISSON_RATIO}"),
@@ -141,7 +141,7 @@ impl World {
         let old_wave = others.max(self.bodies[id].materials[0].max_wave_speed_m_s() as f64);
         let wave = others.max(material.max_wave_speed_m_s() as f64);
         let (dt, needed) = need(wave);
-        if !(needed <= self.max_particle_substeps_per_frame || needed <= need(old_wave).1) {
+        if needed > self.max_particle_substeps_per_frame && needed > need(old_wave).1 {
             return Err(self.refuse(
                 id,
                 format!(
