@@ -1,13 +1,17 @@
 //! The world: every object of a scene, stepped with the COM method (the paper's stage 2) or the
 //! shared-grid MPM baseline, frame by frame.
 //!
-//! COM method, one substep (DESIGN.md "Objects and the COM layer"):
-//! 1. each awake deformable object runs P2G, grid update and G2P on its own grid ([`Body`]);
-//!    rigid objects integrate as rigid bodies ([`rigid`]); static and sleeping ones cost nothing;
-//! 2. broad phase on bounding spheres and boxes, narrow phase on occupied cells ([`contact`]);
-//! 3. the impulse law for approaching pairs with restitution e and Coulomb friction;
-//! 4. the impulse goes to the contact zone, then each object's momentum is made equal to its
-//!    object-level value ([`coherence`]).
+//! COM method, one substep (DESIGN.md "Objects and the COM layer"; docs/com-layer.md):
+//! 1. each awake deformable object runs P2G, grid update and G2P on its own grid ([`Body`]),
+//!    with grid colliders, static and rigid objects and the captured background as boundary
+//!    nodes ([`crate::contact::boundary`]; the background's surface in [`background`]);
+//! 2. the restitution law where a deformable object's grid contact with a solid ends
+//!    (`impact.rs`);
+//! 3. rigid objects' velocity half: gravity and the grids' reactions ([`rigid`]);
+//! 4. deformable pairs: one COM-level impulse per pair (`deformable_pair.rs`, [`coherence`]);
+//! 5. one contact solve for rigid and static objects, colliders and the background
+//!    ([`contact`], [`crate::contact::solver`]);
+//! 6. rigid objects' position half, then sleeping (`sleep.rs`).
 //!
 //! [`overlap`] measures how deep objects lie inside each other, on occupied cells; [`explain`]
 //! reports per object what the scene needed and what was modelled. An object with a
@@ -18,8 +22,7 @@
 //! the shared node lattice and fields meet through the multi-field contact rule
 //! ([`crate::mpm::multi_field`]). In both baselines the COM layer still resolves contacts that
 //! involve a rigid or static object. The MPM part of a substep, per method, is in `mpm_step.rs`;
-//! contact resolution is in [`contact`]; sleeping and waking (an object still and untouched for
-//! [`SLEEP_AFTER_S`] skips all work) in `sleep.rs`.
+//! commands are checked against [`limits`] before they apply.
 
 pub mod background;
 pub mod body;
