@@ -39,7 +39,7 @@ fn record(path: &Path, last: u64, missing: &[u64]) {
     let mut frame = vec![FrameGaussian::default(); n];
     for step in 0..=last {
         if step > 0 {
-            sim.advance().expect("advance");
+            sim.advance(&mut || true).expect("advance");
         }
         if missing.contains(&step) {
             continue;
@@ -53,7 +53,7 @@ fn record(path: &Path, last: u64, missing: &[u64]) {
             count: n as u32,
             scene_generation: 0,
             layout_version: LAYOUT_VERSION,
-            reserved: 0,
+            ..Default::default()
         };
         w.frame(&h, &frame).expect("frame");
     }

@@ -114,7 +114,7 @@ fn in_process(args: &RunArgs) -> Result<()> {
     let started = Instant::now();
     let mut error = None;
     while !sim.is_finished() {
-        if let Err(e) = sim.advance() {
+        if let Err(e) = sim.advance(&mut || true) {
             error = Some(e);
             break;
         }

@@ -23,8 +23,7 @@ const _: () = {
     assert!(offset_of!(GaussianState, rotation_wxyz) == offset_of!(FrameGaussian, rotation_wxyz));
 };
 
-/// Object id of background Gaussians in [`SceneGaussian::object_id`].
-pub const BACKGROUND_OBJECT: u32 = u32::MAX;
+pub use splatphys_ipc::wire::BACKGROUND_OBJECT_ID as BACKGROUND_OBJECT;
 
 /// A [`World`] served over iceoryx2.
 #[derive(Debug)]
@@ -34,6 +33,10 @@ pub struct WorldSim {
     name: String,
     sh_degree: u32,
     substeps: u64,
+    /// The world and the substep count at the last published frame (restored after a failed
+    /// step). Cloned into with `clone_from`, so its buffers are reused frame after frame; the
+    /// scene's static data is shared, not copied.
+    saved: Option<(World, u64)>,
 }
 
 impl WorldSim {
@@ -55,6 +58,7 @@ impl WorldSim {
             name: name.to_string(),
             sh_degree,
             substeps: 0,
+            saved: None,
         })
     }
 }
@@ -111,17 +115,46 @@ impl Simulation for WorldSim {
         });
     }
 
-    fn advance(&mut self) -> Result<Advance, SimulationError> {
-        let n = self.world.advance_frame().map_err(|e| SimulationError {
-            step: self.world.frame,
-            reason: e.to_string(),
-        })?;
+    fn advance(
+        &mut self,
+        keep_going: &mut dyn FnMut() -> bool,
+    ) -> Result<Advance, SimulationError> {
+        let step = self.world.frame + 1;
+        let n = self
+            .world
+            .advance_frame_with(keep_going)
+            .map_err(|e| match e {
+                WorldError::Interrupted { .. } => SimulationError::Interrupted { step },
+                e => SimulationError::Failed {
+                    step,
+                    reason: e.to_string(),
+                },
+            })?;
         self.substeps += n;
         Ok(Advance {
             steps: 1,
             substeps: n,
             time_s: self.world.time_s,
         })
+    }
+
+    fn checkpoint(&mut self) {
+        match &mut self.saved {
+            Some((world, substeps)) => {
+                world.clone_from(&self.world);
+                *substeps = self.substeps;
+            }
+            None => self.saved = Some((self.world.clone(), self.substeps)),
+        }
+    }
+
+    fn restore_checkpoint(&mut self) -> bool {
+        let Some((world, substeps)) = &self.saved else {
+            return false;
+        };
+        self.world.clone_from(world);
+        self.substeps = *substeps;
+        true
     }
 
     fn write_frame(&self, out: &mut [FrameGaussian]) {
@@ -148,6 +181,7 @@ impl Simulation for WorldSim {
         self.world.apply(command).map_err(|e| e.to_string())?;
         if *command == Command::Reset {
             self.substeps = 0;
+            return Ok(self.world.frame);
         }
         Ok(at)
     }

@@ -36,7 +36,7 @@ use crate::services::{
 };
 use crate::wire::{
     CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, LAYOUT_VERSION, ObjectName,
-    ObjectState, ReplyMsg, STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status,
+    ObjectState, ReplyMsg, STATUS_SHUTTING_DOWN, STATUS_STALLED, SceneGaussian, SceneHeader, Status,
 };
 
 /// A received frame: `payload()` is `[N] FrameGaussian` viewing shared memory.
@@ -297,6 +297,12 @@ impl Connection {
             match self.status_sub.receive() {
                 Ok(Some(s)) => {
                     let s = *s.payload();
+                    if s.layout_version != LAYOUT_VERSION {
+                        return Err(IpcError::LayoutMismatch {
+                            server: s.layout_version,
+                            client: LAYOUT_VERSION,
+                        });
+                    }
                     self.last_beat = Instant::now();
                     self.shutting_down |= s.flags & STATUS_SHUTTING_DOWN != 0;
                     self.last_status = Some(s);
@@ -317,6 +323,17 @@ impl Connection {
             });
         }
         Ok(self.last_status)
+    }
+
+    /// [`IpcError::ServerStalled`] when the last status said the server's loop is stalled
+    /// ([`STATUS_STALLED`]): it beats, but makes no progress.
+    pub fn stalled(&self) -> Option<IpcError> {
+        let s = self.last_status?;
+        (s.flags & STATUS_STALLED != 0).then(|| IpcError::ServerStalled {
+            prefix: self.names.prefix().to_owned(),
+            stalled_ms: u64::from(s.progress_age_ms),
+            step: s.step,
+        })
     }
 
     fn shut_down(&self) -> IpcError {
@@ -496,7 +513,8 @@ impl Connection {
     /// Sends a command and waits up to `timeout` for its reply.
     ///
     /// # Errors
-    /// [`IpcError::NoReply`] after the timeout, [`IpcError::ServerGone`], iceoryx2 failures.
+    /// [`IpcError::NoReply`] after the timeout ([`IpcError::ServerStalled`] instead when the
+    /// server says its loop is stalled), [`IpcError::ServerGone`], iceoryx2 failures.
     pub fn command(&mut self, cmd: &Command, timeout: Duration) -> Result<Reply, IpcError> {
         let (sequence, pending) = self.send_command(cmd)?;
         let start = Instant::now();
@@ -506,6 +524,9 @@ impl Connection {
             }
             self.poll_status()?;
             if start.elapsed() >= timeout {
+                if let Some(stalled) = self.stalled() {
+                    return Err(stalled);
+                }
                 return Err(IpcError::NoReply {
                     sequence,
                     waited_ms: start.elapsed().as_millis() as u64,

@@ -4,7 +4,9 @@
 //! Decoding never panics: an unknown kind or code decodes to a [`DecodeError`] that the server
 //! answers with a rejection.
 
-use crate::wire::{CommandMsg, REPLY_MESSAGE_BYTES, ReplyMsg, read_fixed_str, write_fixed_str};
+use crate::wire::{
+    CommandMsg, LAYOUT_VERSION, REPLY_MESSAGE_BYTES, ReplyMsg, read_fixed_str, write_fixed_str,
+};
 
 /// Wire codes of [`CommandMsg::kind`].
 #[repr(u32)]
@@ -58,6 +60,12 @@ pub enum DecodeError {
         /// The code received.
         kind: u32,
     },
+    /// The sender speaks another [`LAYOUT_VERSION`].
+    #[error("layout version {sent}, this server speaks {LAYOUT_VERSION}")]
+    LayoutVersion {
+        /// The version the command carried.
+        sent: u32,
+    },
     /// `code` is not a known material model.
     #[error("unknown material model code {code}")]
     UnknownModel {
@@ -76,6 +84,7 @@ pub enum DecodeError {
 pub fn encode(command: &Command, sequence: u64) -> CommandMsg {
     let mut m = CommandMsg {
         sequence,
+        layout_version: LAYOUT_VERSION,
         ..Default::default()
     };
     match *command {
@@ -141,6 +150,11 @@ pub fn encode(command: &Command, sequence: u64) -> CommandMsg {
 /// # Errors
 /// [`DecodeError`] for an unknown command kind, material model or object kind code.
 pub fn decode(m: &CommandMsg) -> Result<Command, DecodeError> {
+    if m.layout_version != LAYOUT_VERSION {
+        return Err(DecodeError::LayoutVersion {
+            sent: m.layout_version,
+        });
+    }
     let opt = |flag: u32, v: f64| (m.fields & flag != 0).then_some(v);
     Ok(match m.kind {
         1 => Command::Impulse {
@@ -229,6 +243,8 @@ pub enum Reply {
     Accepted {
         /// Step index at which the command takes effect.
         effective_step: u64,
+        /// Scene generation after the command (a reset's reply names the new generation).
+        generation: u32,
     },
     /// Rejected and not applied.
     Rejected {
@@ -240,16 +256,23 @@ pub enum Reply {
 }
 
 impl Reply {
-    /// Encodes to the wire form.
-    pub fn to_msg(&self, sequence: u64) -> ReplyMsg {
+    /// Encodes to the wire form; `generation` is the scene generation a rejected command left
+    /// in place (an accepted one carries its own).
+    pub fn to_msg(&self, sequence: u64, generation: u32) -> ReplyMsg {
         let mut m = ReplyMsg {
             sequence,
+            scene_generation: generation,
+            layout_version: LAYOUT_VERSION,
             ..Default::default()
         };
         match self {
-            Reply::Accepted { effective_step } => {
+            Reply::Accepted {
+                effective_step,
+                generation,
+            } => {
                 m.accepted = 1;
                 m.effective_step = *effective_step;
+                m.scene_generation = *generation;
             }
             Reply::Rejected { code, reason } => {
                 m.reject_code = *code as u32;
@@ -264,6 +287,7 @@ impl Reply {
         if m.accepted == 1 {
             Reply::Accepted {
                 effective_step: m.effective_step,
+                generation: m.scene_generation,
             }
         } else {
             Reply::Rejected {
@@ -327,12 +351,14 @@ mod tests {
     fn unknown_codes_decode_to_errors_not_panics() {
         let m = CommandMsg {
             kind: 99,
+            layout_version: LAYOUT_VERSION,
             ..Default::default()
         };
         assert_eq!(decode(&m), Err(DecodeError::UnknownKind { kind: 99 }));
         let m = CommandMsg {
             kind: 4,
             code: 17,
+            layout_version: LAYOUT_VERSION,
             ..Default::default()
         };
         assert!(matches!(
@@ -347,8 +373,21 @@ mod tests {
             code: RejectCode::OutOfRange,
             reason: "nu = 0.6 outside (-1, 0.5)".into(),
         };
-        assert_eq!(Reply::from_msg(&r.to_msg(5)), r);
-        let a = Reply::Accepted { effective_step: 12 };
-        assert_eq!(Reply::from_msg(&a.to_msg(5)), a);
+        let m = r.to_msg(5, 3);
+        assert_eq!((m.scene_generation, m.layout_version), (3, LAYOUT_VERSION));
+        assert_eq!(*m.message.last().unwrap(), 0);
+        assert_eq!(Reply::from_msg(&m), r);
+        let a = Reply::Accepted {
+            effective_step: 12,
+            generation: 4,
+        };
+        assert_eq!(Reply::from_msg(&a.to_msg(5, 3)), a);
+    }
+
+    #[test]
+    fn another_layout_version_is_malformed() {
+        let mut m = encode(&Command::Pause, 1);
+        m.layout_version = 1;
+        assert_eq!(decode(&m), Err(DecodeError::LayoutVersion { sent: 1 }));
     }
 }

@@ -47,6 +47,19 @@ pub enum IpcError {
         /// Time since the last heartbeat, ms.
         silent_ms: u64,
     },
+    /// The server beats but its main loop has made no progress for
+    /// [`crate::services::STALL_THRESHOLD`] or longer (a step that does not end).
+    #[error(
+        "splatphys server under `{prefix}` is stalled: its loop made no progress for {stalled_ms} ms (at step {step}); it is alive but not stepping or answering"
+    )]
+    ServerStalled {
+        /// The prefix.
+        prefix: String,
+        /// Time since its loop last made progress, ms.
+        stalled_ms: u64,
+        /// Its step.
+        step: u64,
+    },
     /// The server announced a clean shutdown and everything it sent has been received.
     #[error("splatphys server under `{prefix}` shut down")]
     ServerShutDown {

@@ -28,6 +28,21 @@ pub struct FreeFall {
     vel_m_s: Vec<[f64; 3]>,
     time_s: f64,
     names: Vec<String>,
+    /// The state of the last [`Simulation::checkpoint`]: step, substeps, time, COMs, velocities.
+    saved: Option<Saved>,
+    /// Fail (as a blow-up would) when asked to compute this step: tests of the server's
+    /// failure handling.
+    pub fail_at_step: Option<u64>,
+}
+
+/// What [`FreeFall`] restores after a failure.
+#[derive(Debug, Clone)]
+struct Saved {
+    step: u64,
+    substeps: u64,
+    time_s: f64,
+    com_m: Vec<[f64; 3]>,
+    vel_m_s: Vec<[f64; 3]>,
 }
 
 impl FreeFall {
@@ -54,6 +69,8 @@ impl FreeFall {
             vel_m_s: Vec::new(),
             time_s: 0.0,
             names: (0..objects).map(|i| format!("cube{i}")).collect(),
+            saved: None,
+            fail_at_step: None,
         };
         s.reset_state();
         s
@@ -118,7 +135,20 @@ impl Simulation for FreeFall {
         }
     }
 
-    fn advance(&mut self) -> Result<Advance, SimulationError> {
+    fn advance(
+        &mut self,
+        keep_going: &mut dyn FnMut() -> bool,
+    ) -> Result<Advance, SimulationError> {
+        if !keep_going() {
+            return Err(SimulationError::Interrupted { step: self.step });
+        }
+        if self.fail_at_step == Some(self.step + 1) {
+            self.com_m.iter_mut().for_each(|p| *p = [f64::NAN; 3]);
+            return Err(SimulationError::Failed {
+                step: self.step + 1,
+                reason: "injected failure (fail_at_step)".into(),
+            });
+        }
         let dt = self.frame_dt_s;
         for (p, v) in self.com_m.iter_mut().zip(&mut self.vel_m_s) {
             for a in 0..3 {
@@ -135,6 +165,26 @@ impl Simulation for FreeFall {
             substeps: self.substeps_per_frame,
             time_s: self.time_s,
         })
+    }
+
+    fn checkpoint(&mut self) {
+        self.saved = Some(Saved {
+            step: self.step,
+            substeps: self.substeps,
+            time_s: self.time_s,
+            com_m: self.com_m.clone(),
+            vel_m_s: self.vel_m_s.clone(),
+        });
+    }
+
+    fn restore_checkpoint(&mut self) -> bool {
+        let Some(s) = &self.saved else { return false };
+        self.step = s.step;
+        self.substeps = s.substeps;
+        self.time_s = s.time_s;
+        self.com_m.clone_from(&s.com_m);
+        self.vel_m_s.clone_from(&s.vel_m_s);
+        true
     }
 
     fn write_frame(&self, out: &mut [FrameGaussian]) {
@@ -210,7 +260,7 @@ mod tests {
     fn free_fall_matches_closed_form() {
         let mut s = FreeFall::new("t", 1, 1, 0.01, None);
         for _ in 0..100 {
-            s.advance().unwrap();
+            s.advance(&mut || true).unwrap();
         }
         let mut o = [ObjectState::default()];
         s.write_objects(&mut o);
@@ -222,7 +272,7 @@ mod tests {
     #[test]
     fn reset_bumps_generation_and_restores_time() {
         let mut s = FreeFall::new("t", 2, 8, 0.01, None);
-        s.advance().unwrap();
+        s.advance(&mut || true).unwrap();
         s.apply(&Command::Reset).unwrap();
         assert_eq!(s.scene_generation(), 1);
         assert_eq!(s.step(), 0);

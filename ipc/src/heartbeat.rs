@@ -3,14 +3,21 @@
 //! dead one. The server loop updates the shared snapshot; the thread stamps the heartbeat
 //! counter and publishes. On stop it publishes one last status with the given extra flags
 //! (e.g. [`crate::wire::STATUS_SHUTTING_DOWN`]).
+//!
+//! Liveness is not the beat itself: the server loop counts its progress ([`Heartbeat::tick`],
+//! once per loop iteration and once per substep) and the thread publishes how long the count
+//! has stood still; past [`STALL_THRESHOLD`] it sets [`STATUS_STALLED`]. So a client tells a
+//! server that is gone (no beat) from one that is stalled (beats, no progress).
 
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 
 use crate::error::IpcError;
-use crate::services::{Role, STATUS_PERIOD, ServiceNames, create_node, status_service};
-use crate::wire::Status;
+use crate::services::{
+    Role, STALL_THRESHOLD, STATUS_PERIOD, ServiceNames, create_node, status_service,
+};
+use crate::wire::{STATUS_STALLED, Status};
 
 /// Handle to the heartbeat thread.
 #[derive(Debug)]
@@ -18,6 +25,7 @@ pub struct Heartbeat {
     snapshot: Arc<Mutex<Status>>,
     stop: Arc<AtomicBool>,
     final_flags: Arc<AtomicU32>,
+    progress: Arc<AtomicU64>,
     thread: Option<JoinHandle<Result<u64, IpcError>>>,
 }
 
@@ -30,13 +38,15 @@ impl Heartbeat {
         let snapshot = Arc::new(Mutex::new(Status::default()));
         let stop = Arc::new(AtomicBool::new(false));
         let final_flags = Arc::new(AtomicU32::new(0));
+        let progress = Arc::new(AtomicU64::new(0));
         let (ready_tx, ready_rx) = std::sync::mpsc::channel::<Result<(), IpcError>>();
         let thread = {
-            let (names, snapshot, stop, final_flags) = (
+            let (names, snapshot, stop, final_flags, progress) = (
                 names.clone(),
                 snapshot.clone(),
                 stop.clone(),
                 final_flags.clone(),
+                progress.clone(),
             );
             std::thread::Builder::new()
                 .name("splatphys-heartbeat".into())
@@ -60,10 +70,21 @@ impl Heartbeat {
                         }
                     };
                     let mut beat = 0u64;
+                    let mut seen = (u64::MAX, std::time::Instant::now());
                     let mut publish = |extra: u32| {
                         beat += 1;
                         let mut s = *snapshot.lock().unwrap_or_else(PoisonError::into_inner);
                         s.heartbeat = beat;
+                        let now = progress.load(Ordering::Acquire);
+                        if now != seen.0 {
+                            seen = (now, std::time::Instant::now());
+                        }
+                        let age = seen.1.elapsed();
+                        s.progress = now;
+                        s.progress_age_ms = age.as_millis().min(u32::MAX as u128) as u32;
+                        if age > STALL_THRESHOLD {
+                            s.flags |= STATUS_STALLED;
+                        }
                         s.flags |= extra;
                         publisher
                             .send_copy(s)
@@ -91,8 +112,14 @@ impl Heartbeat {
             snapshot,
             stop,
             final_flags,
+            progress,
             thread: Some(thread),
         })
+    }
+
+    /// Counts one unit of main-loop progress (a loop iteration or a substep).
+    pub fn tick(&self) {
+        self.progress.fetch_add(1, Ordering::Release);
     }
 
     /// Replaces the snapshot the next beats publish (the heartbeat counter is filled in).

@@ -54,6 +54,10 @@ pub type CommandService = request_response::PortFactory<Iox, CommandMsg, (), Rep
 pub const IOX2_PREFIX_ENV: &str = "SPLATPHYS_IOX2_PREFIX";
 /// Period of the status heartbeat (10 Hz).
 pub const STATUS_PERIOD: Duration = Duration::from_millis(100);
+/// The server calls itself stalled ([`crate::wire::STATUS_STALLED`]) when its main loop made no
+/// progress for this long. Progress is counted per substep, so a healthy 1M-particle scene
+/// (0.2-0.4 s per substep on two cores) stays far below it.
+pub const STALL_THRESHOLD: Duration = Duration::from_secs(5);
 /// A client declares the server gone after this long without a heartbeat.
 pub const HEARTBEAT_TIMEOUT: Duration = Duration::from_secs(1);
 /// Port name a subscriber uses to ask for lossless delivery of `frame` and `objects`.

@@ -3,6 +3,9 @@
 //! The server ([`crate::server`]) is generic over [`Simulation`]; sim-core's `World` implements
 //! it, and [`crate::fake::FreeFall`] is a small stand-in for tests. The server loans shared
 //! memory and the simulation writes its output straight into it: no intermediate buffers.
+//!
+//! A failing step never ends the server: it restores the checkpoint the simulation keeps of the
+//! last published frame, pauses, and reports the failure ([`crate::wire::STATUS_FAILED`]).
 
 use crate::command::Command;
 use crate::wire::{FrameGaussian, ObjectState, SceneGaussian};
@@ -18,14 +21,24 @@ pub struct Advance {
     pub time_s: f64,
 }
 
-/// A simulation failure (e.g. a NaN blow-up); the server reports it and stops.
+/// Why [`Simulation::advance`] did not complete a frame.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("simulation failed at step {step}: {reason}")]
-pub struct SimulationError {
-    /// Step at which it failed.
-    pub step: u64,
-    /// What happened.
-    pub reason: String,
+pub enum SimulationError {
+    /// The state became invalid (non-finite, unstable). The server restores the last
+    /// checkpoint ([`Simulation::restore_checkpoint`]), pauses and reports it.
+    #[error("simulation failed at step {step}: {reason}")]
+    Failed {
+        /// Step being computed.
+        step: u64,
+        /// What happened.
+        reason: String,
+    },
+    /// The progress callback asked to stop mid-frame (a signal or a stop flag).
+    #[error("step {step} interrupted")]
+    Interrupted {
+        /// Step being computed.
+        step: u64,
+    },
 }
 
 /// A world the server can publish.
@@ -55,11 +68,22 @@ pub trait Simulation {
     fn substeps(&self) -> u64;
     /// Writes the static data of every published Gaussian; `out.len() == gaussian_count()`.
     fn write_scene(&self, out: &mut [SceneGaussian]);
-    /// Advances by one published frame.
+    /// Advances by one published frame, calling `keep_going` after every substep (the server
+    /// counts progress there and looks for a stop); when it returns `false`, return
+    /// [`SimulationError::Interrupted`] at once.
     ///
     /// # Errors
-    /// [`SimulationError`] when the state became invalid; the server stops publishing.
-    fn advance(&mut self) -> Result<Advance, SimulationError>;
+    /// [`SimulationError::Failed`] when the state became invalid (the state may then be
+    /// anything; the server restores the checkpoint); [`SimulationError::Interrupted`].
+    fn advance(&mut self, keep_going: &mut dyn FnMut() -> bool) -> Result<Advance, SimulationError>;
+    /// Saves the current state as the last good one. The server calls it after every published
+    /// frame and after every new scene generation.
+    fn checkpoint(&mut self) {}
+    /// Goes back to the last [`Simulation::checkpoint`]; `false` when there is none (the server
+    /// then stops with the failure).
+    fn restore_checkpoint(&mut self) -> bool {
+        false
+    }
     /// Writes the dynamic state of every published Gaussian straight into the loaned
     /// shared-memory slice; `out.len() == gaussian_count()`. The slice holds stale data on entry
     /// (an older frame or zeros): every element must be overwritten.
@@ -112,8 +136,14 @@ impl<S: Simulation + ?Sized> Simulation for Box<S> {
     fn write_scene(&self, out: &mut [SceneGaussian]) {
         (**self).write_scene(out);
     }
-    fn advance(&mut self) -> Result<Advance, SimulationError> {
-        (**self).advance()
+    fn advance(&mut self, keep_going: &mut dyn FnMut() -> bool) -> Result<Advance, SimulationError> {
+        (**self).advance(keep_going)
+    }
+    fn checkpoint(&mut self) {
+        (**self).checkpoint();
+    }
+    fn restore_checkpoint(&mut self) -> bool {
+        (**self).restore_checkpoint()
     }
     fn write_frame(&self, out: &mut [FrameGaussian]) {
         (**self).write_frame(out);

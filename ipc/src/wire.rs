@@ -16,7 +16,7 @@ use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Version of the byte layout of every type in this module. Bumped on any change.
-pub const LAYOUT_VERSION: u32 = 1;
+pub const LAYOUT_VERSION: u32 = 2;
 
 /// Maximum SH degree carried on the wire (degree 3: 16 coefficients per colour channel).
 pub const MAX_SH_DEGREE: u32 = 3;
@@ -27,7 +27,7 @@ pub const SH_COEFFS_PER_CHANNEL: usize = 16;
 pub const MAX_NAMED_OBJECTS: usize = 64;
 /// Bytes of one name in [`ObjectName`] (UTF-8, NUL padded, cut at a character boundary).
 pub const OBJECT_NAME_FULL_BYTES: usize = 64;
-/// Bytes per object name (UTF-8, NUL padded, no terminator needed when full).
+/// Bytes per object name (UTF-8, NUL padded, always NUL-terminated: at most 31 bytes of text).
 pub const OBJECT_NAME_BYTES: usize = 32;
 /// Bytes of the scene name in [`SceneHeader::scene_name`].
 pub const SCENE_NAME_BYTES: usize = 64;
@@ -35,6 +35,9 @@ pub const SCENE_NAME_BYTES: usize = 64;
 pub const MAX_REPORTED_SUBSCRIBERS: usize = 8;
 /// Bytes of the human-readable reason in [`ReplyMsg::message`].
 pub const REPLY_MESSAGE_BYTES: usize = 96;
+
+/// [`SceneGaussian::object_id`] of background Gaussians: claimed by no object, static.
+pub const BACKGROUND_OBJECT_ID: u32 = u32::MAX;
 
 /// User header of every `frame` and `objects` sample.
 #[repr(C)]
@@ -57,8 +60,11 @@ pub struct FrameHeader {
     pub layout_version: u32,
     /// Reserved, zero.
     pub reserved: u32,
+    /// Wall-clock time at which the server sent this sample, nanoseconds since the Unix epoch
+    /// (for publish-to-draw latency; compare only on the same host).
+    pub publish_unix_ns: u64,
 }
-const _: () = assert!(size_of::<FrameHeader>() == 48);
+const _: () = assert!(size_of::<FrameHeader>() == 56);
 
 /// Dynamic state of one published Gaussian. `frame` payload: `[N]` of these, 52 bytes each,
 /// in the order of the `scene` payload of the same generation.
@@ -88,7 +94,8 @@ pub struct SceneGaussian {
     pub scale_m: [f32; 3],
     /// Initial rotation (w, x, y, z), normalised.
     pub rotation_wxyz: [f32; 4],
-    /// Object this Gaussian belongs to (index into the objects of the scene).
+    /// Object this Gaussian belongs to (index into the objects of the scene), or
+    /// [`BACKGROUND_OBJECT_ID`] for the captured background that no object claims.
     pub object_id: u32,
 }
 const _: () = assert!(size_of::<SceneGaussian>() == 228);
@@ -216,8 +223,12 @@ pub struct CommandMsg {
     pub friction: f64,
     /// Step count for `StepN`.
     pub count: u64,
+    /// [`LAYOUT_VERSION`] of the sender; the server rejects another version as malformed.
+    pub layout_version: u32,
+    /// Reserved, zero.
+    pub reserved: u32,
 }
-const _: () = assert!(size_of::<CommandMsg>() == 120);
+const _: () = assert!(size_of::<CommandMsg>() == 128);
 
 /// Wire form of a reply (see [`crate::command::Reply`]).
 #[repr(C)]
@@ -232,10 +243,14 @@ pub struct ReplyMsg {
     pub accepted: u32,
     /// A [`crate::command::RejectCode`] code when rejected, 0 otherwise.
     pub reject_code: u32,
-    /// Human-readable reason, UTF-8, NUL padded.
+    /// Human-readable reason, UTF-8, NUL padded, always NUL-terminated.
     pub message: [u8; REPLY_MESSAGE_BYTES],
+    /// Scene generation after the command (a reset's reply names the new one).
+    pub scene_generation: u32,
+    /// [`LAYOUT_VERSION`] of the server.
+    pub layout_version: u32,
 }
-const _: () = assert!(size_of::<ReplyMsg>() == 120);
+const _: () = assert!(size_of::<ReplyMsg>() == 128);
 
 impl Default for ReplyMsg {
     fn default() -> Self {
@@ -243,20 +258,36 @@ impl Default for ReplyMsg {
     }
 }
 
+/// [`CommandLogEntry::event`]: a command and the reply it got.
+pub const LOG_EVENT_COMMAND: u32 = 0;
+/// [`CommandLogEntry::event`]: a step failed; the server restored the last good frame and
+/// paused. `reply.message` holds the reason, `received_step` the restored step, and `command`
+/// is zero.
+pub const LOG_EVENT_STEP_FAILED: u32 = 1;
+
 /// One entry of the `command_log` service: every command the server received, with its reply,
-/// so a recorder captures the commands of every client.
+/// so a recorder captures the commands of every client; and every step failure.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
 #[type_name("splatphys::CommandLogEntry")]
 pub struct CommandLogEntry {
     /// Step at which the server received it (it was applied before the next step).
     pub received_step: u64,
+    /// Simulated time when it was received, seconds.
+    pub received_time_s: f64,
+    /// Simulated time at which an accepted command takes effect (the start of
+    /// `reply.effective_step`), seconds.
+    pub effective_time_s: f64,
+    /// `LOG_EVENT_*`.
+    pub event: u32,
+    /// Reserved, zero.
+    pub reserved: u32,
     /// The command as received.
     pub command: CommandMsg,
     /// The reply sent.
     pub reply: ReplyMsg,
 }
-const _: () = assert!(size_of::<CommandLogEntry>() == 248);
+const _: () = assert!(size_of::<CommandLogEntry>() == 288);
 
 /// Statistics of one subscriber of the `frame` service as seen by the server.
 #[repr(C)]
@@ -284,10 +315,18 @@ pub const STATUS_PAUSED: u32 = 2;
 pub const STATUS_FINISHED: u32 = 4;
 /// [`Status::flags`]: a lossless subscriber is lagging (hit the backpressure limit recently).
 pub const STATUS_LOSSLESS_LAGGING: u32 = 8;
+/// [`Status::flags`]: a step failed; the last good frame was restored and stepping paused
+/// (see [`Status::failure_reason`]). Cleared by `resume`, `step` or `reset`.
+pub const STATUS_FAILED: u32 = 16;
+/// [`Status::flags`]: the main loop has made no progress (no loop iteration, no substep) for
+/// longer than [`crate::services::STALL_THRESHOLD`]; the heartbeat thread still beats.
+pub const STATUS_STALLED: u32 = 32;
+/// Bytes of [`Status::failure_reason`].
+pub const FAILURE_REASON_BYTES: usize = 96;
 
 /// Server heartbeat and statistics, published on `status` at [`crate::services::STATUS_PERIOD`].
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable, ZeroCopySend)]
 #[type_name("splatphys::Status")]
 pub struct Status {
     /// Increments by one per status message.
@@ -320,13 +359,36 @@ pub struct Status {
     pub reported_subscribers: u32,
     /// Per-subscriber statistics, first `reported_subscribers` valid.
     pub subscribers: [SubscriberLag; MAX_REPORTED_SUBSCRIBERS],
+    /// Main-loop progress: counts loop iterations and substeps; it moves at least once per
+    /// substep while the server steps and about once a millisecond while it idles.
+    pub progress: u64,
+    /// Milliseconds since `progress` last moved, as seen by the heartbeat thread.
+    pub progress_age_ms: u32,
+    /// [`LAYOUT_VERSION`] of the server.
+    pub layout_version: u32,
+    /// Step that was restored after the last failure (valid with [`STATUS_FAILED`]).
+    pub failure_step: u64,
+    /// Why the last step failed, UTF-8, NUL-terminated (valid with [`STATUS_FAILED`]).
+    pub failure_reason: [u8; FAILURE_REASON_BYTES],
 }
-const _: () = assert!(size_of::<Status>() == 96 + 32 * MAX_REPORTED_SUBSCRIBERS);
+const _: () = assert!(
+    size_of::<Status>() == 96 + 32 * MAX_REPORTED_SUBSCRIBERS + 24 + FAILURE_REASON_BYTES
+);
 
-/// Writes `s` into a NUL-padded fixed buffer, truncating at a UTF-8 boundary.
+impl Default for Status {
+    fn default() -> Self {
+        Self {
+            layout_version: LAYOUT_VERSION,
+            ..Zeroable::zeroed()
+        }
+    }
+}
+
+/// Writes `s` into a NUL-padded fixed buffer, truncating at a UTF-8 boundary so that at least
+/// one NUL terminates it (C clients can read it as a C string).
 pub fn write_fixed_str(dst: &mut [u8], s: &str) {
     dst.fill(0);
-    let mut end = s.len().min(dst.len());
+    let mut end = s.len().min(dst.len().saturating_sub(1));
     while !s.is_char_boundary(end) {
         end -= 1;
     }
@@ -348,8 +410,13 @@ mod tests {
         let mut buf = [0u8; 5];
         write_fixed_str(&mut buf, "ab");
         assert_eq!(read_fixed_str(&buf), "ab");
-        write_fixed_str(&mut buf, "abcdé"); // 'é' is 2 bytes and does not fit
+        write_fixed_str(&mut buf, "abcd"); // 4 bytes of text + the NUL
         assert_eq!(read_fixed_str(&buf), "abcd");
+        assert_eq!(buf[4], 0);
+        write_fixed_str(&mut buf, "abcdef");
+        assert_eq!(read_fixed_str(&buf), "abcd");
+        write_fixed_str(&mut buf, "abcé"); // 'é' is 2 bytes and does not fit before the NUL
+        assert_eq!(read_fixed_str(&buf), "abc");
     }
 
     #[test]

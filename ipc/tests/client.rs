@@ -168,8 +168,11 @@ impl Simulation for SlowSetup {
     fn write_scene(&self, out: &mut [SceneGaussian]) {
         self.inner.write_scene(out);
     }
-    fn advance(&mut self) -> Result<Advance, SimulationError> {
-        self.inner.advance()
+    fn advance(
+        &mut self,
+        keep_going: &mut dyn FnMut() -> bool,
+    ) -> Result<Advance, SimulationError> {
+        self.inner.advance(keep_going)
     }
     fn write_frame(&self, out: &mut [FrameGaussian]) {
         self.inner.write_frame(out);

@@ -230,7 +230,7 @@ impl LatencyTracker {
             let sent = self.in_flight[i].sent;
             self.in_flight.remove(i);
             match reply {
-                Reply::Accepted { effective_step } => {
+                Reply::Accepted { effective_step, .. } => {
                     self.accepted += 1;
                     // The frame may already be here if the reply was polled late.
                     match self

@@ -228,24 +228,32 @@ impl Session {
     }
 }
 
-/// One line describing a reply: `accepted, takes effect at step 42` or
+/// One line describing a reply: `accepted, takes effect at step 42 (generation 0)` or
 /// `rejected (OutOfRange): nu = 0.7 outside (-1, 0.5)`.
 pub fn describe_reply(reply: &Reply) -> String {
     match reply {
-        Reply::Accepted { effective_step } => {
-            format!("accepted, takes effect at step {effective_step}")
+        Reply::Accepted {
+            effective_step,
+            generation,
+        } => {
+            format!("accepted, takes effect at step {effective_step} (generation {generation})")
         }
         Reply::Rejected { code, reason } => format!("rejected ({code:?}): {reason}"),
     }
 }
 
-/// The reply as a JSON object (`{"accepted":true,"effective_step":42}` or
+/// The reply as a JSON object (`{"accepted":true,"effective_step":42,"generation":0}` or
 /// `{"accepted":false,"reject_code":"OutOfRange","reason":"..."}`).
 pub fn reply_json(reply: &Reply) -> serde_json::Value {
     match reply {
-        Reply::Accepted { effective_step } => {
-            serde_json::json!({"accepted": true, "effective_step": effective_step})
-        }
+        Reply::Accepted {
+            effective_step,
+            generation,
+        } => serde_json::json!({
+            "accepted": true,
+            "effective_step": effective_step,
+            "generation": generation,
+        }),
         Reply::Rejected { code, reason } => serde_json::json!({
             "accepted": false,
             "reject_code": format!("{code:?}"),

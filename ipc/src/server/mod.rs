@@ -6,9 +6,18 @@
 //! the frame and the objects straight from the simulation into loaned shared memory), pace to
 //! simulated time when asked, and beat (status). A separate thread publishes the status
 //! heartbeat ([`crate::heartbeat`]). Dead nodes (killed clients) are cleaned up every
-//! [`ServerConfig::cleanup_period`]. On a signal, a `Shutdown` command or the end of the
-//! simulation, the server finishes the step, publishes a last status with
-//! [`STATUS_SHUTTING_DOWN`] and drops its services (iceoryx2 removes them with their last user).
+//! [`ServerConfig::cleanup_period`]. On a `Shutdown` command or the end of the simulation the
+//! server finishes the step; a signal or the stop flag is seen between substeps, so a step in
+//! progress is abandoned; it then publishes a last status with [`STATUS_SHUTTING_DOWN`] and
+//! drops its services (iceoryx2 removes them with their last user).
+//!
+//! Nothing a client sends ends the server, and a failing step does not either: the simulation
+//! keeps a checkpoint of the last published frame; when a step fails (non-finite or unstable),
+//! the server restores it, pauses, sets [`STATUS_FAILED`] with the reason in `status`, logs a
+//! [`LOG_EVENT_STEP_FAILED`] entry on `command_log`, and keeps answering (reset, edits and
+//! resume work). The command drain is bounded per iteration ([`MAX_COMMANDS_PER_ITERATION`],
+//! [`COMMAND_DRAIN_BUDGET`]) so a flood cannot starve stepping, and liveness is the loop's
+//! progress ([`Heartbeat::tick`]), not the beat.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -32,11 +41,17 @@ use crate::services::{
 };
 use crate::simulation::Simulation;
 use crate::validate::{Limits, validate};
+use crate::simulation::SimulationError;
 use crate::wire::{
-    CommandLogEntry, CommandMsg, FrameHeader, ObjectName, ReplyMsg, STATUS_FINISHED,
-    STATUS_LOSSLESS_LAGGING, STATUS_PAUSED, STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader,
-    Status,
+    CommandLogEntry, CommandMsg, FrameHeader, LOG_EVENT_COMMAND, LOG_EVENT_STEP_FAILED,
+    ObjectName, ReplyMsg, STATUS_FAILED, STATUS_FINISHED, STATUS_LOSSLESS_LAGGING,
+    STATUS_PAUSED, STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status, write_fixed_str,
 };
+
+/// Most commands answered per loop iteration; the rest wait for the next one.
+pub const MAX_COMMANDS_PER_ITERATION: usize = 64;
+/// Longest time spent answering commands per loop iteration.
+pub const COMMAND_DRAIN_BUDGET: Duration = Duration::from_millis(5);
 
 mod ports;
 
@@ -122,6 +137,8 @@ pub struct ServerReport {
     pub frames_dropped: u64,
     /// Frames lossless subscribers lost past the limit.
     pub recorder_frames_lost: u64,
+    /// Steps that failed and were rolled back to the last good frame.
+    pub step_failures: u64,
     /// Wall time spent stepping vs. publishing, seconds.
     pub step_wall_s: f64,
     /// Wall time spent loaning, writing and sending frames and objects, seconds.
@@ -137,6 +154,7 @@ pub struct ServerReport {
 pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerReport, IpcError> {
     let mut server = Server::start(sim, cfg)?;
     let reason = loop {
+        server.heartbeat.tick();
         if let Some(reason) = server.stop_requested() {
             break reason;
         }
@@ -180,6 +198,9 @@ struct LoopState {
     period: (Instant, u64, u64),
     /// Steps and substeps per wall second over the last period.
     rates: (f64, f64),
+    /// The last failed step, restored and paused: (restored step, reason). Cleared by
+    /// `resume`, `step` and `reset`.
+    failure: Option<(u64, String)>,
 }
 
 /// A running server: its ports, its report so far and its loop state. The services are kept
@@ -287,6 +308,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             commands_rejected: 0,
             frames_dropped: 0,
             recorder_frames_lost: 0,
+            step_failures: 0,
             step_wall_s: 0.0,
             publish_wall_s: 0.0,
         };
@@ -294,6 +316,7 @@ impl<'a, S: Simulation> Server<'a, S> {
         publish_object_names(sim, &object_names_pub)?;
         ports.refresh_subscribers(true);
         publish_frame(sim, &ports, 0)?;
+        sim.checkpoint();
         let now = Instant::now();
         let state = LoopState {
             generation: sim.scene_generation(),
@@ -306,6 +329,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             last_cleanup: now,
             period: (now, report.step, sim.substeps()),
             rates: (0.0, 0.0),
+            failure: None,
         };
         Ok(Self {
             sim,
@@ -349,11 +373,17 @@ impl<'a, S: Simulation> Server<'a, S> {
             .map_err(|e| IpcError::iox("update connections", &self.names.name("object_names"), e))
     }
 
-    /// Drains and answers every pending command; logs each with its reply. Returns
+    /// Answers pending commands, at most [`MAX_COMMANDS_PER_ITERATION`] or
+    /// [`COMMAND_DRAIN_BUDGET`] per call (the rest wait for the next iteration, so a flood
+    /// cannot stop stepping); logs each with its reply. Returns
     /// [`StopReason::ShutdownCommand`] after an accepted `Shutdown`.
     fn handle_commands(&mut self) -> Result<Option<StopReason>, IpcError> {
         let mut shutdown = None;
-        loop {
+        let started = Instant::now();
+        for _ in 0..MAX_COMMANDS_PER_ITERATION {
+            if started.elapsed() >= COMMAND_DRAIN_BUDGET {
+                break;
+            }
             let request = match self.command_server.receive() {
                 Ok(Some(r)) => r,
                 Ok(None) => break,
@@ -367,6 +397,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             };
             self.report.commands_received += 1;
             let msg = *request.payload();
+            let (received_step, received_time_s) = (self.sim.step(), self.sim.time_s());
             let reply = match crate::command::decode(&msg) {
                 Err(e) => Reply::Rejected {
                     code: RejectCode::Malformed,
@@ -386,41 +417,75 @@ impl<'a, S: Simulation> Server<'a, S> {
                 self.report.commands_rejected += 1;
             }
             // A client that died before its reply costs nothing: the send is discarded.
-            let reply_msg = reply.to_msg(msg.sequence);
+            let reply_msg = reply.to_msg(msg.sequence, self.sim.scene_generation());
             let _ = request.send_copy(reply_msg);
-            self.command_log_pub
-                .send_copy(CommandLogEntry {
-                    received_step: self.sim.step(),
-                    command: msg,
-                    reply: reply_msg,
-                })
-                .map_err(|e| IpcError::iox("send", &self.names.name("command_log"), e))?;
+            let effective_time_s = match reply {
+                Reply::Accepted { effective_step, .. } => {
+                    let frames = effective_step as f64 - self.sim.step() as f64;
+                    (self.sim.time_s() + (frames - 1.0).max(0.0) * self.sim.frame_dt_s())
+                        .max(0.0)
+                }
+                Reply::Rejected { .. } => received_time_s,
+            };
+            self.log(CommandLogEntry {
+                received_step,
+                received_time_s,
+                effective_time_s,
+                event: LOG_EVENT_COMMAND,
+                command: msg,
+                reply: reply_msg,
+                ..Default::default()
+            })?;
         }
         Ok(shutdown)
+    }
+
+    /// Sends one `command_log` entry.
+    fn log(&self, entry: CommandLogEntry) -> Result<(), IpcError> {
+        self.command_log_pub
+            .send_copy(entry)
+            .map(|_| ())
+            .map_err(|e| IpcError::iox("send", &self.names.name("command_log"), e))
     }
 
     /// Carries out one validated command: stepping commands here, the rest in the simulation.
     fn execute(&mut self, cmd: Command) -> Reply {
         let step = self.sim.step();
-        let accepted = |effective_step| Reply::Accepted { effective_step };
+        let generation = self.sim.scene_generation();
+        let accepted = |effective_step| Reply::Accepted {
+            effective_step,
+            generation,
+        };
         match cmd {
             Command::Pause => {
+                // A pause also cancels what is left of a `step N`.
                 self.state.paused = true;
+                self.state.pending_steps = 0;
                 accepted(step)
             }
             Command::Resume => {
                 self.state.paused = false;
                 self.state.pending_steps = 0;
+                self.state.failure = None;
                 self.state.pace_origin = (Instant::now(), self.sim.time_s());
                 accepted(step + 1)
             }
             Command::Step { count } => {
                 self.state.pending_steps = self.state.pending_steps.saturating_add(count);
+                self.state.failure = None;
                 accepted(step + 1)
             }
             Command::Shutdown => accepted(step),
             other => match self.sim.apply(&other) {
-                Ok(step) => accepted(step),
+                Ok(step) => {
+                    if other == Command::Reset {
+                        self.state.failure = None;
+                    }
+                    Reply::Accepted {
+                        effective_step: step,
+                        generation: self.sim.scene_generation(),
+                    }
+                }
                 Err(reason) => Reply::Rejected {
                     code: RejectCode::Refused,
                     reason,
@@ -439,6 +504,7 @@ impl<'a, S: Simulation> Server<'a, S> {
         publish_scene(self.sim, &self.scene_pub)?;
         publish_object_names(self.sim, &self.object_names_pub)?;
         self.publish()?;
+        self.sim.checkpoint();
         self.state.pace_origin = (Instant::now(), self.sim.time_s());
         Ok(())
     }
@@ -493,10 +559,34 @@ impl<'a, S: Simulation> Server<'a, S> {
             return Ok(signalled.then_some(StopReason::Signal));
         }
         let t0 = Instant::now();
-        self.sim.advance()?;
+        let mut stop = None;
+        let advanced = {
+            let (node, flag, heartbeat) = (&self.node, &self.cfg.stop, &self.heartbeat);
+            self.sim.advance(&mut || {
+                heartbeat.tick();
+                if node.wait(Duration::ZERO).is_err() {
+                    stop = Some(StopReason::Signal);
+                } else if flag.load(Ordering::Acquire) {
+                    stop = Some(StopReason::StopFlag);
+                }
+                stop.is_none()
+            })
+        };
+        match advanced {
+            Ok(_) => {}
+            Err(SimulationError::Interrupted { .. }) => {
+                // The frame was abandoned mid-way: end on the last published state.
+                self.sim.restore_checkpoint();
+                return Ok(Some(stop.unwrap_or(StopReason::StopFlag)));
+            }
+            Err(SimulationError::Failed { step, reason }) => {
+                return self.recover(step, reason).map(|()| None);
+            }
+        }
         let t1 = Instant::now();
         self.ports.refresh_subscribers(false);
         self.publish()?;
+        self.sim.checkpoint();
         self.report.step_wall_s += (t1 - t0).as_secs_f64();
         self.report.publish_wall_s += t1.elapsed().as_secs_f64();
         self.state.pending_steps = self.state.pending_steps.saturating_sub(1);
@@ -510,6 +600,47 @@ impl<'a, S: Simulation> Server<'a, S> {
             }
         }
         Ok(None)
+    }
+
+    /// After a failed step: restores the last published frame, pauses, and reports the failure
+    /// in the status and the command log.
+    ///
+    /// # Errors
+    /// [`IpcError::Simulation`] when the simulation keeps no checkpoint to restore.
+    fn recover(&mut self, failed_step: u64, reason: String) -> Result<(), IpcError> {
+        if !self.sim.restore_checkpoint() {
+            return Err(SimulationError::Failed {
+                step: failed_step,
+                reason,
+            }
+            .into());
+        }
+        self.report.step_failures += 1;
+        self.state.paused = true;
+        self.state.pending_steps = 0;
+        let restored = self.sim.step();
+        eprintln!(
+            "splatphys server: step {failed_step} failed ({reason}); restored step {restored} and paused"
+        );
+        let mut reply = Reply::Rejected {
+            code: RejectCode::Refused,
+            reason: reason.clone(),
+        }
+        .to_msg(0, self.sim.scene_generation());
+        write_fixed_str(&mut reply.message, &reason);
+        self.log(CommandLogEntry {
+            received_step: restored,
+            received_time_s: self.sim.time_s(),
+            effective_time_s: self.sim.time_s(),
+            event: LOG_EVENT_STEP_FAILED,
+            reply,
+            ..Default::default()
+        })?;
+        self.state.failure = Some((restored, reason));
+        // Tell clients at once, not at the next period.
+        self.state.last_status = Instant::now() - crate::services::STATUS_PERIOD;
+        self.beat();
+        Ok(())
     }
 
     /// Updates the heartbeat's status every [`crate::services::STATUS_PERIOD`].
@@ -538,13 +669,19 @@ impl<'a, S: Simulation> Server<'a, S> {
         } else {
             0
         };
-        self.heartbeat.update(&status(
+        let mut s = status(
             self.sim,
             &self.ports,
             &self.report,
             self.state.rates,
             flags | finished,
-        ));
+        );
+        if let Some((step, reason)) = &self.state.failure {
+            s.flags |= STATUS_FAILED;
+            s.failure_step = *step;
+            write_fixed_str(&mut s.failure_reason, reason);
+        }
+        self.heartbeat.update(&s);
     }
 
     /// Removes killed clients' resources every [`ServerConfig::cleanup_period`].

@@ -97,6 +97,9 @@ fn frame_header<S: Simulation>(sim: &S, frame_index: u64, count: usize) -> Frame
         scene_generation: sim.scene_generation(),
         layout_version: LAYOUT_VERSION,
         reserved: 0,
+        publish_unix_ns: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos() as u64),
     }
 }
 

@@ -40,6 +40,7 @@ pub mod overlap;
 pub mod rigid;
 mod sleep;
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use glam::{Mat3A, Vec3A};
@@ -98,6 +99,26 @@ pub enum WorldError {
         time_s: f64,
         /// What failed.
         source: MpmError,
+    },
+    /// The state blew up: a particle moves faster than [`MAX_STABLE_SPEED_M_S`] (or not finitely).
+    #[error(
+        "object {object:?} became unstable at frame {frame}, t = {time_s:.6} s: a particle moves at {speed_m_s:.3e} m/s (limit {MAX_STABLE_SPEED_M_S} m/s)"
+    )]
+    Unstable {
+        /// Object name.
+        object: String,
+        /// Frame being computed.
+        frame: u64,
+        /// Simulated time (s).
+        time_s: f64,
+        /// Its fastest particle (m/s).
+        speed_m_s: f32,
+    },
+    /// [`World::advance_frame_with`] was told to stop mid-frame.
+    #[error("frame {frame} interrupted")]
+    Interrupted {
+        /// Frame being computed.
+        frame: u64,
     },
     /// A command or event named an object that does not exist.
     #[error("unknown object {0:?}")]
@@ -163,10 +184,12 @@ pub struct World {
     pub settings: scene::SimulationSettings,
     /// Objects in scene order.
     pub bodies: Vec<Body>,
-    initial: Vec<Body>,
+    /// The bodies as built, for [`World::reset`] (shared: a checkpoint clone copies no more than
+    /// the state that changes).
+    initial: Arc<Vec<Body>>,
     /// Gaussians no object claimed (static, published).
-    pub background: GaussianCloud,
-    background_state: Vec<GaussianState>,
+    pub background: Arc<GaussianCloud>,
+    background_state: Arc<Vec<GaussianState>>,
     /// Grid colliders.
     pub colliders: Vec<Collider>,
     /// Gravity (m/s²).
@@ -185,7 +208,7 @@ pub struct World {
     /// Counters.
     pub stats: WorldStats,
     /// The captured background's collision surface (`None`: it does not collide).
-    pub background_collision: Option<crate::contact::Collision>,
+    pub background_collision: Option<Arc<crate::contact::Collision>>,
     /// What the background became.
     pub background_report: background::BackgroundReport,
     /// Coulomb friction of the captured background.
@@ -200,6 +223,10 @@ pub struct World {
     /// Most particle-substeps per frame a material edit may require ([`limits`]).
     pub max_particle_substeps_per_frame: f64,
 }
+
+/// Fastest any particle may move before the world calls its state unstable (m/s): ten times
+/// the fastest a command may push ([`limits::MAX_COMMAND_SPEED_M_S`]).
+pub const MAX_STABLE_SPEED_M_S: f64 = 1000.0;
 
 /// Friction coefficient of the captured background.
 pub const BACKGROUND_FRICTION: f32 = 0.5;
@@ -331,10 +358,10 @@ impl World {
         };
         Ok(Self {
             settings: s.clone(),
-            initial: bodies.clone(),
+            initial: Arc::new(bodies.clone()),
             bodies,
-            background: scene.background.clone(),
-            background_state,
+            background: Arc::new(scene.background.clone()),
+            background_state: Arc::new(background_state),
             colliders,
             gravity_m_s2: Vec3A::from(s.gravity_m_s2),
             policy,
@@ -348,7 +375,7 @@ impl World {
                 dt_min_s: f64::INFINITY,
                 ..Default::default()
             },
-            background_collision,
+            background_collision: background_collision.map(Arc::new),
             background_report,
             background_friction: BACKGROUND_FRICTION,
             contact_cache: Default::default(),
@@ -396,6 +423,21 @@ impl World {
     /// # Errors
     /// [`WorldError`] when a substep fails; the state holds no NaN afterwards.
     pub fn advance_frame(&mut self) -> Result<u64, WorldError> {
+        self.advance_frame_with(&mut || true)
+    }
+
+    /// [`World::advance_frame`], calling `keep_going` after every substep: when it returns
+    /// `false` the frame is abandoned with [`WorldError::Interrupted`] (the state is then
+    /// mid-frame; a server restores its checkpoint or exits). A server uses it to count progress
+    /// and to see a stop or a signal within one substep.
+    ///
+    /// # Errors
+    /// As [`World::substep`]; [`WorldError::Unstable`] when a particle moves faster than
+    /// [`MAX_STABLE_SPEED_M_S`]; [`WorldError::Interrupted`].
+    pub fn advance_frame_with(
+        &mut self,
+        keep_going: &mut dyn FnMut() -> bool,
+    ) -> Result<u64, WorldError> {
         let end = (self.frame + 1) as f64 * self.frame_dt_s();
         let mut substeps = 0;
         for b in &mut self.bodies {
@@ -405,10 +447,32 @@ impl World {
             self.apply_due_events()?;
             self.substep(end - self.time_s)?;
             substeps += 1;
+            self.check_stable()?;
+            if !keep_going() {
+                return Err(WorldError::Interrupted { frame: self.frame });
+            }
         }
         self.time_s = end;
         self.frame += 1;
         Ok(substeps)
+    }
+
+    /// [`WorldError::Unstable`] when any object moves faster than [`MAX_STABLE_SPEED_M_S`]: no
+    /// command may push past [`limits::MAX_COMMAND_SPEED_M_S`], so such a speed is a blow-up,
+    /// and stepping on would shrink the CFL substep toward zero.
+    fn check_stable(&self) -> Result<(), WorldError> {
+        for b in &self.bodies {
+            let speed = b.max_speed_m_s;
+            if !speed.is_finite() || f64::from(speed) > MAX_STABLE_SPEED_M_S {
+                return Err(WorldError::Unstable {
+                    object: b.name.clone(),
+                    frame: self.frame,
+                    time_s: self.time_s,
+                    speed_m_s: speed,
+                });
+            }
+        }
+        Ok(())
     }
 
     fn apply_due_events(&mut self) -> Result<(), WorldError> {
@@ -509,7 +573,7 @@ impl World {
 
     /// Back to the initial state; bumps the scene generation.
     pub fn reset(&mut self) {
-        self.bodies = self.initial.clone();
+        self.bodies.clone_from(&self.initial);
         self.time_s = 0.0;
         self.frame = 0;
         self.next_event = 0;
