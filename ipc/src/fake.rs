@@ -30,8 +30,8 @@ pub struct FreeFall {
     names: Vec<String>,
     /// The state of the last [`Simulation::checkpoint`]: step, substeps, time, COMs, velocities.
     saved: Option<Saved>,
-    /// Fail (as a blow-up would) when asked to compute this step: tests of the server's
-    /// failure handling.
+    /// Fail (as a blow-up would) the first time it is asked to compute this step: tests of the
+    /// server's failure handling.
     pub fail_at_step: Option<u64>,
 }
 
@@ -143,6 +143,7 @@ impl Simulation for FreeFall {
             return Err(SimulationError::Interrupted { step: self.step });
         }
         if self.fail_at_step == Some(self.step + 1) {
+            self.fail_at_step = None;
             self.com_m.iter_mut().for_each(|p| *p = [f64::NAN; 3]);
             return Err(SimulationError::Failed {
                 step: self.step + 1,

@@ -11,7 +11,7 @@
 //! finish checks that nothing of the file prefix is left in /dev/shm.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Once};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use splatphys_ipc::client::{ClientOptions, Connection};
@@ -22,28 +22,12 @@ use splatphys_ipc::services::MAX_FRAME_BUFFER;
 use splatphys_ipc::wire::{FrameGaussian, ObjectState, SceneGaussian};
 use splatphys_ipc::{Advance, Simulation, SimulationError};
 
+mod common;
+use common::leftovers;
+
 /// The iceoryx2 file prefix of this test binary.
 fn init() -> String {
-    static ONCE: Once = Once::new();
-    let iox = format!("spxl_{}_", std::process::id());
-    ONCE.call_once(|| {
-        // SAFETY: every test calls this first, so the variable is set before any thread reads
-        // the environment (iceoryx2 nodes read it when created).
-        unsafe { std::env::set_var("SPLATPHYS_IOX2_PREFIX", &iox) };
-    });
-    iox
-}
-
-/// Files of iceoryx2 prefix `iox` left in /dev/shm (iceoryx2 keeps one 16-byte
-/// `*.global_mgmt` node counter per prefix on purpose).
-fn leftovers(iox: &str) -> Vec<String> {
-    std::fs::read_dir("/dev/shm")
-        .into_iter()
-        .flatten()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(iox) && !n.ends_with(".global_mgmt"))
-        .collect()
+    common::init("spxl")
 }
 
 /// Tests of this binary.
