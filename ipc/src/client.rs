@@ -36,7 +36,8 @@ use crate::services::{
 };
 use crate::wire::{
     CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, LAYOUT_VERSION, ObjectName,
-    ObjectState, ReplyMsg, STATUS_SHUTTING_DOWN, STATUS_STALLED, SceneGaussian, SceneHeader, Status,
+    ObjectState, ReplyMsg, STATUS_SHUTTING_DOWN, STATUS_STALLED, SceneGaussian, SceneHeader,
+    Status,
 };
 
 /// A received frame: `payload()` is `[N] FrameGaussian` viewing shared memory.

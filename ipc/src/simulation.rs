@@ -75,7 +75,8 @@ pub trait Simulation {
     /// # Errors
     /// [`SimulationError::Failed`] when the state became invalid (the state may then be
     /// anything; the server restores the checkpoint); [`SimulationError::Interrupted`].
-    fn advance(&mut self, keep_going: &mut dyn FnMut() -> bool) -> Result<Advance, SimulationError>;
+    fn advance(&mut self, keep_going: &mut dyn FnMut() -> bool)
+    -> Result<Advance, SimulationError>;
     /// Saves the current state as the last good one. The server calls it after every published
     /// frame and after every new scene generation.
     fn checkpoint(&mut self) {}
@@ -136,7 +137,10 @@ impl<S: Simulation + ?Sized> Simulation for Box<S> {
     fn write_scene(&self, out: &mut [SceneGaussian]) {
         (**self).write_scene(out);
     }
-    fn advance(&mut self, keep_going: &mut dyn FnMut() -> bool) -> Result<Advance, SimulationError> {
+    fn advance(
+        &mut self,
+        keep_going: &mut dyn FnMut() -> bool,
+    ) -> Result<Advance, SimulationError> {
         (**self).advance(keep_going)
     }
     fn checkpoint(&mut self) {

@@ -34,7 +34,7 @@ pub const SCENE_NAME_BYTES: usize = 64;
 /// Subscribers reported individually in [`Status::subscribers`].
 pub const MAX_REPORTED_SUBSCRIBERS: usize = 8;
 /// Bytes of the human-readable reason in [`ReplyMsg::message`].
-pub const REPLY_MESSAGE_BYTES: usize = 96;
+pub const REPLY_MESSAGE_BYTES: usize = 224;
 
 /// [`SceneGaussian::object_id`] of background Gaussians: claimed by no object, static.
 pub const BACKGROUND_OBJECT_ID: u32 = u32::MAX;
@@ -250,7 +250,7 @@ pub struct ReplyMsg {
     /// [`LAYOUT_VERSION`] of the server.
     pub layout_version: u32,
 }
-const _: () = assert!(size_of::<ReplyMsg>() == 128);
+const _: () = assert!(size_of::<ReplyMsg>() == 256);
 
 impl Default for ReplyMsg {
     fn default() -> Self {
@@ -287,7 +287,7 @@ pub struct CommandLogEntry {
     /// The reply sent.
     pub reply: ReplyMsg,
 }
-const _: () = assert!(size_of::<CommandLogEntry>() == 288);
+const _: () = assert!(size_of::<CommandLogEntry>() == 416);
 
 /// Statistics of one subscriber of the `frame` service as seen by the server.
 #[repr(C)]
@@ -322,7 +322,7 @@ pub const STATUS_FAILED: u32 = 16;
 /// longer than [`crate::services::STALL_THRESHOLD`]; the heartbeat thread still beats.
 pub const STATUS_STALLED: u32 = 32;
 /// Bytes of [`Status::failure_reason`].
-pub const FAILURE_REASON_BYTES: usize = 96;
+pub const FAILURE_REASON_BYTES: usize = 224;
 
 /// Server heartbeat and statistics, published on `status` at [`crate::services::STATUS_PERIOD`].
 #[repr(C)]
@@ -371,9 +371,8 @@ pub struct Status {
     /// Why the last step failed, UTF-8, NUL-terminated (valid with [`STATUS_FAILED`]).
     pub failure_reason: [u8; FAILURE_REASON_BYTES],
 }
-const _: () = assert!(
-    size_of::<Status>() == 96 + 32 * MAX_REPORTED_SUBSCRIBERS + 24 + FAILURE_REASON_BYTES
-);
+const _: () =
+    assert!(size_of::<Status>() == 96 + 32 * MAX_REPORTED_SUBSCRIBERS + 24 + FAILURE_REASON_BYTES);
 
 impl Default for Status {
     fn default() -> Self {

@@ -10,8 +10,8 @@
 //! any iceoryx2 node exists; the tests use different service prefixes, and the last one to
 //! finish checks that nothing of the file prefix is left in /dev/shm.
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use splatphys_ipc::client::{ClientOptions, Connection};

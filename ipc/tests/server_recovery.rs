@@ -86,7 +86,10 @@ fn a_failing_step_restores_the_last_frame_pauses_and_keeps_answering() {
     assert!(read_fixed_str(&s.failure_reason).contains("injected failure"));
     // The rest of `step 10` was cancelled: the step stays at 4.
     std::thread::sleep(Duration::from_millis(200));
-    assert_eq!(conn.poll_status().expect("status").expect("a status").step, 4);
+    assert_eq!(
+        conn.poll_status().expect("status").expect("a status").step,
+        4
+    );
 
     // The failure is in the command log, with the step it went back to.
     let t0 = Instant::now();
@@ -196,7 +199,10 @@ fn a_step_that_never_ends_is_reported_as_stalled_not_gone() {
     let mut conn = connect("t/stall", false);
     accepted(&mut conn, Command::Step { count: 1 });
     let err = conn
-        .command(&Command::Pause, STALL_THRESHOLD + Duration::from_millis(500))
+        .command(
+            &Command::Pause,
+            STALL_THRESHOLD + Duration::from_millis(500),
+        )
         .expect_err("no reply while the step hangs");
     assert!(
         matches!(err, IpcError::ServerStalled { .. }),
@@ -302,4 +308,42 @@ impl Simulation for Scripted {
     fn is_finished(&self) -> bool {
         self.inner.is_finished()
     }
+}
+
+#[test]
+fn a_client_holding_64_requests_open_cannot_stop_stepping() {
+    init();
+    let stop = Arc::new(AtomicBool::new(false));
+    let cfg = ServerConfig {
+        prefix: Some("t/hostile".into()),
+        stop: stop.clone(),
+        ..ServerConfig::default()
+    };
+    let server = std::thread::spawn(move || {
+        let mut sim = Scripted::new(FreeFall::new("hostile", 2, 10, 0.01, None));
+        sim.substep_sleep = Duration::from_millis(1);
+        serve(&mut sim, &cfg).expect("server")
+    });
+    // The hostile client sends as many requests as the service lets one client hold and never
+    // reads a reply.
+    let mut hostile = connect("t/hostile", false);
+    let impulse = Command::Impulse {
+        object: 0,
+        impulse_n_s: [0.0, 0.0, 0.01],
+        point_m: None,
+    };
+    let held: Vec<_> = (0..64)
+        .map(|_| hostile.send_command(&impulse).expect("send").1)
+        .collect();
+    let mut conn = connect("t/hostile", false);
+    let before = status_until(&mut conn, |s| s.step > 0).step;
+    std::thread::sleep(Duration::from_millis(500));
+    let after = conn.poll_status().expect("status").expect("status").step;
+    assert!(after > before + 10, "stepping stopped: {before} -> {after}");
+    // Another client is still answered.
+    accepted(&mut conn, Command::Pause);
+    drop(held);
+    stop.store(true, Ordering::Release);
+    let report = server.join().expect("server thread");
+    assert_eq!(report.commands_received, 65);
 }

@@ -40,12 +40,12 @@ use crate::services::{
     objects_service, scene_service,
 };
 use crate::simulation::Simulation;
-use crate::validate::{Limits, validate};
 use crate::simulation::SimulationError;
+use crate::validate::{Limits, validate};
 use crate::wire::{
-    CommandLogEntry, CommandMsg, FrameHeader, LOG_EVENT_COMMAND, LOG_EVENT_STEP_FAILED,
-    ObjectName, ReplyMsg, STATUS_FAILED, STATUS_FINISHED, STATUS_LOSSLESS_LAGGING,
-    STATUS_PAUSED, STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status, write_fixed_str,
+    CommandLogEntry, CommandMsg, FrameHeader, LOG_EVENT_COMMAND, LOG_EVENT_STEP_FAILED, ObjectName,
+    ReplyMsg, STATUS_FAILED, STATUS_FINISHED, STATUS_LOSSLESS_LAGGING, STATUS_PAUSED,
+    STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status, write_fixed_str,
 };
 
 /// Most commands answered per loop iteration; the rest wait for the next one.
@@ -422,8 +422,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             let effective_time_s = match reply {
                 Reply::Accepted { effective_step, .. } => {
                     let frames = effective_step as f64 - self.sim.step() as f64;
-                    (self.sim.time_s() + (frames - 1.0).max(0.0) * self.sim.frame_dt_s())
-                        .max(0.0)
+                    (self.sim.time_s() + (frames - 1.0).max(0.0) * self.sim.frame_dt_s()).max(0.0)
                 }
                 Reply::Rejected { .. } => received_time_s,
             };
