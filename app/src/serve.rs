@@ -150,6 +150,10 @@ fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
         write_json(path, &json)?;
     }
     eprintln!(
+        "splatphys serve: wall time: {:.2} s stepping, {:.2} s publishing, {:.2} s saving checkpoints; {} failed steps restored",
+        report.step_wall_s, report.publish_wall_s, report.checkpoint_wall_s, report.step_failures
+    );
+    eprintln!(
         "splatphys serve: stopped ({:?}) at step {}, {} frames published, {} lost by recorders",
         report.reason, report.step, report.frames_published, report.recorder_frames_lost
     );

@@ -85,6 +85,23 @@ pub enum IpcError {
     /// SIGINT or SIGTERM arrived while waiting.
     #[error("interrupted by a termination signal")]
     Interrupted,
+    /// Shared memory cannot hold what the server would publish (checked at start, instead of a
+    /// SIGBUS mid-run when a tmpfs page cannot be backed).
+    #[error(
+        "{path} has {free_mb:.0} MB free, but serving {gaussians} Gaussians needs about {needed_mb:.0} MB of shared memory ({detail}); enlarge it (docker: --shm-size; or remount /dev/shm with a larger size=), or serve a smaller scene"
+    )]
+    SharedMemoryTooSmall {
+        /// The shared-memory file system.
+        path: String,
+        /// Free bytes there, MB.
+        free_mb: f64,
+        /// Bytes needed, MB.
+        needed_mb: f64,
+        /// Published Gaussians.
+        gaussians: usize,
+        /// How the need is made up.
+        detail: String,
+    },
     /// The simulation failed.
     #[error(transparent)]
     Simulation(#[from] SimulationError),

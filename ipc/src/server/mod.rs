@@ -54,6 +54,7 @@ pub const MAX_COMMANDS_PER_ITERATION: usize = 64;
 pub const COMMAND_DRAIN_BUDGET: Duration = Duration::from_millis(5);
 
 mod ports;
+pub mod shm;
 
 use ports::{Ports, clean_dead_nodes, publish_frame, publish_object_names, publish_scene};
 pub use ports::{frame_publisher, objects_publisher};
@@ -143,6 +144,8 @@ pub struct ServerReport {
     pub step_wall_s: f64,
     /// Wall time spent loaning, writing and sending frames and objects, seconds.
     pub publish_wall_s: f64,
+    /// Wall time spent saving the checkpoint a failed step goes back to, seconds.
+    pub checkpoint_wall_s: f64,
 }
 
 /// Serves `sim` until a signal, a `Shutdown` command, the end of the simulation or
@@ -247,6 +250,11 @@ impl<'a, S: Simulation> Server<'a, S> {
             .clone()
             .unwrap_or_else(|| ServiceNames::default_prefix(sim.scene_name()));
         let names = ServiceNames::new(&prefix);
+        shm::check_space(
+            std::path::Path::new(shm::SHM_PATH),
+            sim.gaussian_count(),
+            sim.object_count(),
+        )?;
         let node = create_node("splatphys-server")?;
         clean_dead_nodes(&node);
 
@@ -311,6 +319,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             step_failures: 0,
             step_wall_s: 0.0,
             publish_wall_s: 0.0,
+            checkpoint_wall_s: 0.0,
         };
         publish_scene(sim, &scene_pub)?;
         publish_object_names(sim, &object_names_pub)?;
@@ -585,9 +594,11 @@ impl<'a, S: Simulation> Server<'a, S> {
         let t1 = Instant::now();
         self.ports.refresh_subscribers(false);
         self.publish()?;
+        let t2 = Instant::now();
         self.sim.checkpoint();
         self.report.step_wall_s += (t1 - t0).as_secs_f64();
-        self.report.publish_wall_s += t1.elapsed().as_secs_f64();
+        self.report.publish_wall_s += (t2 - t1).as_secs_f64();
+        self.report.checkpoint_wall_s += t2.elapsed().as_secs_f64();
         self.state.pending_steps = self.state.pending_steps.saturating_sub(1);
         if self.cfg.realtime {
             let (origin, origin_time_s) = self.state.pace_origin;
