@@ -6,7 +6,8 @@
 //! socket and the server under a command flood; `bench compare` ([`crate::compare`]) the
 //! COM method against its baselines; `bench stability` ([`crate::stability`]) maps which
 //! E, nu, impact speed and time step each method and material survives; `bench contact`
-//! ([`crate::contact`]) rigid stacking and piling against rapier3d in the same process. Charts
+//! ([`crate::contact`]) rigid stacking and piling against rapier3d in the same process; `bench
+//! soak` ([`crate::soak`]) memory growth of a server and a recorder over minutes. Charts
 //! go through [`crate::chart`].
 
 pub mod chart;
@@ -17,6 +18,7 @@ pub mod ipc;
 pub mod mpm;
 pub mod peer;
 pub mod realtime;
+pub mod soak;
 pub mod stability;
 pub mod subsets;
 pub mod taichi;
@@ -76,6 +78,12 @@ pub enum BenchCommand {
         after_help = "Examples:\n  splatphys bench contact\n  splatphys bench contact --duration-s 1 --pile-duration-s 1 --out-dir out/contact\n  splatphys bench contact --scenes stack --rapier-dt-s 0.0166667"
     )]
     Contact(crate::contact::ContactBenchArgs),
+    /// Server, lossless recorder and controller together for minutes: RSS of the server and the
+    /// recorder over the run, frames lost, /dev/shm leftovers (CSV and chart in --out-dir).
+    #[command(
+        after_help = "Examples:\n  splatphys bench soak --minutes 30\n  splatphys bench soak --minutes 2 --sample-s 5 --commands-hz 1000 scenes/donut_drop.toml"
+    )]
+    Soak(crate::soak::SoakBenchArgs),
     /// A child process of `bench ipc` (subscriber, socket reader or command flood).
     #[command(hide = true)]
     IpcPeer(crate::peer::PeerArgs),
@@ -100,6 +108,7 @@ pub fn run(cmd: &BenchCommand, world: WorldSimFactory) -> Result<()> {
         BenchCommand::Subsets(a) => crate::subsets::run(a),
         BenchCommand::Realtime(a) => crate::realtime::run(a),
         BenchCommand::Contact(a) => crate::contact::run(a),
+        BenchCommand::Soak(a) => crate::soak::run(a),
         BenchCommand::IpcPeer(a) => crate::peer::run(a),
     }
 }
