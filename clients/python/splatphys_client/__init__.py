@@ -13,12 +13,14 @@ status heartbeat (1 s). See docs/protocol.md for the wire contract.
 
 from .wire import (
     COMMAND_DTYPE,
+    COMMAND_LOG_DTYPE,
     FRAME_GAUSSIAN_DTYPE,
     FRAME_HEADER_DTYPE,
     LAYOUT_VERSION,
     OBJECT_STATE_DTYPE,
     SCENE_GAUSSIAN_DTYPE,
     STATUS_DTYPE,
+    CommandLogEntry,
     CommandMsg,
     FrameGaussian,
     FrameHeader,
@@ -42,6 +44,7 @@ from .client import (
     ServerGone,
     ServerNotFound,
     ServerShutDown,
+    ServerStalled,
     SetKind,
     SetVelocity,
     Shutdown,
@@ -50,6 +53,7 @@ from .client import (
 
 __all__ = [
     "COMMAND_DTYPE",
+    "COMMAND_LOG_DTYPE",
     "FRAME_GAUSSIAN_DTYPE",
     "FRAME_HEADER_DTYPE",
     "LAYOUT_VERSION",
@@ -58,6 +62,7 @@ __all__ = [
     "STATUS_DTYPE",
     "Client",
     "Command",
+    "CommandLogEntry",
     "CommandMsg",
     "EditMaterial",
     "FrameGaussian",
@@ -76,6 +81,7 @@ __all__ = [
     "ServerGone",
     "ServerNotFound",
     "ServerShutDown",
+    "ServerStalled",
     "SetKind",
     "SetVelocity",
     "Shutdown",

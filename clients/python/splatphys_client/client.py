@@ -50,6 +50,10 @@ class LayoutMismatch(RuntimeError):
     """The server speaks another wire layout version."""
 
 
+class ServerStalled(RuntimeError):
+    """The server beats but its loop made no progress for 5 s (STATUS_STALLED)."""
+
+
 def _copy(struct_type, ptr: int):
     """A Python-owned copy of the struct at `ptr` (shared memory)."""
     out = struct_type()
@@ -117,6 +121,8 @@ class Reply:
     effective_step: int
     reject_code: int
     reason: str
+    # Scene generation after the command (a reset's reply names the new one).
+    generation: int = 0
 
 
 # Commands: each builds a CommandMsg (see docs/protocol.md for the codes).
@@ -138,6 +144,7 @@ class Command:
         m = CommandMsg()
         m.kind = self.kind
         m.sequence = sequence
+        m.layout_version = wire.LAYOUT_VERSION
         self.fill(m)
         return m
 
@@ -465,6 +472,7 @@ class Client:
             effective_step=m.effective_step,
             reject_code=m.reject_code,
             reason=wire.fixed_str(m.message),
+            generation=m.scene_generation,
         )
 
     def command(self, cmd: Command, timeout_s: float = 2.0) -> Reply:
@@ -478,5 +486,11 @@ class Client:
             self.poll_status()
             if time.monotonic() > deadline:
                 pending.delete()
+                st = self.last_status
+                if st is not None and st.flags & wire.STATUS_STALLED:
+                    raise ServerStalled(
+                        f"server stalled: its loop made no progress for {st.progress_age_ms} ms "
+                        f"(at step {st.step}); no reply to command #{seq}"
+                    )
                 raise TimeoutError(f"no reply to command #{seq} within {timeout_s} s")
             self.node.wait(iox2.Duration.from_micros(100))

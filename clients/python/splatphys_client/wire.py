@@ -10,18 +10,29 @@ import ctypes
 
 import numpy as np
 
-LAYOUT_VERSION = 1
+LAYOUT_VERSION = 2
 SH_COEFFS_PER_CHANNEL = 16
 MAX_NAMED_OBJECTS = 64
 OBJECT_NAME_BYTES = 32
 SCENE_NAME_BYTES = 64
 MAX_REPORTED_SUBSCRIBERS = 8
-REPLY_MESSAGE_BYTES = 96
+REPLY_MESSAGE_BYTES = 224
+FAILURE_REASON_BYTES = 224
+# SceneGaussian.object_id of the captured background (claimed by no object).
+BACKGROUND_OBJECT_ID = 0xFFFFFFFF
 
 STATUS_SHUTTING_DOWN = 1
 STATUS_PAUSED = 2
 STATUS_FINISHED = 4
 STATUS_LOSSLESS_LAGGING = 8
+# A step failed; the last good frame was restored and stepping paused (Status.failure_reason).
+STATUS_FAILED = 16
+# The server's loop made no progress for 5 s; its heartbeat thread still beats.
+STATUS_STALLED = 32
+
+# CommandLogEntry.event
+LOG_EVENT_COMMAND = 0
+LOG_EVENT_STEP_FAILED = 1
 
 f32x3 = ctypes.c_float * 3
 f32x4 = ctypes.c_float * 4
@@ -37,7 +48,7 @@ class _Wire(ctypes.Structure):
 
 
 class FrameHeader(_Wire):
-    """User header of `frame` and `objects` samples (48 B)."""
+    """User header of `frame` and `objects` samples (56 B); publish_unix_ns is the wall clock."""
 
     _fields_ = [
         ("step", ctypes.c_uint64),
@@ -48,6 +59,7 @@ class FrameHeader(_Wire):
         ("scene_generation", ctypes.c_uint32),
         ("layout_version", ctypes.c_uint32),
         ("reserved", ctypes.c_uint32),
+        ("publish_unix_ns", ctypes.c_uint64),
     ]
 
 
@@ -104,7 +116,7 @@ class ObjectState(_Wire):
 
 
 class CommandMsg(_Wire):
-    """A command (120 B); see docs/protocol.md for kinds, codes and field flags."""
+    """A command (128 B); see docs/protocol.md for kinds, codes and field flags."""
 
     _fields_ = [
         ("kind", ctypes.c_uint32),
@@ -120,11 +132,13 @@ class CommandMsg(_Wire):
         ("restitution", ctypes.c_double),
         ("friction", ctypes.c_double),
         ("count", ctypes.c_uint64),
+        ("layout_version", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
     ]
 
 
 class ReplyMsg(_Wire):
-    """A reply (120 B)."""
+    """A reply (256 B); scene_generation is the generation after the command."""
 
     _fields_ = [
         ("sequence", ctypes.c_uint64),
@@ -132,6 +146,22 @@ class ReplyMsg(_Wire):
         ("accepted", ctypes.c_uint32),
         ("reject_code", ctypes.c_uint32),
         ("message", ctypes.c_uint8 * REPLY_MESSAGE_BYTES),
+        ("scene_generation", ctypes.c_uint32),
+        ("layout_version", ctypes.c_uint32),
+    ]
+
+
+class CommandLogEntry(_Wire):
+    """One `command_log` entry (416 B): a command and its reply, or a step failure."""
+
+    _fields_ = [
+        ("received_step", ctypes.c_uint64),
+        ("received_time_s", ctypes.c_double),
+        ("effective_time_s", ctypes.c_double),
+        ("event", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+        ("command", CommandMsg),
+        ("reply", ReplyMsg),
     ]
 
 
@@ -148,7 +178,7 @@ class SubscriberLag(_Wire):
 
 
 class Status(_Wire):
-    """Server heartbeat and statistics (352 B), 10 Hz."""
+    """Server heartbeat and statistics (600 B), 10 Hz."""
 
     _fields_ = [
         ("heartbeat", ctypes.c_uint64),
@@ -166,6 +196,11 @@ class Status(_Wire):
         ("subscriber_count", ctypes.c_uint32),
         ("reported_subscribers", ctypes.c_uint32),
         ("subscribers", SubscriberLag * MAX_REPORTED_SUBSCRIBERS),
+        ("progress", ctypes.c_uint64),
+        ("progress_age_ms", ctypes.c_uint32),
+        ("layout_version", ctypes.c_uint32),
+        ("failure_step", ctypes.c_uint64),
+        ("failure_reason", ctypes.c_uint8 * FAILURE_REASON_BYTES),
     ]
 
 
@@ -181,19 +216,21 @@ SCENE_HEADER_DTYPE = _dtype(SceneHeader)
 OBJECT_STATE_DTYPE = _dtype(ObjectState)
 COMMAND_DTYPE = _dtype(CommandMsg)
 REPLY_DTYPE = _dtype(ReplyMsg)
+COMMAND_LOG_DTYPE = _dtype(CommandLogEntry)
 STATUS_DTYPE = _dtype(Status)
 
 # Sizes of the Rust structs (compile-time asserted there); a mismatch here is a contract break.
 RUST_SIZES = {
-    FrameHeader: 48,
+    FrameHeader: 56,
     FrameGaussian: 52,
     SceneGaussian: 228,
     SceneHeader: 32 + SCENE_NAME_BYTES + MAX_NAMED_OBJECTS * OBJECT_NAME_BYTES,
     ObjectState: 64,
-    CommandMsg: 120,
-    ReplyMsg: 120,
+    CommandMsg: 128,
+    ReplyMsg: 256,
+    CommandLogEntry: 416,
     SubscriberLag: 32,
-    Status: 96 + 32 * MAX_REPORTED_SUBSCRIBERS,
+    Status: 96 + 32 * MAX_REPORTED_SUBSCRIBERS + 24 + FAILURE_REASON_BYTES,
 }
 for _t, _size in RUST_SIZES.items():
     assert ctypes.sizeof(_t) == _size, f"{_t.__name__}: {ctypes.sizeof(_t)} B != Rust {_size} B"

@@ -64,9 +64,11 @@ def test_dtypes_match_the_rust_sizes():
     assert wire.FRAME_GAUSSIAN_DTYPE.itemsize == 52
     assert wire.SCENE_GAUSSIAN_DTYPE.itemsize == 228
     assert wire.OBJECT_STATE_DTYPE.itemsize == 64
-    assert wire.FRAME_HEADER_DTYPE.itemsize == 48
-    assert wire.STATUS_DTYPE.itemsize == 352
-    assert wire.COMMAND_DTYPE.itemsize == 120
+    assert wire.FRAME_HEADER_DTYPE.itemsize == 56
+    assert wire.STATUS_DTYPE.itemsize == 600
+    assert wire.COMMAND_DTYPE.itemsize == 128
+    assert wire.REPLY_DTYPE.itemsize == 256
+    assert wire.COMMAND_LOG_DTYPE.itemsize == 416
     assert wire.FRAME_GAUSSIAN_DTYPE["position_m"].shape == (3,)
 
 
@@ -128,6 +130,9 @@ def test_commands_get_replies(server):
         assert c.command(sc.Pause()).accepted
         assert c.command(sc.Step(2)).accepted
         assert c.command(sc.Resume()).accepted
+        # A reset's reply names the new generation and its first step.
+        r = c.command(sc.Reset())
+        assert r.accepted and r.generation == 1 and r.effective_step == 0
 
 
 @needs_server
