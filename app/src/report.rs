@@ -99,8 +99,11 @@ pub struct RunSummary {
     pub frames_dropped_by_renderer: u64,
     /// Whether skipped frames were re-rendered from the recording.
     pub frames_rerendered_from_recording: bool,
-    /// Frames the recorder lost.
+    /// Steps missing from the recording (0 ..= the last step, counted from the MCAP file; the
+    /// run exits non-zero when any is missing).
     pub frames_lost_by_recorder: u64,
+    /// Distinct steps the recording holds.
+    pub frames_recorded: u64,
     /// Whether the recorder exited cleanly.
     pub recorder_ok: bool,
     /// Whether the renderer exited cleanly.
@@ -141,6 +144,7 @@ impl RunSummary {
             frames_dropped_by_renderer: 0,
             frames_rerendered_from_recording: false,
             frames_lost_by_recorder: 0,
+            frames_recorded: 0,
             recorder_ok: false,
             renderer_ok: false,
             objects_csv_rows: 0,
@@ -173,6 +177,7 @@ impl RunSummary {
             frames_dropped_by_renderer: 0,
             frames_rerendered_from_recording: false,
             frames_lost_by_recorder: s.frames_lost_by_recorder,
+            frames_recorded: 0,
             recorder_ok: false,
             renderer_ok: false,
             objects_csv_rows: 0,

@@ -21,7 +21,7 @@ use splatphys_ipc::Simulation;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::wire::ObjectState;
 use splatphys_record::objects_csv::ObjectsCsv;
-use splatphys_record::read::{messages, objects_csv, read_file};
+use splatphys_record::read::{frame_headers, messages, objects_csv, read_file};
 use splatphys_render::report::RenderReport;
 
 /// Arguments of `splatphys run`.
@@ -377,11 +377,14 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         .with_context(|| format!("the server's report (see {}/server.log)", logs.display()))?;
     let live = live_report.join().ok().flatten().unwrap_or_default();
 
-    // objects.csv from the lossless recording, names from the plan.
+    // objects.csv from the lossless recording, names from the plan; and which steps the file
+    // holds (of generation 0 .. the last; the run has no reset).
     let mcap = args.out.join("run.mcap");
+    let mut steps_in_file = std::collections::BTreeSet::new();
     let csv_rows = (|| -> Result<u64> {
         let bytes = read_file(&mcap)?;
         let msgs = messages(&bytes, &mcap, true)?;
+        steps_in_file.extend(frame_headers(&msgs, &mcap)?.iter().map(|h| h.step));
         let path = args.out.join("objects.csv");
         let mut out = BufWriter::new(
             File::create(&path).with_context(|| format!("creating {}", path.display()))?,
@@ -412,7 +415,13 @@ fn multi_process(args: &RunArgs) -> Result<()> {
             .context("running splatphys-render mcap")?;
         rerendered = status.success();
     }
+    let last_step = report.last_step;
     let mut summary = RunSummary::from_server(&plan.name, &plan.prefix, report, wall_s);
+    // Counted from what the file holds, not from the server's view.
+    summary.frames_recorded = steps_in_file.len() as u64;
+    summary.frames_lost_by_recorder = (0..=last_step)
+        .filter(|s| !steps_in_file.contains(s))
+        .count() as u64;
     summary.frames_rendered = live.frames_rendered;
     summary.frame_pngs = std::fs::read_dir(&frames)
         .map(|d| d.filter_map(Result::ok).count())
@@ -434,6 +443,18 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     );
     if let Err(e) = &csv_rows {
         bail!("objects.csv could not be written from the recording: {e:#}");
+    }
+    if summary.frames_lost_by_recorder > 0 {
+        bail!(
+            "the recording lost {} of {} steps ({} holds {}); see {}/recorder.log and \
+             {}/server.log",
+            summary.frames_lost_by_recorder,
+            last_step + 1,
+            mcap.display(),
+            summary.frames_recorded,
+            logs.display(),
+            logs.display()
+        );
     }
     if !(recorder_ok && renderer_ok) {
         bail!(

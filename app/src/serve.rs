@@ -26,7 +26,7 @@ pub struct ServeArgs {
     #[arg(long)]
     pub frames: Option<u64>,
     /// Longest wait on a lagging lossless subscriber (recorder), milliseconds.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 2000)]
     pub lossless_limit_ms: u64,
     /// Largest accepted impulse magnitude, N·s.
     #[arg(long, default_value_t = 1e3)]

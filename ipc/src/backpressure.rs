@@ -5,7 +5,7 @@
 //! - a best-effort subscriber (renderer, controller) loses the frame at once (it takes the
 //!   newest frame anyway) and the drop is counted;
 //! - a lossless subscriber (port name [`crate::services::LOSSLESS_PORT_NAME`], the recorder) is
-//!   waited for up to the limit (default 100 ms); past it the frame is dropped for it, counted
+//!   waited for up to the limit (default 2 s); past it the frame is dropped for it, counted
 //!   as lost, and the subscriber is marked lagging: while lagging it is not waited for again,
 //!   so a stopped (SIGSTOP) or dead recorder cannot freeze the server. It stops lagging as soon
 //!   as a frame is delivered to it without backpressure.

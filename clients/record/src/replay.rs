@@ -56,7 +56,7 @@ impl Default for ReplayOptions {
             realtime: true,
             wait_for_subscribers: 0,
             wait_timeout: Duration::from_secs(10),
-            lossless_limit: Duration::from_millis(100),
+            lossless_limit: Duration::from_secs(2),
         }
     }
 }

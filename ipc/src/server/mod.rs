@@ -66,7 +66,10 @@ pub struct ServerConfig {
     pub prefix: Option<String>,
     /// Pace frames to simulated time instead of running as fast as possible.
     pub realtime: bool,
-    /// Longest wait on a full lossless subscriber per frame. Default 100 ms.
+    /// Longest wait on a full lossless subscriber per frame. Default 2 s: a live recorder that
+    /// is slower than the simulation is waited for (lossless means the run slows down, not
+    /// that frames go missing); a stopped one costs one such wait, then is not waited for
+    /// until it catches up ([`crate::backpressure`]).
     pub lossless_limit: Duration,
     /// Command value limits.
     pub limits: Limits,
@@ -93,7 +96,7 @@ impl Default for ServerConfig {
         Self {
             prefix: None,
             realtime: false,
-            lossless_limit: Duration::from_millis(100),
+            lossless_limit: Duration::from_secs(2),
             limits: Limits::default(),
             cleanup_period: Duration::from_secs(1),
             max_frames: None,

@@ -58,7 +58,7 @@ enum Cmd {
         #[arg(long, default_value_t = 10.0)]
         wait_timeout_s: f64,
         /// Longest wait on a lagging lossless subscriber (recorder) per message, milliseconds.
-        #[arg(long, default_value_t = 100)]
+        #[arg(long, default_value_t = 2000)]
         lossless_limit_ms: u64,
     },
     /// Export the objects of every frame as CSV.
