@@ -411,6 +411,11 @@ typedef struct splatphys_CommandLogEntry {
    */
   uint32_t reserved;
   /**
+   * Entries the server logged before this one: consecutive entries differ by exactly 1, so a
+   * subscriber counts what the log's overflow overwrote (it keeps 256 unread entries).
+   */
+  uint64_t log_index;
+  /**
    * The command as received.
    */
   struct splatphys_CommandMsg command;

@@ -203,12 +203,17 @@ macro_rules! open_by_role {
 /// The settings of the services published once per scene generation (`scene`,
 /// `object_names`): the last sample kept (history 1, overflow) so a late client gets it on
 /// connect.
+/// `scene` and `object_names`: history 1 for late clients, and a buffer of
+/// [`MAX_FRAME_BUFFER`] + 1 generations per subscriber. The server waits for a lossless
+/// subscriber's frames, so it is never more than [`MAX_FRAME_BUFFER`] frames behind, and a new
+/// generation needs at least one frame: such a subscriber never loses a generation, however
+/// often the clients reset.
 macro_rules! once_per_generation {
     ($builder:expr) => {
         $builder
             .enable_safe_overflow(true)
             .history_size(1)
-            .subscriber_max_buffer_size(1)
+            .subscriber_max_buffer_size(MAX_FRAME_BUFFER + 1)
             .subscriber_max_borrowed_samples(1)
             .max_subscribers(MAX_SUBSCRIBERS)
             .max_publishers(1)

@@ -282,12 +282,15 @@ pub struct CommandLogEntry {
     pub event: u32,
     /// Reserved, zero.
     pub reserved: u32,
+    /// Entries the server logged before this one: consecutive entries differ by exactly 1, so a
+    /// subscriber counts what the log's overflow overwrote (it keeps 256 unread entries).
+    pub log_index: u64,
     /// The command as received.
     pub command: CommandMsg,
     /// The reply sent.
     pub reply: ReplyMsg,
 }
-const _: () = assert!(size_of::<CommandLogEntry>() == 416);
+const _: () = assert!(size_of::<CommandLogEntry>() == 424);
 
 /// Statistics of one subscriber of the `frame` service as seen by the server.
 #[repr(C)]

@@ -46,7 +46,7 @@ fn rust_layout() -> Vec<(&'static str, usize, Fields)> {
         layout!(ReplyMsg; sequence, effective_step, accepted, reject_code, message,
             scene_generation, layout_version),
         layout!(CommandLogEntry; received_step, received_time_s, effective_time_s, event,
-            reserved, command, reply),
+            reserved, log_index, command, reply),
         layout!(SubscriberLag; id_lo, id_hi, frames_dropped, max_wait_ms, lossless),
         layout!(Status; heartbeat, step, time_s, frames_published, steps_per_s, substeps_per_s,
             frames_dropped, recorder_frames_lost, commands_received, commands_rejected, flags,

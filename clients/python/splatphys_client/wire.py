@@ -14,6 +14,7 @@ LAYOUT_VERSION = 2
 SH_COEFFS_PER_CHANNEL = 16
 MAX_NAMED_OBJECTS = 64
 OBJECT_NAME_BYTES = 32
+OBJECT_NAME_FULL_BYTES = 64
 SCENE_NAME_BYTES = 64
 MAX_REPORTED_SUBSCRIBERS = 8
 REPLY_MESSAGE_BYTES = 224
@@ -101,6 +102,12 @@ class SceneHeader(_Wire):
     ]
 
 
+class ObjectName(_Wire):
+    """One object's name on the `object_names` service (64 B), UTF-8, NUL-terminated."""
+
+    _fields_ = [("name", ctypes.c_uint8 * OBJECT_NAME_FULL_BYTES)]
+
+
 class ObjectState(_Wire):
     """Per-object COM state (64 B)."""
 
@@ -152,7 +159,7 @@ class ReplyMsg(_Wire):
 
 
 class CommandLogEntry(_Wire):
-    """One `command_log` entry (416 B): a command and its reply, or a step failure."""
+    """One `command_log` entry (424 B): a command and its reply, or a step failure."""
 
     _fields_ = [
         ("received_step", ctypes.c_uint64),
@@ -160,6 +167,7 @@ class CommandLogEntry(_Wire):
         ("effective_time_s", ctypes.c_double),
         ("event", ctypes.c_uint32),
         ("reserved", ctypes.c_uint32),
+        ("log_index", ctypes.c_uint64),
         ("command", CommandMsg),
         ("reply", ReplyMsg),
     ]
@@ -225,10 +233,11 @@ RUST_SIZES = {
     FrameGaussian: 52,
     SceneGaussian: 228,
     SceneHeader: 32 + SCENE_NAME_BYTES + MAX_NAMED_OBJECTS * OBJECT_NAME_BYTES,
+    ObjectName: OBJECT_NAME_FULL_BYTES,
     ObjectState: 64,
     CommandMsg: 128,
     ReplyMsg: 256,
-    CommandLogEntry: 416,
+    CommandLogEntry: 424,
     SubscriberLag: 32,
     Status: 96 + 32 * MAX_REPORTED_SUBSCRIBERS + 24 + FAILURE_REASON_BYTES,
 }

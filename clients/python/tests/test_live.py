@@ -68,7 +68,7 @@ def test_dtypes_match_the_rust_sizes():
     assert wire.STATUS_DTYPE.itemsize == 600
     assert wire.COMMAND_DTYPE.itemsize == 128
     assert wire.REPLY_DTYPE.itemsize == 256
-    assert wire.COMMAND_LOG_DTYPE.itemsize == 416
+    assert wire.COMMAND_LOG_DTYPE.itemsize == 424
     assert wire.FRAME_GAUSSIAN_DTYPE["position_m"].shape == (3,)
 
 

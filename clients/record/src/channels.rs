@@ -12,15 +12,15 @@ pub const POD_SCHEMA_ENCODING: &str = "splatphys-layout";
 
 /// `/scene`: `SceneHeader` (2144 B) + `[N] SceneGaussian` (228 B each); once per generation.
 pub const SCENE: &str = "/scene";
-/// `/object_names`: `FrameHeader` (48 B) + `[M] ObjectName` (64 B each); once per generation.
+/// `/object_names`: `FrameHeader` (56 B) + `[M] ObjectName` (64 B each); once per generation.
 pub const OBJECT_NAMES: &str = "/object_names";
-/// `/frame`: `FrameHeader` (48 B) + `[N] FrameGaussian` (52 B each); every frame.
+/// `/frame`: `FrameHeader` (56 B) + `[N] FrameGaussian` (52 B each); every frame.
 pub const FRAME: &str = "/frame";
-/// `/objects`: `FrameHeader` (48 B) + `[M] ObjectState` (64 B each); every frame.
+/// `/objects`: `FrameHeader` (56 B) + `[M] ObjectState` (64 B each); every frame.
 pub const OBJECTS: &str = "/objects";
-/// `/status`: `Status` (352 B); about 10 Hz.
+/// `/status`: `Status` (600 B); about 10 Hz.
 pub const STATUS: &str = "/status";
-/// `/commands`: `CommandLogEntry` (248 B); every command any client sent, with its reply.
+/// `/commands`: `CommandLogEntry` (424 B); every command any client sent, with its reply.
 pub const COMMANDS: &str = "/commands";
 /// `/pointcloud`: `foxglove.PointCloud` (JSON): positions and colours.
 pub const POINTCLOUD: &str = "/pointcloud";
@@ -29,33 +29,33 @@ pub const POINTCLOUD: &str = "/pointcloud";
 pub const RAW_CHANNELS: [(&str, &str, &str); 6] = [
     (
         SCENE,
-        "splatphys.Scene.v1",
+        "splatphys.Scene.v2",
         "SceneHeader{u32 scene_generation,u32 layout_version,u32 gaussian_count,u32 object_count,u32 sh_degree,u32 reserved,f64 frame_dt_s,u8[64] scene_name,u8[64][32] object_names} + SceneGaussian[N]{f32[48] sh,f32 opacity,f32[3] scale_m,f32[4] rotation_wxyz,u32 object_id}",
     ),
     (
         OBJECT_NAMES,
-        "splatphys.ObjectNames.v1",
-        "FrameHeader + ObjectName[M]{u8[64] name} (UTF-8, NUL padded, index = object id)",
+        "splatphys.ObjectNames.v2",
+        "FrameHeader + ObjectName[M]{u8[64] name} (UTF-8, NUL-terminated, index = object id)",
     ),
     (
         FRAME,
-        "splatphys.Frame.v1",
-        "FrameHeader{u64 step,f64 time_s,u64 substeps,u64 frame_index,u32 count,u32 scene_generation,u32 layout_version,u32 reserved} + FrameGaussian[N]{f32[3] position_m,f32[6] covariance_m2 (xx,xy,xz,yy,yz,zz),f32[4] rotation_wxyz}",
+        "splatphys.Frame.v2",
+        "FrameHeader{u64 step,f64 time_s,u64 substeps,u64 frame_index,u32 count,u32 scene_generation,u32 layout_version,u32 reserved,u64 publish_unix_ns} + FrameGaussian[N]{f32[3] position_m,f32[6] covariance_m2 (xx,xy,xz,yy,yz,zz),f32[4] rotation_wxyz}",
     ),
     (
         OBJECTS,
-        "splatphys.Objects.v1",
+        "splatphys.Objects.v2",
         "FrameHeader + ObjectState[M]{u32 id,u32 contact_count,f32[3] position_m,f32[3] velocity_m_s,f32[4] orientation_wxyz,f32[3] angular_velocity_rad_s,f32 mass_kg}",
     ),
     (
         STATUS,
-        "splatphys.Status.v1",
-        "Status (see splatphys_ipc::wire::Status)",
+        "splatphys.Status.v2",
+        "Status (see splatphys_ipc::wire::Status; layout version 2)",
     ),
     (
         COMMANDS,
-        "splatphys.CommandLogEntry.v1",
-        "CommandLogEntry{u64 received_step,CommandMsg command,ReplyMsg reply}",
+        "splatphys.CommandLogEntry.v2",
+        "CommandLogEntry (see splatphys_ipc::wire::CommandLogEntry; layout version 2, little-endian)",
     ),
 ];
 

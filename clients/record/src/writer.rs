@@ -68,6 +68,9 @@ pub struct WriteCounts {
     pub statuses: u64,
     /// `/commands` messages.
     pub commands: u64,
+    /// Command-log entries the server logged but the recording does not hold (overwritten in
+    /// the log's buffer while the recorder was busy), counted from gaps in `log_index`.
+    pub commands_lost: u64,
     /// `/pointcloud` messages.
     pub pointclouds: u64,
     /// `/object_names` messages.
@@ -82,6 +85,9 @@ pub struct RunWriter {
     sequence: u32,
     colours: Vec<[u8; 4]>,
     opts: WriterOptions,
+    /// `log_index` of the first command-log entry received (those before it were logged before
+    /// the recorder subscribed).
+    log_base: Option<u64>,
     /// Messages written so far.
     pub counts: WriteCounts,
 }
@@ -163,6 +169,7 @@ impl RunWriter {
             sequence: 0,
             colours: Vec::new(),
             opts,
+            log_base: None,
             counts: WriteCounts::default(),
         })
     }
@@ -270,6 +277,9 @@ impl RunWriter {
     /// MCAP errors.
     pub fn command(&mut self, e: &CommandLogEntry) -> Result<(), RecordError> {
         self.write(COMMANDS, 0.0, bytes_of(e))?;
+        let base = *self.log_base.get_or_insert(e.log_index);
+        let expected = base + self.counts.commands + self.counts.commands_lost;
+        self.counts.commands_lost += e.log_index.saturating_sub(expected);
         self.counts.commands += 1;
         Ok(())
     }

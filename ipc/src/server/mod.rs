@@ -207,6 +207,8 @@ struct LoopState {
     /// The last failed step, restored and paused: (restored step, reason). Cleared by
     /// `resume`, `step` and `reset`.
     failure: Option<(u64, String)>,
+    /// Entries sent on `command_log` so far.
+    log_index: u64,
 }
 
 /// A running server: its ports, its report so far and its loop state. The services are kept
@@ -342,6 +344,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             period: (now, report.step, sim.substeps()),
             rates: (0.0, 0.0),
             failure: None,
+            log_index: 0,
         };
         Ok(Self {
             sim,
@@ -451,8 +454,13 @@ impl<'a, S: Simulation> Server<'a, S> {
         Ok(shutdown)
     }
 
-    /// Sends one `command_log` entry.
-    fn log(&self, entry: CommandLogEntry) -> Result<(), IpcError> {
+    /// Sends one `command_log` entry, numbered.
+    fn log(&mut self, entry: CommandLogEntry) -> Result<(), IpcError> {
+        let entry = CommandLogEntry {
+            log_index: self.state.log_index,
+            ..entry
+        };
+        self.state.log_index += 1;
         self.command_log_pub
             .send_copy(entry)
             .map(|_| ())

@@ -91,11 +91,12 @@ fn main() -> Result<()> {
             let (end, counts) =
                 record(&out, &opts).with_context(|| format!("recording {prefix}"))?;
             eprintln!(
-                "splatphys-record: {} frames, {} objects, {} scenes, {} commands, {} status -> {} ({end:?})",
+                "splatphys-record: {} frames, {} objects, {} scenes, {} commands ({} lost from the command log), {} status -> {} ({end:?})",
                 counts.frames,
                 counts.objects,
                 counts.scenes,
                 counts.commands,
+                counts.commands_lost,
                 counts.statuses,
                 out.display()
             );
