@@ -1,5 +1,6 @@
 //! Support shared by the in-process server tests: an iceoryx2 file prefix per test binary and
-//! a look at what of it is left in /dev/shm.
+//! a look at what of it is left in /dev/shm. Each test binary uses what it needs.
+#![allow(dead_code)]
 
 /// The iceoryx2 file prefix of this test binary (`<tag>_<pid>_`), set once for the process
 /// before any iceoryx2 node exists.
