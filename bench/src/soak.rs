@@ -214,7 +214,7 @@ pub fn run(a: &SoakBenchArgs) -> Result<()> {
         recorder_rss.push((t, r));
         let row =
             json!({"bench": "soak_sample", "t_s": t, "server_rss_mb": s, "recorder_rss_mb": r});
-        pb.println(row.to_string());
+        pb.suspend(|| println!("{row}"));
         rows.push(row);
         pb.set_position(t as u64);
         pb.set_message(format!("server {s:.0} MB, recorder {r:.0} MB"));
