@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
-use splatphys_record::read::{frame_headers, messages, object_names, objects_csv, read_file};
+use splatphys_record::read::{frame_headers, object_names, objects_csv, read_all};
 use splatphys_tests::{IOX_PREFIX_ENV, Proc, bin, iox_prefix, service_prefix};
 
 fn start_server(
@@ -70,9 +70,8 @@ fn recorder_gets_every_frame_and_a_killed_recorder_keeps_closed_chunks() {
     let published = server.join().expect("server thread");
     // Exits 0 (it stops on the server's shutdown).
     rec.wait_success(Duration::from_secs(60));
-    let bytes = read_file(&out).unwrap();
-    let msgs = messages(&bytes, &out, false).unwrap();
-    let frames = frame_headers(&msgs, &out).unwrap();
+    let msgs = read_all(&out, false).unwrap();
+    let frames = frame_headers(msgs.iter().cloned().map(Ok), &out).unwrap();
     assert_eq!(published, 2001);
     // The initial frame (index 0) went out before the recorder subscribed (frames keep no
     // history); every frame after the resume is in the file, in order, without a gap.
@@ -91,7 +90,8 @@ fn recorder_gets_every_frame_and_a_killed_recorder_keeps_closed_chunks() {
             .all(|w| w[1].frame_index == w[0].frame_index + 1)
     );
     let mut csv = Vec::new();
-    let rows = objects_csv(&msgs, &out, object_names(&msgs), &mut csv).unwrap();
+    let names = object_names(msgs.iter().cloned().map(Ok)).unwrap();
+    let rows = objects_csv(msgs.into_iter().map(Ok), &out, names, &mut csv).unwrap();
     assert_eq!(rows, 2 * 2000, "2 objects per frame");
 
     // 2. kill -9 the recorder mid-run: every closed chunk is still readable.
@@ -116,13 +116,12 @@ fn recorder_gets_every_frame_and_a_killed_recorder_keeps_closed_chunks() {
         t0.elapsed() < Duration::from_secs(30),
         "server did not stop"
     );
-    let bytes = read_file(&out2).unwrap();
+    let bytes = std::fs::read(&out2).unwrap();
     assert!(
-        messages(&bytes, &out2, false).is_err() || bytes.len() < 8,
+        read_all(&out2, false).is_err() || bytes.len() < 8,
         "no summary"
     );
-    let msgs = messages(&bytes, &out2, true).unwrap();
-    let frames = frame_headers(&msgs, &out2).unwrap();
+    let frames = frame_headers(read_all(&out2, true).unwrap().into_iter().map(Ok), &out2).unwrap();
     assert!(frames.len() > 100, "recovered {} frames", frames.len());
     assert!(
         frames

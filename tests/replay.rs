@@ -17,7 +17,7 @@ use splatphys_ipc::command::{Command as SimCommand, Reply};
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
 use splatphys_record::channels::{FRAME, OBJECTS, SCENE};
-use splatphys_record::read::{RecordedMessage, frame_headers, messages, read_file};
+use splatphys_record::read::{RecordedMessage, frame_headers, read_all};
 use splatphys_tests::{
     IOX_PREFIX_ENV, Proc, bin, iox_prefix, leftovers, service_prefix, wait_until,
 };
@@ -137,13 +137,11 @@ fn replayed_recording_reaches_a_new_subscriber_byte_for_byte() {
     );
     rec.wait_success(Duration::from_secs(60));
 
-    let a_bytes = read_file(&original).unwrap();
-    let b_bytes = read_file(&replayed).unwrap();
-    let a = messages(&a_bytes, &original, false).unwrap();
-    let b = messages(&b_bytes, &replayed, false).unwrap();
+    let a = read_all(&original, false).unwrap();
+    let b = read_all(&replayed, false).unwrap();
     let (ha, hb) = (
-        frame_headers(&a, &original).unwrap(),
-        frame_headers(&b, &replayed).unwrap(),
+        frame_headers(a.iter().cloned().map(Ok), &original).unwrap(),
+        frame_headers(b.iter().cloned().map(Ok), &replayed).unwrap(),
     );
     assert_eq!(ha.len() as u64, FRAMES, "original recording");
     assert_eq!(hb.len(), ha.len(), "frames seen by the replay's subscriber");

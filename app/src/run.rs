@@ -20,8 +20,9 @@ use splatphys_core::world::explain::Explanation;
 use splatphys_ipc::Simulation;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::wire::ObjectState;
+use splatphys_record::channels::FRAME;
 use splatphys_record::objects_csv::ObjectsCsv;
-use splatphys_record::read::{frame_headers, messages, objects_csv, read_file};
+use splatphys_record::read::{Recording, frame_header, objects_csv};
 use splatphys_render::report::RenderReport;
 
 /// Arguments of `splatphys run`.
@@ -167,7 +168,12 @@ fn sibling(name: &str) -> Result<PathBuf> {
     Ok(path)
 }
 
-/// A child process of the run, killed when dropped (so an early error leaves nothing behind).
+/// How long a child has to exit after SIGTERM (a server removes its services, a recorder
+/// finishes its file) before it is killed.
+const TERM_GRACE: Duration = Duration::from_secs(5);
+
+/// A child process of the run, stopped when dropped (so an early error leaves nothing behind):
+/// SIGTERM first, SIGKILL after [`TERM_GRACE`].
 struct Proc {
     name: &'static str,
     child: Child,
@@ -194,33 +200,59 @@ impl Proc {
         matches!(self.child.try_wait(), Ok(Some(status)) if !status.success())
     }
 
-    /// Waits up to `timeout`; kills the process past it. Returns its exit success.
-    fn wait(&mut self, timeout: Duration) -> Result<bool> {
-        let until = Instant::now() + timeout;
+    /// Asks the process to stop (SIGTERM); it ends its work cleanly.
+    fn sigterm(&self) {
+        if let Some(pid) = i32::try_from(self.child.id())
+            .ok()
+            .and_then(rustix::process::Pid::from_raw)
+        {
+            let _ = rustix::process::kill_process(pid, rustix::process::Signal::TERM);
+        }
+    }
+
+    /// Waits until `until` for the exit; `None` when still running then.
+    fn wait_until(&mut self, until: Instant) -> Result<Option<bool>> {
         loop {
             if let Some(status) = self.child.try_wait()? {
-                return Ok(status.success());
+                return Ok(Some(status.success()));
             }
             if Instant::now() >= until {
-                eprintln!(
-                    "splatphys run: {} did not exit within {:.0} s; killing it",
-                    self.name,
-                    timeout.as_secs_f64()
-                );
-                let _ = self.child.kill();
-                let _ = self.child.wait();
-                return Ok(false);
+                return Ok(None);
             }
             std::thread::sleep(Duration::from_millis(20));
         }
+    }
+
+    /// SIGTERM, then SIGKILL when it is still running after [`TERM_GRACE`].
+    fn stop(&mut self) {
+        self.sigterm();
+        if !matches!(self.wait_until(Instant::now() + TERM_GRACE), Ok(Some(_))) {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+
+    /// Waits up to `timeout`; past it, stops the process ([`Proc::stop`]). Returns its exit
+    /// success (`false` when it had to be stopped).
+    fn wait(&mut self, timeout: Duration) -> Result<bool> {
+        if let Some(ok) = self.wait_until(Instant::now() + timeout)? {
+            return Ok(ok);
+        }
+        eprintln!(
+            "splatphys run: {} did not exit within {:.0} s; stopping it (SIGTERM, then SIGKILL after {:.0} s)",
+            self.name,
+            timeout.as_secs_f64(),
+            TERM_GRACE.as_secs_f64()
+        );
+        self.stop();
+        Ok(false)
     }
 }
 
 impl Drop for Proc {
     fn drop(&mut self) {
         if let Ok(None) = self.child.try_wait() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
+            self.stop();
         }
     }
 }
@@ -236,13 +268,14 @@ fn render_report(renderer: &mut Proc) -> std::thread::JoinHandle<Option<RenderRe
 }
 
 /// Follows the server's `status` until the server process exits, showing progress; ends the run
-/// early with a clear message when a client dies.
+/// early with a clear message when a client dies. Returns whether the run was interrupted
+/// (SIGINT/SIGTERM), in which case the server was asked to stop.
 fn follow_server(
     plan: &RunPlan,
     server: &mut Proc,
     clients: &mut [&mut Proc],
     logs: &Path,
-) -> Result<()> {
+) -> Result<bool> {
     let pb = progress_bar(plan.total_frames);
     let mut opts = ClientOptions::new(&plan.prefix);
     opts.node_name = "splatphys-run".into();
@@ -252,10 +285,22 @@ fn follow_server(
     // Short: the loop retries while it watches the processes (a server that fails to start is
     // noticed when its process exits, not after a long connect).
     opts.connect_timeout = Duration::from_millis(500);
-    let mut conn = None;
+    let mut conn: Option<Connection> = None;
+    let mut interrupted = false;
     loop {
         if server.child.try_wait()?.is_some() {
             break;
+        }
+        // SIGINT/SIGTERM to the run: the server is asked to stop, and the run ends as if the
+        // server had finished (the recorder completes its file, the summary is written).
+        if !interrupted
+            && conn
+                .as_ref()
+                .is_some_and(|c| c.node().wait(Duration::ZERO).is_err())
+        {
+            interrupted = true;
+            pb.suspend(|| eprintln!("splatphys run: interrupted; stopping the server"));
+            server.sigterm();
         }
         for p in clients.iter_mut() {
             if p.failed() {
@@ -281,7 +326,7 @@ fn follow_server(
         std::thread::sleep(Duration::from_millis(50));
     }
     pb.finish_and_clear();
-    Ok(())
+    Ok(interrupted)
 }
 
 fn multi_process(args: &RunArgs) -> Result<()> {
@@ -362,9 +407,9 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         &logs,
     );
     if followed.is_err() {
-        let _ = server.child.kill();
+        server.stop();
     }
-    followed?;
+    let interrupted = followed?;
     let server_ok = server.wait(Duration::from_secs(30))?;
     let timeout = Duration::from_secs_f64(args.client_timeout_s.max(1.0));
     let recorder_ok = recorder.wait(timeout)?;
@@ -382,15 +427,23 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     let mcap = args.out.join("run.mcap");
     let mut steps_in_file = std::collections::BTreeSet::new();
     let csv_rows = (|| -> Result<u64> {
-        let bytes = read_file(&mcap)?;
-        let msgs = messages(&bytes, &mcap, true)?;
-        steps_in_file.extend(frame_headers(&msgs, &mcap)?.iter().map(|h| h.step));
+        // One streamed pass (memory bounded by a chunk): the steps of the frames, the rows of
+        // the objects. A file cut by a dead recorder is read up to the cut; the missing steps
+        // are then counted as lost below.
+        let msgs = Recording::open(&mcap, true)?.inspect(|m| {
+            if let Ok(m) = m
+                && m.topic == FRAME
+                && let Ok(h) = frame_header(m, &mcap)
+            {
+                steps_in_file.insert(h.step);
+            }
+        });
         let path = args.out.join("objects.csv");
         let mut out = BufWriter::new(
             File::create(&path).with_context(|| format!("creating {}", path.display()))?,
         );
         Ok(objects_csv(
-            &msgs,
+            msgs,
             &mcap,
             plan.object_names.clone(),
             &mut out,
@@ -441,6 +494,12 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         summary.frames_rendered,
         args.out.display()
     );
+    if interrupted {
+        bail!(
+            "interrupted at step {last_step}; everything up to it is in {}",
+            args.out.display()
+        );
+    }
     if let Err(e) = &csv_rows {
         bail!("objects.csv could not be written from the recording: {e:#}");
     }

@@ -19,6 +19,17 @@ pub enum RecordError {
         /// The mcap error.
         source: mcap::McapError,
     },
+    /// The file is truncated or corrupt (a bad chunk CRC, a cut record); `--recover` reads what
+    /// comes before the damage.
+    #[error(
+        "{path}: truncated or corrupt recording ({source}); replay and read it with --recover to use the messages before the damage"
+    )]
+    Corrupt {
+        /// The file.
+        path: String,
+        /// What the MCAP reader found.
+        source: mcap::McapError,
+    },
     /// A message on a raw channel is shorter than its header or not a whole number of elements.
     #[error("{path}: message {sequence} on {topic} has {len} bytes, not a valid {what}")]
     BadMessage {

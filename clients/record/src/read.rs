@@ -4,10 +4,12 @@
 //! off by a kill -9 still yields every chunk that was closed; the summary is lost then, which
 //! only costs random access.
 
-use std::path::Path;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
 
 use bytemuck::Pod;
-use mcap::read::{MessageStream, Options};
+use mcap::sans_io::LinearReaderOptions;
 use splatphys_ipc::wire::{FrameHeader, ObjectName, ObjectState, SceneHeader, read_fixed_str};
 
 use crate::channels::{FRAME, OBJECT_NAMES, OBJECTS, SCENE};
@@ -29,57 +31,128 @@ pub struct RecordedMessage {
     pub data: Vec<u8>,
 }
 
-/// Reads the whole file into memory.
+/// The messages of a recording in file order, read from disk one chunk at a time: memory is
+/// bounded by the largest chunk (a few frames), not the file.
 ///
-/// # Errors
-/// I/O errors.
-pub fn read_file(path: &Path) -> Result<Vec<u8>, RecordError> {
-    std::fs::read(path).map_err(|source| RecordError::Io {
-        path: path.display().to_string(),
-        source,
-    })
+/// Without `recover` every chunk's CRC is checked before any of its messages is yielded, and a
+/// truncated or corrupt file yields an error at the damage. With `recover` the stream ends
+/// quietly at the first damage instead (a file whose recorder was killed keeps every chunk that
+/// was closed); [`Self::damage`] then says what stopped it.
+pub struct Recording {
+    reader: mcap::io::MessageReader<BufReader<File>>,
+    path: PathBuf,
+    recover: bool,
+    damage: Option<String>,
+    done: bool,
 }
 
-/// Every message in file order. With `recover`, a truncated file (killed recorder) yields the
-/// messages of every closed chunk and stops quietly at the cut.
-///
-/// # Errors
-/// MCAP errors (without `recover`, or before the first message).
-pub fn messages(
-    bytes: &[u8],
-    path: &Path,
-    recover: bool,
-) -> Result<Vec<RecordedMessage>, RecordError> {
-    let opts = if recover {
-        Options::IgnoreEndMagic.into()
-    } else {
-        Default::default()
-    };
-    let stream =
-        MessageStream::new_with_options(bytes, opts).map_err(|source| RecordError::Mcap {
+impl Recording {
+    /// Opens `path` for streaming (see [`Recording`]).
+    ///
+    /// # Errors
+    /// [`RecordError::Io`] when the file cannot be opened.
+    pub fn open(path: &Path, recover: bool) -> Result<Self, RecordError> {
+        let file = File::open(path).map_err(|source| RecordError::Io {
             path: path.display().to_string(),
             source,
         })?;
-    let mut out = Vec::new();
-    for m in stream {
-        match m {
-            Ok(m) => out.push(RecordedMessage {
+        let options = LinearReaderOptions::default()
+            .with_skip_end_magic(recover)
+            .with_prevalidate_chunk_crcs(true)
+            .with_validate_data_section_crc(!recover);
+        Ok(Self {
+            reader: mcap::io::MessageReader::new_with_options(
+                BufReader::with_capacity(1 << 20, file),
+                options,
+            ),
+            path: path.to_path_buf(),
+            recover,
+            damage: None,
+            done: false,
+        })
+    }
+
+    /// With `recover`: why the stream ended before the end of the file (a truncated last chunk,
+    /// a bad CRC), or `None` when the file was whole.
+    pub fn damage(&self) -> Option<&str> {
+        self.damage.as_deref()
+    }
+}
+
+impl Iterator for Recording {
+    type Item = Result<RecordedMessage, RecordError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        match self.reader.next()? {
+            Ok(m) => Some(Ok(RecordedMessage {
                 topic: m.channel.topic.clone(),
                 sequence: m.sequence,
                 log_time_ns: m.log_time,
                 publish_time_ns: m.publish_time,
                 data: m.data.into_owned(),
-            }),
-            Err(_) if recover => break,
+            })),
             Err(source) => {
-                return Err(RecordError::Mcap {
+                self.done = true;
+                if self.recover {
+                    self.damage = Some(source.to_string());
+                    None
+                } else {
+                    Some(Err(RecordError::Corrupt {
+                        path: self.path.display().to_string(),
+                        source,
+                    }))
+                }
+            }
+        }
+    }
+}
+
+/// Checks that `path` is a whole MCAP file without reading its messages: the data section's
+/// CRC, the footer and the end magic. Reads the file once at disk speed (chunks are not
+/// decompressed), so a replay can refuse a damaged file before it publishes anything.
+///
+/// # Errors
+/// [`RecordError::Io`] when the file cannot be read, [`RecordError::Corrupt`] when it is
+/// truncated or its bytes do not match their CRCs.
+pub fn verify(path: &Path) -> Result<(), RecordError> {
+    let io = |source| RecordError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let mut file = File::open(path).map_err(io)?;
+    let mut reader = mcap::sans_io::LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_emit_chunks(true)
+            .with_validate_data_section_crc(true)
+            .with_validate_summary_section_crc(true),
+    );
+    while let Some(event) = reader.next_event() {
+        match event {
+            Ok(mcap::sans_io::LinearReadEvent::ReadRequest(need)) => {
+                let n = std::io::Read::read(&mut file, reader.insert(need)).map_err(io)?;
+                reader.notify_read(n);
+            }
+            Ok(mcap::sans_io::LinearReadEvent::Record { .. }) => {}
+            Err(source) => {
+                return Err(RecordError::Corrupt {
                     path: path.display().to_string(),
                     source,
                 });
             }
         }
     }
-    Ok(out)
+    Ok(())
+}
+
+/// Every message of `path` in memory (see [`Recording`]; for small recordings and tests).
+///
+/// # Errors
+/// As [`Recording`].
+pub fn read_all(path: &Path, recover: bool) -> Result<Vec<RecordedMessage>, RecordError> {
+    Recording::open(path, recover)?.collect()
 }
 
 /// Splits a raw message into its header and payload elements (copied: MCAP data is unaligned).
@@ -109,68 +182,87 @@ pub fn split<H: Pod, T: Pod>(
     Ok((header, payload))
 }
 
-/// The frame headers in a recording, in order.
+/// The header of a `/frame` (or `/objects`) message.
 ///
 /// # Errors
-/// As [`split`].
+/// [`RecordError::BadMessage`] when the message is shorter than a header.
+pub fn frame_header(m: &RecordedMessage, path: &Path) -> Result<FrameHeader, RecordError> {
+    if m.data.len() < size_of::<FrameHeader>() {
+        return Err(RecordError::BadMessage {
+            path: path.display().to_string(),
+            topic: m.topic.clone(),
+            sequence: m.sequence,
+            len: m.data.len(),
+            what: "frame",
+        });
+    }
+    Ok(bytemuck::pod_read_unaligned(
+        &m.data[..size_of::<FrameHeader>()],
+    ))
+}
+
+/// The frame headers in a stream of messages (a [`Recording`]), in order.
+///
+/// # Errors
+/// The stream's errors and [`frame_header`]'s.
 pub fn frame_headers(
-    msgs: &[RecordedMessage],
+    msgs: impl IntoIterator<Item = Result<RecordedMessage, RecordError>>,
     path: &Path,
 ) -> Result<Vec<FrameHeader>, RecordError> {
-    msgs.iter()
-        .filter(|m| m.topic == FRAME)
-        .map(|m| {
-            if m.data.len() < size_of::<FrameHeader>() {
-                return Err(RecordError::BadMessage {
-                    path: path.display().to_string(),
-                    topic: m.topic.clone(),
-                    sequence: m.sequence,
-                    len: m.data.len(),
-                    what: "frame",
-                });
-            }
-            Ok(bytemuck::pod_read_unaligned(
-                &m.data[..size_of::<FrameHeader>()],
-            ))
-        })
-        .collect()
+    let mut out = Vec::new();
+    for m in msgs {
+        let m = m?;
+        if m.topic == FRAME {
+            out.push(frame_header(&m, path)?);
+        }
+    }
+    Ok(out)
 }
 
 /// Object names of a recording (`names[id]`): every object's from the first `/object_names`
-/// message, or, in a recording without one, the first scene header's (which names the first
-/// [`MAX_NAMED_OBJECTS`](splatphys_ipc::wire::MAX_NAMED_OBJECTS) objects). Empty when the
-/// recording holds neither.
-pub fn object_names(msgs: &[RecordedMessage]) -> Vec<String> {
-    if let Some(m) = msgs.iter().find(|m| m.topic == OBJECT_NAMES)
-        && m.data.len() >= size_of::<FrameHeader>()
-        && (m.data.len() - size_of::<FrameHeader>()).is_multiple_of(size_of::<ObjectName>())
-    {
-        return m.data[size_of::<FrameHeader>()..]
-            .chunks_exact(size_of::<ObjectName>())
-            .map(|c| bytemuck::pod_read_unaligned::<ObjectName>(c).text())
-            .collect();
-    }
-    let Some(m) = msgs.iter().find(|m| m.topic == SCENE) else {
-        return Vec::new();
-    };
-    if m.data.len() < size_of::<SceneHeader>() {
-        return Vec::new();
-    }
-    let h: SceneHeader = bytemuck::pod_read_unaligned(&m.data[..size_of::<SceneHeader>()]);
-    h.object_names
-        .iter()
-        .take(h.object_count as usize)
-        .map(|n| read_fixed_str(n))
-        .collect()
-}
-
-/// Writes the objects of every frame as `objects.csv` ([`crate::objects_csv`]), with `names`
-/// for the `name` column. Returns the rows written.
+/// message (the stream is read only up to it), or, in a recording without one, the first scene
+/// header's (which names the first [`MAX_NAMED_OBJECTS`](splatphys_ipc::wire::MAX_NAMED_OBJECTS)
+/// objects). Empty when the recording holds neither.
 ///
 /// # Errors
-/// As [`split`], and I/O errors of `out`.
+/// The stream's errors.
+pub fn object_names(
+    msgs: impl IntoIterator<Item = Result<RecordedMessage, RecordError>>,
+) -> Result<Vec<String>, RecordError> {
+    let mut from_scene = None;
+    for m in msgs {
+        let m = m?;
+        if m.topic == OBJECT_NAMES
+            && m.data.len() >= size_of::<FrameHeader>()
+            && (m.data.len() - size_of::<FrameHeader>()).is_multiple_of(size_of::<ObjectName>())
+        {
+            return Ok(m.data[size_of::<FrameHeader>()..]
+                .chunks_exact(size_of::<ObjectName>())
+                .map(|c| bytemuck::pod_read_unaligned::<ObjectName>(c).text())
+                .collect());
+        }
+        if m.topic == SCENE && from_scene.is_none() && m.data.len() >= size_of::<SceneHeader>() {
+            let h: SceneHeader = bytemuck::pod_read_unaligned(&m.data[..size_of::<SceneHeader>()]);
+            from_scene = Some(
+                h.object_names
+                    .iter()
+                    .take(h.object_count as usize)
+                    .map(|n| read_fixed_str(n))
+                    .collect(),
+            );
+        }
+    }
+    Ok(from_scene.unwrap_or_default())
+}
+
+/// Writes the objects of every frame of a stream of messages (a [`Recording`]) as
+/// `objects.csv` ([`crate::objects_csv`]), with `names` for the `name` column. Returns the rows
+/// written.
+///
+/// # Errors
+/// The stream's errors, as [`split`], and I/O errors of `out`.
 pub fn objects_csv(
-    msgs: &[RecordedMessage],
+    msgs: impl IntoIterator<Item = Result<RecordedMessage, RecordError>>,
     path: &Path,
     names: Vec<String>,
     out: &mut impl std::io::Write,
@@ -180,9 +272,12 @@ pub fn objects_csv(
         source,
     };
     let mut csv = ObjectsCsv::new(out, names).map_err(io)?;
-    for m in msgs.iter().filter(|m| m.topic == OBJECTS) {
-        let (h, objs): (FrameHeader, Vec<ObjectState>) = split(m, path, "objects")?;
-        csv.write_frame(h.step, h.time_s, &objs).map_err(io)?;
+    for m in msgs {
+        let m = m?;
+        if m.topic == OBJECTS {
+            let (h, objs): (FrameHeader, Vec<ObjectState>) = split(&m, path, "objects")?;
+            csv.write_frame(h.step, h.time_s, &objs).map_err(io)?;
+        }
     }
     let rows = csv.rows();
     csv.finish().map_err(io)?;
@@ -217,7 +312,7 @@ mod tests {
         }
         let scene = message(SCENE, bytemuck::bytes_of(&header).to_vec());
         // Without `/object_names` (an older recording): the header's first 64.
-        let from_header = object_names(std::slice::from_ref(&scene));
+        let from_header = object_names([Ok(scene.clone())]).unwrap();
         assert_eq!(from_header.len(), MAX_NAMED_OBJECTS);
         assert_eq!(from_header[63], "obj63");
         // With it: every object.
@@ -229,7 +324,7 @@ mod tests {
         for i in 0..objects {
             data.extend_from_slice(bytemuck::bytes_of(&ObjectName::new(&format!("obj{i}"))));
         }
-        let all = object_names(&[scene, message(OBJECT_NAMES, data)]);
+        let all = object_names([Ok(scene), Ok(message(OBJECT_NAMES, data))]).unwrap();
         assert_eq!(all.len(), objects);
         assert_eq!(all[objects - 1], format!("obj{}", objects - 1));
     }

@@ -113,7 +113,14 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
             w.flush()?;
             last_flush = Instant::now();
         }
-        if !busy && conn.node().wait(Duration::from_micros(100)).is_err() {
+        // Signals are looked at every iteration: a recorder that is the bottleneck is never
+        // idle, and must still stop (and finish its file) on SIGINT/SIGTERM.
+        let idle = if busy {
+            Duration::ZERO
+        } else {
+            Duration::from_micros(100)
+        };
+        if conn.node().wait(idle).is_err() {
             break RecordEnd::Interrupted;
         }
     };

@@ -32,7 +32,7 @@ use splatphys_ipc::wire::{
 
 use crate::channels::{FRAME, OBJECT_NAMES, OBJECTS, SCENE};
 use crate::error::RecordError;
-use crate::read::{messages, read_file, split};
+use crate::read::{Recording, split, verify};
 
 /// How to replay.
 #[derive(Debug, Clone, PartialEq)]
@@ -46,8 +46,11 @@ pub struct ReplayOptions {
     /// Longest wait for them; the replay then starts anyway. Default 10 s.
     pub wait_timeout: Duration,
     /// Longest wait on a full lossless subscriber per message, as the server's
-    /// `ServerConfig::lossless_limit`. Default 100 ms.
+    /// `ServerConfig::lossless_limit`. Default 2 s.
     pub lossless_limit: Duration,
+    /// Replay a truncated or corrupt file up to the damage; without it such a file is refused
+    /// before anything is published. Default false.
+    pub recover: bool,
 }
 
 impl Default for ReplayOptions {
@@ -57,6 +60,7 @@ impl Default for ReplayOptions {
             wait_for_subscribers: 0,
             wait_timeout: Duration::from_secs(10),
             lossless_limit: Duration::from_secs(2),
+            recover: false,
         }
     }
 }
@@ -94,6 +98,15 @@ pub struct ReplayCounts {
     pub objects: u64,
 }
 
+/// What a replay did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReplayReport {
+    /// Messages published.
+    pub counts: ReplayCounts,
+    /// With [`ReplayOptions::recover`]: why the file ended early (`None`: it was whole).
+    pub damage: Option<String>,
+}
+
 fn iox(op: &'static str, e: impl std::fmt::Debug) -> RecordError {
     RecordError::Ipc(IpcError::Iceoryx {
         op,
@@ -102,18 +115,22 @@ fn iox(op: &'static str, e: impl std::fmt::Debug) -> RecordError {
     })
 }
 
-/// Publishes `path` under `prefix` (see [`ReplayOptions`]).
+/// Publishes `path` under `prefix` (see [`ReplayOptions`]), streaming it from disk: memory is
+/// bounded by the largest chunk, whatever the length of the recording.
 ///
 /// # Errors
-/// File, MCAP and iceoryx2 errors; [`IpcError::Interrupted`] on a signal while waiting for
-/// subscribers.
+/// File, MCAP and iceoryx2 errors; [`RecordError::Corrupt`] for a damaged file without
+/// [`ReplayOptions::recover`] (nothing is published then); [`IpcError::Interrupted`] on a
+/// signal while waiting for subscribers.
 pub fn replay(
     path: &Path,
     prefix: &str,
     opts: &ReplayOptions,
-) -> Result<ReplayCounts, RecordError> {
-    let bytes = read_file(path)?;
-    let msgs = messages(&bytes, path, true)?;
+) -> Result<ReplayReport, RecordError> {
+    if !opts.recover {
+        verify(path)?;
+    }
+    let mut msgs = Recording::open(path, opts.recover)?;
     let names = ServiceNames::new(prefix);
     let node = create_node("splatphys-replay")?;
     let _ = node.try_cleanup_dead_nodes();
@@ -159,9 +176,11 @@ pub fn replay(
 
     let mut counts = ReplayCounts::default();
     let t0 = Instant::now();
-    let first_log = msgs.first().map_or(0, |m| m.log_time_ns);
+    let mut first_log = None;
     let mut status = Status::default();
-    for m in &msgs {
+    for m in msgs.by_ref() {
+        let m = &m?;
+        let first_log = *first_log.get_or_insert(m.log_time_ns);
         if node.wait(Duration::ZERO).is_err() {
             break;
         }
@@ -232,5 +251,8 @@ pub fn replay(
         }
     }
     heartbeat.finish(STATUS_SHUTTING_DOWN)?;
-    Ok(counts)
+    Ok(ReplayReport {
+        counts,
+        damage: msgs.damage().map(str::to_owned),
+    })
 }

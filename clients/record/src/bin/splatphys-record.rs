@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use splatphys_record::read::{messages, object_names, objects_csv, read_file};
+use splatphys_record::read::{Recording, object_names, objects_csv};
 use splatphys_record::recorder::{RecordEnd, RecordOptions, record};
 use splatphys_record::replay::{ReplayOptions, replay};
 use splatphys_record::writer::ChunkCompression;
@@ -60,6 +60,10 @@ enum Cmd {
         /// Longest wait on a lagging lossless subscriber (recorder) per message, milliseconds.
         #[arg(long, default_value_t = 2000)]
         lossless_limit_ms: u64,
+        /// Replay a truncated or corrupt file (a killed recorder) up to the damage instead of
+        /// refusing it.
+        #[arg(long)]
+        recover: bool,
     },
     /// Export the objects of every frame as CSV.
     ExportObjects {
@@ -68,6 +72,9 @@ enum Cmd {
         /// Output CSV (stdout if absent).
         #[arg(long, short)]
         out: Option<PathBuf>,
+        /// Read a truncated or corrupt file up to the damage instead of refusing it.
+        #[arg(long)]
+        recover: bool,
     },
 }
 
@@ -111,36 +118,54 @@ fn main() -> Result<()> {
             wait_for_subscribers,
             wait_timeout_s,
             lossless_limit_ms,
+            recover,
         } => {
             let opts = ReplayOptions {
                 realtime: !fast,
                 wait_for_subscribers,
                 wait_timeout: Duration::from_secs_f64(wait_timeout_s.max(0.0)),
                 lossless_limit: Duration::from_millis(lossless_limit_ms),
+                recover,
             };
-            let c = replay(&file, &prefix, &opts)
+            let r = replay(&file, &prefix, &opts)
                 .with_context(|| format!("replaying {}", file.display()))?;
+            if let Some(damage) = &r.damage {
+                eprintln!(
+                    "splatphys-record replay: {} ends early ({damage}); replayed what came before",
+                    file.display()
+                );
+            }
             eprintln!(
-                "splatphys-record replay: {} frames, {} scenes under {prefix}",
-                c.frames, c.scenes
+                "splatphys-record replay: {} frames, {} scenes under {prefix}, peak memory {}",
+                r.counts.frames,
+                r.counts.scenes,
+                peak_rss_mb().map_or("unknown".into(), |mb| format!("{mb:.1} MB"))
             );
         }
-        Cmd::ExportObjects { file, out } => {
-            let bytes = read_file(&file)?;
-            let msgs = messages(&bytes, &file, true)?;
-            let names = object_names(&msgs);
+        Cmd::ExportObjects { file, out, recover } => {
+            // Two streamed passes: the names come first in the file, the rows from all of it.
+            let names = object_names(Recording::open(&file, recover)?)?;
+            let msgs = Recording::open(&file, recover)?;
             let rows = match out {
                 Some(p) => {
                     let mut f = std::io::BufWriter::new(
                         std::fs::File::create(&p)
                             .with_context(|| format!("creating {}", p.display()))?,
                     );
-                    objects_csv(&msgs, &file, names, &mut f)?
+                    objects_csv(msgs, &file, names, &mut f)?
                 }
-                None => objects_csv(&msgs, &file, names, &mut std::io::stdout().lock())?,
+                None => objects_csv(msgs, &file, names, &mut std::io::stdout().lock())?,
             };
             eprintln!("splatphys-record: {rows} object rows");
         }
     }
     Ok(())
+}
+
+/// Peak resident set size of this process, MB (`VmHWM` of /proc/self/status; Linux only).
+fn peak_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1000.0)
 }

@@ -3,13 +3,13 @@
 //! A recording cut off by a killed recorder is read up to the last closed chunk. Frames missing
 //! from the recording (frame-index gaps) are counted as dropped.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Args;
 use splatphys_ipc::wire::{FrameGaussian, FrameHeader, SceneGaussian, SceneHeader};
 use splatphys_record::channels::{FRAME, SCENE};
-use splatphys_record::read::{RecordedMessage, messages, read_file, split};
+use splatphys_record::read::{Recording, split};
 
 use crate::sequence::{FrameRenderer, SequenceArgs, StaticScene};
 
@@ -25,11 +25,16 @@ pub struct McapArgs {
 /// Runs `mcap`; prints the JSON summary on stdout.
 pub fn mcap(args: &McapArgs) -> Result<()> {
     let path = args.recording.as_path();
-    let msgs = read_messages(path)?;
+    // Streamed chunk by chunk; a file cut off by a killed recorder is read up to its last closed
+    // chunk (with a note at the end).
+    let mut msgs = Recording::open(path, true)?;
+    let mut read = 0u64;
     let mut renderer = FrameRenderer::new(&args.seq)?;
     let mut scene: Option<StaticScene> = None;
     let mut bad = 0u64;
-    for m in &msgs {
+    for m in msgs.by_ref() {
+        let m = &m.with_context(|| format!("reading {}", path.display()))?;
+        read += 1;
         match m.topic.as_str() {
             SCENE => match split::<SceneHeader, SceneGaussian>(m, path, "scene") {
                 Ok((h, payload)) => {
@@ -56,33 +61,20 @@ pub fn mcap(args: &McapArgs) -> Result<()> {
         }
     }
     renderer.render_pending(scene.as_ref())?;
+    if let Some(damage) = msgs.damage() {
+        eprintln!(
+            "splatphys-render: {} is incomplete ({damage}); rendered the {read} messages before the cut",
+            path.display()
+        );
+    }
     if renderer.frames_rendered() == 0 {
         eprintln!(
             "splatphys-render: {} holds no renderable frame ({} messages, {bad} unreadable)",
             path.display(),
-            msgs.len()
+            read
         );
     }
     let summary = renderer.finish()?;
     println!("{}", summary.json());
     Ok(())
-}
-
-/// Every message of the recording; a file cut off by a killed recorder is recovered up to its
-/// last closed chunk (with a note).
-fn read_messages(path: &Path) -> Result<Vec<RecordedMessage>> {
-    let bytes = read_file(path).with_context(|| format!("reading {}", path.display()))?;
-    match messages(&bytes, path, false) {
-        Ok(m) => Ok(m),
-        Err(e) => {
-            let m = messages(&bytes, path, true)
-                .with_context(|| format!("reading the recording {}", path.display()))?;
-            eprintln!(
-                "splatphys-render: {} is incomplete ({e}); rendering the {} messages before the cut",
-                path.display(),
-                m.len()
-            );
-            Ok(m)
-        }
-    }
 }
