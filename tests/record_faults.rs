@@ -15,7 +15,7 @@ use std::time::Duration;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::command::{Command as SimCommand, Reply};
 use splatphys_ipc::wire::{FrameHeader, SceneHeader};
-use splatphys_record::channels::{FRAME, SCENE};
+use splatphys_record::channels::{FRAME, OBJECTS, SCENE};
 use splatphys_record::read::{frame_headers, read_all, verify};
 use splatphys_tests::{
     IOX_PREFIX_ENV, Proc, bin, iox_prefix, service_prefix, stepping_server, stop_server, wait_until,
@@ -85,6 +85,7 @@ fn a_recorder_interrupted_while_it_is_the_bottleneck_leaves_a_whole_file() {
     assert_eq!(e.code, Some(0), "recorder: {}", e.err);
     stop_server(server);
     verify(&out).expect("the file is whole: summary, CRCs, end magic");
+    assert_in_frame_order(&out);
     let frames = frame_headers(
         read_all(&out, false).expect("read").into_iter().map(Ok),
         &out,
@@ -99,8 +100,54 @@ fn a_recorder_interrupted_while_it_is_the_bottleneck_leaves_a_whole_file() {
     );
 }
 
+/// Checks the file is in frame order: a generation's scene before its frames and after the
+/// previous generation's; objects after their own frame and before the next one (objects whose
+/// frame was not recorded, such as those of the frame in flight at an interrupt, keep their
+/// place in the order).
+fn assert_in_frame_order(path: &Path) {
+    let mut generation = None;
+    let mut last_frame: Option<FrameHeader> = None;
+    let mut last_objects = None;
+    for m in read_all(path, false).expect("read") {
+        match m.topic.as_str() {
+            SCENE => {
+                let g = bytemuck_read::<SceneHeader>(&m.data).scene_generation;
+                assert!(generation.is_none_or(|p| g > p), "scene {g} after {generation:?}");
+                assert!(
+                    last_frame.is_none_or(|f| f.scene_generation < g),
+                    "scene {g} after a frame of its own generation"
+                );
+                generation = Some(g);
+            }
+            FRAME => {
+                let h: FrameHeader = bytemuck_read(&m.data);
+                assert_eq!(Some(h.scene_generation), generation, "frame before its scene");
+                assert!(
+                    last_objects.is_none_or(|o| o < h.frame_index),
+                    "frame {} after objects of frame {last_objects:?}",
+                    h.frame_index
+                );
+                last_frame = Some(h);
+            }
+            OBJECTS => {
+                let h: FrameHeader = bytemuck_read(&m.data);
+                assert!(
+                    last_frame.is_some_and(|f| f.frame_index <= h.frame_index)
+                        && last_objects.is_none_or(|o| o < h.frame_index),
+                    "objects of frame {} after frame {:?}",
+                    h.frame_index,
+                    last_frame.map(|f| f.frame_index)
+                );
+                last_objects = Some(h.frame_index);
+            }
+            _ => {}
+        }
+    }
+}
+
 /// (generation, step) of every frame, and the generations of the scenes, in file order.
 fn generations(path: &Path) -> (Vec<(u32, u64)>, Vec<u32>) {
+    assert_in_frame_order(path);
     let msgs = read_all(path, false).expect("read");
     let frames = msgs
         .iter()

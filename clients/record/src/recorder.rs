@@ -1,10 +1,12 @@
 //! The recording loop: subscribe losslessly to a server and write everything to MCAP.
 
+use std::collections::VecDeque;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 use splatphys_ipc::IpcError;
 use splatphys_ipc::client::{ClientOptions, Connection};
+use splatphys_ipc::wire::{FrameHeader, ObjectName, ObjectState, SceneGaussian, SceneHeader};
 
 use crate::error::RecordError;
 use crate::writer::{RunWriter, WriteCounts, WriterOptions};
@@ -65,14 +67,19 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
     let mut w = RunWriter::create(out, opts.writer)?;
     let mut last_flush = Instant::now();
     let mut last_heartbeat = 0;
+    let mut held = Held::default();
     let end = loop {
         let mut busy = false;
+        // A new generation's scene and names are held until its first frame: a lagging
+        // recorder still has frames of the previous generation to write first.
         while let Some(s) = conn.recv_scene()? {
-            w.scene(s.user_header(), s.payload())?;
+            held.scenes
+                .push_back((*s.user_header(), s.payload().to_vec()));
             busy = true;
         }
         while let Some(n) = conn.recv_object_names()? {
-            w.object_names(n.user_header(), n.payload())?;
+            held.names
+                .push_back((*n.user_header(), n.payload().to_vec()));
             busy = true;
         }
         while let Some(c) = conn.recv_command_log()? {
@@ -80,10 +87,14 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
             busy = true;
         }
         let frame = conn.recv_frame();
-        // Objects are published right after their frame; drain them in either case.
+        // Objects are published right after their frame, but a lagging recorder can find the
+        // objects of later frames already waiting: they are held back so that the file is in
+        // frame order, each frame followed by its objects.
         loop {
             match conn.recv_objects() {
-                Ok(Some(o)) => w.objects(o.user_header(), o.payload())?,
+                Ok(Some(o)) => held
+                    .objects
+                    .push_back((*o.user_header(), o.payload().to_vec())),
                 Ok(None) | Err(IpcError::ServerShutDown { .. }) => break,
                 Err(IpcError::ServerGone { .. }) => break,
                 Err(e) => return Err(e.into()),
@@ -95,19 +106,25 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
             last_heartbeat = s.heartbeat;
             w.status(&s)?;
         }
-        match frame {
+        let end = match frame {
             Ok(Some(f)) => {
-                w.frame(f.user_header(), f.payload())?;
+                let h = f.user_header();
+                held.write_before(&mut w, h.scene_generation, h.frame_index)?;
+                w.frame(h, f.payload())?;
+                held.write_before(&mut w, h.scene_generation, h.frame_index + 1)?;
                 busy = true;
-                if opts.max_frames.is_some_and(|n| w.counts.frames >= n) {
-                    break RecordEnd::MaxFrames;
-                }
+                opts.max_frames
+                    .is_some_and(|n| w.counts.frames >= n)
+                    .then_some(RecordEnd::MaxFrames)
             }
-            Ok(None) => {}
-            Err(IpcError::ServerShutDown { .. }) => break RecordEnd::ServerShutDown,
-            Err(e @ IpcError::ServerGone { .. }) => break RecordEnd::ServerGone(e.to_string()),
-            Err(IpcError::Interrupted) => break RecordEnd::Interrupted,
+            Ok(None) => None,
+            Err(IpcError::ServerShutDown { .. }) => Some(RecordEnd::ServerShutDown),
+            Err(e @ IpcError::ServerGone { .. }) => Some(RecordEnd::ServerGone(e.to_string())),
+            Err(IpcError::Interrupted) => Some(RecordEnd::Interrupted),
             Err(e) => return Err(e.into()),
+        };
+        if let Some(end) = end {
+            break end;
         }
         if last_flush.elapsed() >= opts.flush_period {
             w.flush()?;
@@ -124,6 +141,48 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
             break RecordEnd::Interrupted;
         }
     };
+    held.write_before(&mut w, u32::MAX, u64::MAX)?;
     let counts = w.finish()?;
     Ok((end, counts))
+}
+
+/// Messages taken from the services but not written yet, so that the file is in frame order:
+/// a generation's scene and object names just before its first frame, each frame's objects right
+/// after it.
+#[derive(Default)]
+struct Held {
+    scenes: VecDeque<(SceneHeader, Vec<SceneGaussian>)>,
+    names: VecDeque<(FrameHeader, Vec<ObjectName>)>,
+    objects: VecDeque<(FrameHeader, Vec<ObjectState>)>,
+}
+
+impl Held {
+    /// Writes the scenes and names of generations up to `generation` and the objects of frames
+    /// before `frame_index`, each in the order received.
+    fn write_before(
+        &mut self,
+        w: &mut RunWriter,
+        generation: u32,
+        frame_index: u64,
+    ) -> Result<(), RecordError> {
+        while let Some((h, _)) = self.scenes.front()
+            && h.scene_generation <= generation
+        {
+            let (h, payload) = self.scenes.pop_front().expect("front exists");
+            w.scene(&h, &payload)?;
+        }
+        while let Some((h, _)) = self.names.front()
+            && h.scene_generation <= generation
+        {
+            let (h, payload) = self.names.pop_front().expect("front exists");
+            w.object_names(&h, &payload)?;
+        }
+        while let Some((h, _)) = self.objects.front()
+            && h.frame_index < frame_index
+        {
+            let (h, payload) = self.objects.pop_front().expect("front exists");
+            w.objects(&h, &payload)?;
+        }
+        Ok(())
+    }
 }
