@@ -112,7 +112,10 @@ fn assert_in_frame_order(path: &Path) {
         match m.topic.as_str() {
             SCENE => {
                 let g = bytemuck_read::<SceneHeader>(&m.data).scene_generation;
-                assert!(generation.is_none_or(|p| g > p), "scene {g} after {generation:?}");
+                assert!(
+                    generation.is_none_or(|p| g > p),
+                    "scene {g} after {generation:?}"
+                );
                 assert!(
                     last_frame.is_none_or(|f| f.scene_generation < g),
                     "scene {g} after a frame of its own generation"
@@ -121,7 +124,11 @@ fn assert_in_frame_order(path: &Path) {
             }
             FRAME => {
                 let h: FrameHeader = bytemuck_read(&m.data);
-                assert_eq!(Some(h.scene_generation), generation, "frame before its scene");
+                assert_eq!(
+                    Some(h.scene_generation),
+                    generation,
+                    "frame before its scene"
+                );
                 assert!(
                     last_objects.is_none_or(|o| o < h.frame_index),
                     "frame {} after objects of frame {last_objects:?}",

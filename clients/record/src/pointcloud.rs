@@ -4,6 +4,8 @@
 //! DC term evaluated as in 3DGS, c = 0.5 + 0.2820948 · dc, clamped to [0, 1]; alpha is the
 //! opacity.
 
+use base64::Engine;
+use base64::engine::general_purpose::STANDARD;
 use splatphys_ipc::wire::{FrameGaussian, SceneGaussian};
 
 /// Bytes per point.
@@ -27,25 +29,6 @@ pub fn colours(scene: &[SceneGaussian]) -> Vec<[u8; 4]> {
         .collect()
 }
 
-/// Standard base64 (RFC 4648) with padding.
-pub fn base64(bytes: &[u8]) -> String {
-    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for c in bytes.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for (i, shift) in [18, 12, 6, 0].into_iter().enumerate() {
-            if i <= c.len() {
-                out.push(T[((n >> shift) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
 /// One `foxglove.PointCloud` JSON message for a frame at `time_s`. Gaussians without a colour
 /// (scene not received yet) are grey.
 pub fn pointcloud_json(frame: &[FrameGaussian], colours: &[[u8; 4]], time_s: f64) -> Vec<u8> {
@@ -58,33 +41,25 @@ pub fn pointcloud_json(frame: &[FrameGaussian], colours: &[[u8; 4]], time_s: f64
     }
     let sec = time_s.max(0.0).floor();
     let nsec = ((time_s.max(0.0) - sec) * 1e9).round().min(999_999_999.0);
-    format!(
+    let mut json = format!(
         concat!(
             r#"{{"timestamp":{{"sec":{},"nsec":{}}},"frame_id":"world","#,
             r#""pose":{{"position":{{"x":0,"y":0,"z":0}},"orientation":{{"x":0,"y":0,"z":0,"w":1}}}},"#,
             r#""point_stride":16,"fields":[{{"name":"x","offset":0,"type":7}},{{"name":"y","offset":4,"type":7}},"#,
             r#"{{"name":"z","offset":8,"type":7}},{{"name":"red","offset":12,"type":1}},{{"name":"green","offset":13,"type":1}},"#,
-            r#"{{"name":"blue","offset":14,"type":1}},{{"name":"alpha","offset":15,"type":1}}],"data":"{}"}}"#
+            r#"{{"name":"blue","offset":14,"type":1}},{{"name":"alpha","offset":15,"type":1}}],"data":""#
         ),
-        sec as u64,
-        nsec as u64,
-        base64(&data)
-    )
-    .into_bytes()
+        sec as u64, nsec as u64,
+    );
+    json.reserve(data.len().div_ceil(3) * 4 + 2);
+    STANDARD.encode_string(&data, &mut json);
+    json.push_str("\"}");
+    json.into_bytes()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn base64_matches_rfc4648_vectors() {
-        assert_eq!(base64(b""), "");
-        assert_eq!(base64(b"f"), "Zg==");
-        assert_eq!(base64(b"fo"), "Zm8=");
-        assert_eq!(base64(b"foo"), "Zm9v");
-        assert_eq!(base64(b"foobar"), "Zm9vYmFy");
-    }
 
     #[test]
     fn pointcloud_is_valid_json_with_16_bytes_per_point() {
@@ -94,6 +69,14 @@ mod tests {
         assert_eq!(v["point_stride"], 16);
         assert_eq!(v["timestamp"]["nsec"], 250_000_000);
         // 5 points x 16 bytes = 80 bytes -> 108 base64 characters (27 groups of 4).
-        assert_eq!(v["data"].as_str().unwrap().len(), 108);
+        let data = v["data"].as_str().unwrap();
+        assert_eq!(data.len(), 108);
+        // Decodes back to the points: zero positions, grey opaque colour.
+        let bytes = STANDARD.decode(data).unwrap();
+        assert_eq!(bytes.len(), 80);
+        assert_eq!(
+            &bytes[..16],
+            &[0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 128, 128, 128, 255]
+        );
     }
 }
