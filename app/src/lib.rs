@@ -4,8 +4,10 @@
 //! - [`world_sim`]: the adapter that makes a sim-core [`World`](splatphys_core::world::World) a
 //!   server-ready [`Simulation`](splatphys_ipc::Simulation);
 //! - [`plan`]: what the parent of `splatphys run` reads from the scene, once;
-//! - [`report`]: `server.json` and `summary.json` as typed reports.
+//! - [`report`]: `server.json` and `summary.json` as typed reports;
+//! - [`view`]: the browser viewer as a child process (`--view`).
 
 pub mod plan;
 pub mod report;
+pub mod view;
 pub mod world_sim;

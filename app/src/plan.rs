@@ -56,22 +56,27 @@ impl RunPlan {
     /// The renderer's camera flags for the scene's camera (none when the scene names no camera:
     /// the renderer frames the scene itself).
     pub fn camera_args(&self) -> Vec<OsString> {
-        let Some(cam) = &self.camera else {
-            return Vec::new();
-        };
-        let v = |a: [f32; 3]| format!("{},{},{}", a[0], a[1], a[2]);
-        [
-            ("--camera-pos", v(cam.position_m)),
-            ("--look-at", v(cam.look_at_m)),
-            ("--up", v(cam.up)),
-            ("--fov-deg", cam.fov_y_deg.to_string()),
-            ("--width", cam.width_px.to_string()),
-            ("--height", cam.height_px.to_string()),
-        ]
-        .into_iter()
-        .flat_map(|(flag, value)| [flag.into(), value.into()])
-        .collect()
+        camera_args(self.camera.as_ref())
     }
+}
+
+/// The camera flags of `splatphys-render` and `splatphys-web` for `camera` (none for `None`).
+pub fn camera_args(camera: Option<&CameraSpec>) -> Vec<OsString> {
+    let Some(cam) = camera else {
+        return Vec::new();
+    };
+    let v = |a: [f32; 3]| format!("{},{},{}", a[0], a[1], a[2]);
+    [
+        ("--camera-pos", v(cam.position_m)),
+        ("--look-at", v(cam.look_at_m)),
+        ("--up", v(cam.up)),
+        ("--fov-deg", cam.fov_y_deg.to_string()),
+        ("--width", cam.width_px.to_string()),
+        ("--height", cam.height_px.to_string()),
+    ]
+    .into_iter()
+    .flat_map(|(flag, value)| [flag.into(), value.into()])
+    .collect()
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use splatphys::plan::RunPlan;
 use splatphys::report::{RunSummary, ServerJson, read_json, write_json};
+use splatphys::view::{ViewArgs, Viewer};
 use splatphys::world_sim::WorldSim;
 use splatphys_core::world::explain::Explanation;
 use splatphys_ipc::Simulation;
@@ -58,6 +59,10 @@ pub struct RunArgs {
     /// Seconds to wait for the clients to exit after the server has stopped.
     #[arg(long, default_value_t = 120.0)]
     pub client_timeout_s: f64,
+    /// The browser viewer (not with --in-process); it keeps showing the last frame after the
+    /// run until Ctrl-C.
+    #[command(flatten)]
+    pub view: ViewArgs,
 }
 
 /// Runs the main job.
@@ -68,6 +73,9 @@ pub fn run(args: &RunArgs) -> Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     if args.in_process {
+        if args.view.view {
+            bail!("--view needs the server as a process: leave out --in-process");
+        }
         in_process(args)
     } else {
         multi_process(args)
@@ -346,12 +354,14 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     if let Some(s) = &plan.scene_path {
         server_cmd.arg(s);
     }
+    // The recorder and the renderer (and the viewer) subscribe before the first step.
+    let subscribers = if args.view.view { "3" } else { "2" };
     server_cmd
         .args([
             "--prefix",
             &plan.prefix,
             "--wait-for-subscribers",
-            "2",
+            subscribers,
             "--report",
         ])
         .arg(&server_json)
@@ -360,6 +370,13 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         server_cmd.args(["--duration-s", &d.to_string()]);
     }
     let mut server = Proc::spawn("server", server_cmd, &logs.join("server.log"), args.threads)?;
+    let viewer = if args.view.view {
+        let v = Viewer::start(&args.view, &plan.prefix, &plan.camera_args())?;
+        eprintln!("splatphys run: watch it live at {}", v.url);
+        Some(v)
+    } else {
+        None
+    };
 
     let mut rec_cmd = Command::new(&record_bin);
     rec_cmd
@@ -494,6 +511,15 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         summary.frames_rendered,
         args.out.display()
     );
+    if let Some(v) = viewer
+        && !interrupted
+    {
+        eprintln!(
+            "splatphys run: the viewer keeps showing the last frame at {} (Ctrl-C to end)",
+            v.url
+        );
+        v.wait();
+    }
     if interrupted {
         bail!(
             "interrupted at step {last_step}; everything up to it is in {}",

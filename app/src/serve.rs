@@ -5,10 +5,14 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
+use splatphys::plan::camera_args;
 use splatphys::report::{ServerJson, method_name, write_json};
+use splatphys::view::{ViewArgs, Viewer};
 use splatphys::world_sim::WorldSim;
+use splatphys_core::scene::CameraSpec;
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};
+use splatphys_ipc::services::ServiceNames;
 use splatphys_ipc::validate::Limits;
 
 /// Arguments of `splatphys serve`.
@@ -55,6 +59,28 @@ pub struct ServeArgs {
     /// Simulated time per frame of the free-fall stand-in, seconds.
     #[arg(long, hide = true, default_value_t = 1.0 / 60.0)]
     pub fake_dt: f64,
+    /// The browser viewer.
+    #[command(flatten)]
+    pub view: ViewArgs,
+}
+
+/// Starts the viewer when `--view` asks for it, printing its URL.
+fn viewer(
+    args: &ServeArgs,
+    cfg: &ServerConfig,
+    name: &str,
+    camera: Option<&CameraSpec>,
+) -> Result<Option<Viewer>> {
+    if !args.view.view {
+        return Ok(None);
+    }
+    let prefix = cfg
+        .prefix
+        .clone()
+        .unwrap_or_else(|| ServiceNames::default_prefix(name));
+    let v = Viewer::start(&args.view, &prefix, &camera_args(camera))?;
+    eprintln!("splatphys serve: watch it live at {}", v.url);
+    Ok(Some(v))
 }
 
 /// Runs the server until a signal, a shutdown command or the end of the run.
@@ -87,6 +113,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         args.fake_dt,
         None,
     );
+    let _viewer = viewer(args, &cfg, &name, None)?;
     let report = serve(&mut sim, &cfg).context("server failed")?;
     eprintln!(
         "splatphys serve: stopped ({:?}) at step {}, {} frames published, {} commands ({} rejected), {} frames skipped by best-effort clients, {} lost by recorders",
@@ -116,6 +143,7 @@ fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
         sim.world.published_count(),
         sim.world.total_frames()
     );
+    let _viewer = viewer(args, cfg, &name, scene.cameras.first())?;
     let started = std::time::Instant::now();
     let result = serve(&mut sim, cfg);
     let wall_s = started.elapsed().as_secs_f64();
