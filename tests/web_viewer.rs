@@ -12,9 +12,11 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
 
+use splatphys_core::formats::ply::write_ply;
+use splatphys_core::gaussians::GaussianCloud;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::wire::FrameGaussian;
 use splatphys_render::{Camera, RenderSettings, SplatView, render_rgb8};
@@ -106,8 +108,14 @@ fn follow(prefix: String, stop: Arc<AtomicBool>, out: Arc<Mutex<Published>>) {
     }
 }
 
-/// `splatphys-render`'s image of the published frame of `step`.
-fn cpu_image(published: &Mutex<Published>, step: u64) -> Vec<u8> {
+/// `splatphys-render`'s image of the published frame of `step`, seen from `camera` (position,
+/// look-at), with SH up to `max_sh_degree`.
+fn cpu_image(
+    published: &Mutex<Published>,
+    step: u64,
+    camera: (&[f32; 3], &[f32; 3]),
+    max_sh_degree: u8,
+) -> Vec<u8> {
     wait_until(
         "the test's client has the paused frame",
         Duration::from_secs(30),
@@ -127,17 +135,19 @@ fn cpu_image(published: &Mutex<Published>, step: u64) -> Vec<u8> {
     )
     .expect("splats");
     let camera = Camera::new(
-        CAMERA_POS.into(),
-        LOOK_AT.into(),
+        (*camera.0).into(),
+        (*camera.1).into(),
         glam::Vec3::Z,
         FOV_DEG,
         WIDTH,
         HEIGHT,
     )
     .expect("camera");
-    render_rgb8(&view, &camera, &RenderSettings::default())
-        .expect("render")
-        .data
+    let settings = RenderSettings {
+        max_sh_degree,
+        ..RenderSettings::default()
+    };
+    render_rgb8(&view, &camera, &settings).expect("render").data
 }
 
 fn psnr_db(a: &[u8], b: &[u8]) -> f64 {
@@ -151,12 +161,69 @@ fn psnr_db(a: &[u8], b: &[u8]) -> f64 {
     10.0 * (255.0f64 * 255.0 / mse.max(1e-12)).log10()
 }
 
+/// One iceoryx2 file prefix for this binary (the test's own client reads it from the
+/// environment).
+fn iox() -> String {
+    static IOX: OnceLock<String> = OnceLock::new();
+    IOX.get_or_init(|| {
+        let iox = iox_prefix("web");
+        // SAFETY: set once, before any iceoryx2 node of this process exists, to one value.
+        unsafe { std::env::set_var(IOX_PREFIX_ENV, &iox) };
+        iox
+    })
+    .clone()
+}
+
+/// `splatphys-web` for `prefix` with the test's camera; returns it and its URL.
+fn bridge(iox: &str, prefix: &str, camera: (&[f32; 3], &[f32; 3])) -> (Proc, String) {
+    let mut web = Proc::spawn(
+        Command::new(bin("splatphys-web"))
+            .args(["--prefix", prefix, "--port", "0"])
+            .args([
+                "--camera-pos",
+                &csv(*camera.0),
+                "--look-at",
+                &csv(*camera.1),
+            ])
+            .args(["--fov-deg", &FOV_DEG.to_string()])
+            .args([
+                "--width",
+                &WIDTH.to_string(),
+                "--height",
+                &HEIGHT.to_string(),
+            ])
+            .env(IOX_PREFIX_ENV, iox)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
+    );
+    let url = web
+        .wait_line("http://", Duration::from_secs(30))
+        .trim()
+        .to_owned();
+    (web, url)
+}
+
+/// A client thread of the test's own following `prefix` (see [`Published`]).
+fn follower(
+    prefix: &str,
+) -> (
+    Arc<Mutex<Published>>,
+    Arc<AtomicBool>,
+    std::thread::JoinHandle<()>,
+) {
+    let published = Arc::new(Mutex::new(Published::default()));
+    let stop = Arc::new(AtomicBool::new(false));
+    let handle = {
+        let (prefix, stop, published) = (prefix.to_owned(), stop.clone(), published.clone());
+        std::thread::spawn(move || follow(prefix, stop, published))
+    };
+    (published, stop, handle)
+}
+
 #[test]
 fn the_browser_viewer_shows_the_simulation_and_pushes_it() {
     require_browser();
-    let iox = iox_prefix("web");
-    // SAFETY: the only test of this binary, set before any iceoryx2 node exists.
-    unsafe { std::env::set_var(IOX_PREFIX_ENV, &iox) };
+    let iox = iox();
     let prefix = service_prefix("web");
     let server = Proc::spawn(
         Command::new(bin("splatphys"))
@@ -210,7 +277,7 @@ fn the_browser_viewer_shows_the_simulation_and_pushes_it() {
         "still paused: {cap}"
     );
     let page = std::fs::read(&rgb).expect("page pixels");
-    let cpu = cpu_image(&published, paused);
+    let cpu = cpu_image(&published, paused, (&CAMERA_POS, &LOOK_AT), 3);
     stop.store(true, Ordering::Release);
     follower.join().expect("follower");
     let psnr = psnr_db(&page, &cpu);
@@ -288,4 +355,122 @@ fn the_browser_viewer_shows_the_simulation_and_pushes_it() {
     );
     let bridge = web.terminate(Duration::from_secs(30));
     assert!(bridge.err.contains("frames sent"), "{}", bridge.err);
+}
+
+/// `n` Gaussians with random SH of degree 2 (24 `f_rest_*` each) in a 0.3 m cube.
+fn sh2_cloud(n: usize) -> GaussianCloud {
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut r = move |lo: f32, hi: f32| {
+        // SplitMix64, reproducible.
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^= z >> 31;
+        lo + (hi - lo) * ((z >> 40) as f32 / (1u64 << 24) as f32)
+    };
+    let mut cloud = GaussianCloud::with_capacity(n, 24);
+    for _ in 0..n {
+        cloud
+            .positions
+            .push([r(-0.15, 0.15), r(-0.15, 0.15), r(-0.15, 0.15)]);
+        cloud.sh_dc.push([r(-1.0, 1.0), r(-1.0, 1.0), r(-1.0, 1.0)]);
+        cloud.sh_rest.extend((0..24).map(|_| r(-0.6, 0.6)));
+        let o = r(0.3, 0.95);
+        cloud.opacity_logit.push((o / (1.0 - o)).ln());
+        cloud.log_scales.push([
+            r(0.006, 0.02).ln(),
+            r(0.006, 0.02).ln(),
+            r(0.006, 0.02).ln(),
+        ]);
+        let q = glam::Quat::from_euler(
+            glam::EulerRot::XYZ,
+            r(-3.0, 3.0),
+            r(-3.0, 3.0),
+            r(-3.0, 3.0),
+        );
+        cloud.rotations_wxyz.push([q.w, q.x, q.y, q.z]);
+    }
+    cloud
+}
+
+#[test]
+fn a_rotated_sh2_source_looks_the_same_in_the_browser() {
+    require_browser();
+    let iox = iox();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let cloud = sh2_cloud(3_000);
+    assert_eq!(cloud.sh_degree, 2);
+    let ply = dir.path().join("cloud.ply");
+    write_ply(&ply, &cloud, &[]).expect("write ply");
+    // The source is placed rotated: the scene message carries its SH rotated into the world
+    // frame, and the page must evaluate it as the CPU renderer does.
+    let scene = dir.path().join("sh2.toml");
+    let camera = ([0.9_f32, -0.7, 0.5], [0.0_f32, 0.0, 0.3]);
+    let toml = format!(
+        r#"[simulation]
+duration_s = 100.0
+gravity_m_s2 = [0.0, 0.0, 0.0]
+background_collision = false
+
+[[source]]
+name = "cloud"
+path = {path:?}
+rotation_deg = [-90.0, 25.0, 40.0]
+translation_m = [0.0, 0.0, 0.3]
+
+[[object]]
+name = "cloud"
+select = {{ source = "cloud" }}
+kind = "rigid"
+material = {{ model = "jelly", youngs_modulus_pa = 1e5, poisson_ratio = 0.3, density_kg_m3 = 500.0 }}
+"#,
+        path = ply.display().to_string()
+    );
+    std::fs::write(&scene, toml).expect("write scene");
+    let prefix = service_prefix("web-sh");
+    // Paused, and the initial frame published again once the bridge and the test's client
+    // have subscribed.
+    let server = Proc::spawn(
+        Command::new(bin("splatphys"))
+            .arg("serve")
+            .arg(&scene)
+            .args([
+                "--prefix",
+                &prefix,
+                "--paused",
+                "--wait-for-subscribers",
+                "2",
+            ])
+            .env(IOX_PREFIX_ENV, &iox)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped()),
+    );
+    let (web, url) = bridge(&iox, &prefix, (&camera.0, &camera.1));
+    let (published, stop, follower) = follower(&prefix);
+    let rgb = dir.path().join("page.rgb");
+    let still = node(&[
+        "still",
+        &url,
+        &WIDTH.to_string(),
+        &HEIGHT.to_string(),
+        &rgb.display().to_string(),
+    ]);
+    let step = still["step"].as_u64().expect("step");
+    let page = std::fs::read(&rgb).expect("page pixels");
+    let cpu = cpu_image(&published, step, (&camera.0, &camera.1), 3);
+    let dc_only = cpu_image(&published, step, (&camera.0, &camera.1), 0);
+    stop.store(true, Ordering::Release);
+    follower.join().expect("follower");
+    let (full, without) = (psnr_db(&page, &cpu), psnr_db(&page, &dc_only));
+    eprintln!(
+        "web_viewer: rotated SH-2 source: PSNR {full:.1} dB against splatphys-render, {without:.1} dB against its image without the view-dependent terms"
+    );
+    assert!(full >= 30.0, "PSNR {full:.1} dB < 30 dB");
+    assert!(
+        without < full - 10.0,
+        "the view-dependent colour must show: {without:.1} dB without it, {full:.1} dB with it"
+    );
+    drop(web);
+    drop(server);
 }

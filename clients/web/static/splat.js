@@ -44,9 +44,10 @@
 //  - the selected object is tinted (display only; nothing is tinted when nothing is selected).
 //  - the image size is the canvas's (window size x devicePixelRatio), not scene_info's
 //    width_px/height_px; fov_y is kept, so the horizontal field of view follows the aspect ratio.
-// Measured (clients/web/tests, random SH-3 PLYs, 600 to 100k Gaussians, cameras outside and
-// inside the cloud, black and coloured backgrounds): 54 to 95 dB PSNR against splatphys-render,
-// max |difference| 1/255.
+// Measured: 54 to 95 dB PSNR against splatphys-render on random SH-3 clouds of 600 to 100k
+// Gaussians (cameras outside and inside the cloud, black and coloured backgrounds), max
+// |difference| 1/255; tests/web_viewer.rs checks >= 30 dB on a live scene (76 dB) and on a rotated
+// SH-2 source (77 dB).
 //
 // Drawing: one non-instanced drawElements call, 2 triangles per splat, slot -> Gaussian index
 // through an R32UI draw-order texture (SwiftShader runs instanced draws one instance at a time);

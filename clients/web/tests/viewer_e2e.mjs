@@ -1,13 +1,14 @@
 // viewer_e2e.mjs: drives the viewer page in headless Chromium for tests/web_viewer.rs.
 //
 //   node viewer_e2e.mjs capture URL WIDTH HEIGHT OUT_RGB   -> JSON line on stdout
+//   node viewer_e2e.mjs still URL WIDTH HEIGHT OUT_RGB     -> JSON line on stdout
 //   node viewer_e2e.mjs interact URL WIDTH HEIGHT          -> JSON line on stdout
 //   node viewer_e2e.mjs perf URL WIDTH HEIGHT SECONDS      -> JSON line on stdout
 //   node viewer_e2e.mjs stopped URL WIDTH HEIGHT OUT_JSON  -> "READY" on stdout, JSON to OUT_JSON
 //
 // capture: the step counter must advance while the server runs; then `pause` is clicked and the
 // paused frame's pixels (RGB8, top row first) are written to OUT_RGB for the PSNR check against
-// splatphys-render. interact: with the server paused, click an object (select), drag from it
+// splatphys-render. still: the first frame of a paused server, its pixels to OUT_RGB. interact: with the server paused, click an object (select), drag from it
 // (impulse), step once and report the reply and the object's velocity before and after; then
 // apply E = 1e39 in the material panel and report the refusal text. perf: frames drawn per
 // second and publish-to-draw latency while the server runs. stopped: says READY once a frame is
@@ -46,6 +47,10 @@ try {
     const b64 = await sp(() => window.splatphys.readPixels());
     fs.writeFileSync(arg, Buffer.from(b64, 'base64'));
     out.stepAfter = await sp(() => window.splatphys.lastStep);
+  } else if (mode === 'still') {
+    await page.waitForTimeout(300);
+    out.step = await sp(() => window.splatphys.lastStep);
+    fs.writeFileSync(arg, Buffer.from(await sp(() => window.splatphys.readPixels()), 'base64'));
   } else if (mode === 'interact') {
     await waitFor(() => window.splatphys.objects.size > 0 && [...window.splatphys.objects.values()].every((o) => o.mass_kg > 0));
     // A pixel of object 0, found with the page's own picking.
