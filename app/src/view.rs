@@ -70,9 +70,21 @@ impl Viewer {
         Ok(Self { child, url })
     }
 
-    /// Waits until the viewer exits (Ctrl-C).
+    /// Waits until the viewer exits, or this process gets SIGINT/SIGTERM (then the viewer is
+    /// stopped too).
     pub fn wait(mut self) {
-        let _ = self.child.wait();
+        // A node of our own to see signals (iceoryx2 takes SIGINT/SIGTERM once one exists).
+        let node = splatphys_ipc::services::create_node("splatphys-view").ok();
+        loop {
+            if !matches!(self.child.try_wait(), Ok(None)) {
+                return;
+            }
+            match &node {
+                Some(n) if n.wait(Duration::from_millis(100)).is_err() => return,
+                Some(_) => {}
+                None => std::thread::sleep(Duration::from_millis(100)),
+            }
+        }
     }
 }
 

@@ -133,8 +133,9 @@ pub fn start(prefix: &str, stop: Arc<AtomicBool>) -> FeedReceivers {
             status: status_tx,
             objects: objects_tx,
         };
-        // Each error is said once (a server that is gone fails the same way every retry).
-        let mut last_error = String::new();
+        // Each kind of error is said once (a server that is gone fails the same way, with a
+        // different wait time, every retry).
+        let mut last_error = None;
         // iceoryx2 takes SIGINT/SIGTERM once a node exists; between connections a node of our
         // own waits, so a signal still ends the bridge.
         let waiter = create_node("splatphys-web-feed").ok();
@@ -143,10 +144,10 @@ pub fn start(prefix: &str, stop: Arc<AtomicBool>) -> FeedReceivers {
                 Err(IpcError::Interrupted) => stop.store(true, Ordering::Release),
                 Err(e) => {
                     tx.status.send_modify(|s| s.server_alive = false);
-                    let text = e.to_string();
-                    if text != last_error {
-                        eprintln!("splatphys-web: {text}; waiting for a server under `{prefix}`");
-                        last_error = text;
+                    let kind = std::mem::discriminant(&e);
+                    if last_error != Some(kind) {
+                        eprintln!("splatphys-web: {e}; waiting for a server under `{prefix}`");
+                        last_error = Some(kind);
                     }
                     let pause = Duration::from_millis(500);
                     match &waiter {
