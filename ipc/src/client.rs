@@ -419,8 +419,11 @@ impl Connection {
         Ok(newest)
     }
 
-    /// Whether our `frame` subscriber holds more frames.
-    fn frame_pending(&self) -> Result<bool, IpcError> {
+    /// Whether our `frame` subscriber holds more frames (`false` without a `frame` subscriber).
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the subscriber cannot be queried.
+    pub fn frame_pending(&self) -> Result<bool, IpcError> {
         let Some(sub) = &self.frame_sub else {
             return Ok(false);
         };

@@ -110,6 +110,9 @@ pub struct FeedReceivers {
     pub status: watch::Receiver<StatusJson>,
     /// The newest objects (JSON `{"type": "objects", ...}`).
     pub objects: watch::Receiver<Arc<String>>,
+    /// Set by a page that is ready for a frame newer than `frame`'s: the feed then copies the
+    /// newest one out of shared memory (and clears it).
+    pub wanted: Arc<AtomicBool>,
 }
 
 /// How often status reaches the page.
@@ -125,9 +128,12 @@ pub fn start(prefix: &str, stop: Arc<AtomicBool>) -> FeedReceivers {
         ..StatusJson::default()
     });
     let (objects_tx, objects) = watch::channel(Arc::new(String::new()));
+    let wanted = Arc::new(AtomicBool::new(true));
+    let wanted_tx = wanted.clone();
     let prefix = prefix.to_owned();
     std::thread::spawn(move || {
         let tx = Senders {
+            wanted: wanted_tx,
             scene: scene_tx,
             frame: frame_tx,
             status: status_tx,
@@ -167,10 +173,12 @@ pub fn start(prefix: &str, stop: Arc<AtomicBool>) -> FeedReceivers {
         frame,
         status,
         objects,
+        wanted,
     }
 }
 
 struct Senders {
+    wanted: Arc<AtomicBool>,
     scene: watch::Sender<Option<Arc<SceneData>>>,
     frame: watch::Sender<Option<Arc<FrameData>>>,
     status: watch::Sender<StatusJson>,
@@ -185,6 +193,8 @@ fn follow(prefix: &str, tx: &Senders, stop: &AtomicBool) -> Result<(), IpcError>
     opts.connect_timeout = Duration::from_secs(1);
     let mut conn = Connection::connect(&opts)?;
     let mut names: Vec<String> = Vec::new();
+    let mut held = None;
+    let mut copied = None;
     let mut last_status = Instant::now() - STATUS_PERIOD;
     while !stop.load(Ordering::Acquire) {
         let mut busy = false;
@@ -210,14 +220,24 @@ fn follow(prefix: &str, tx: &Senders, stop: &AtomicBool) -> Result<(), IpcError>
             tx.scene.send_replace(Some(Arc::new(data)));
             busy = true;
         }
-        if let Some(f) = conn.latest_frame()? {
+        // The newest frame stays borrowed from shared memory until a page asks for one:
+        // copying every published frame while pages draw a few a second would cost the bridge
+        // most of its CPU. (Release the held sample before borrowing the next.)
+        if held.is_none() || conn.frame_pending()? {
+            drop(held.take());
+            held = conn.latest_frame()?;
+            busy |= held.is_some();
+        }
+        if let Some(f) = &held
+            && copied != Some(f.user_header().frame_index)
+            && tx.wanted.swap(false, Ordering::AcqRel)
+        {
+            copied = Some(f.user_header().frame_index);
             let data = FrameData {
                 header: *f.user_header(),
                 gaussians: f.payload().to_vec(),
             };
-            drop(f);
             tx.frame.send_replace(Some(Arc::new(data)));
-            busy = true;
         }
         let mut newest_objects = None;
         while let Some(o) = conn.recv_objects()? {

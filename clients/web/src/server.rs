@@ -394,17 +394,18 @@ impl Page {
             return Ok(());
         }
         let frame = self.state.feed.frame.borrow().clone();
-        let Some(frame) = frame else {
+        let newer = frame.filter(|f| {
+            Some(f.header.scene_generation) == self.generation
+                && self
+                    .shown
+                    .as_ref()
+                    .is_none_or(|s| s.header.frame_index != f.header.frame_index)
+        });
+        let Some(frame) = newer else {
+            // Ready, and nothing newer than what the page holds: ask the feed for the next.
+            self.state.feed.wanted.store(true, Ordering::Release);
             return Ok(());
         };
-        if Some(frame.header.scene_generation) != self.generation
-            || self
-                .shown
-                .as_ref()
-                .is_some_and(|s| s.header.frame_index == frame.header.frame_index)
-        {
-            return Ok(());
-        }
         let t0 = std::time::Instant::now();
         let indices = changed(
             &frame.gaussians,

@@ -32,7 +32,8 @@ const out = { mode, log };
 
 try {
   await page.goto(url);
-  await waitFor(() => window.splatphys && window.splatphys.framesDrawn >= 1);
+  // A frame applied and drawn (the page also draws the scene before its first frame arrives).
+  await waitFor(() => window.splatphys && window.splatphys.lastStep !== null);
   if (mode === 'capture') {
     out.step0 = await sp(() => window.splatphys.lastStep);
     await waitFor((s) => window.splatphys.lastStep > s + 2, out.step0);
