@@ -1,6 +1,7 @@
 //! Objects on static objects (release build): a jelly resting on a static box matches the same
 //! jelly on a collider plane at the box's top; boxes on a tilted support stick or slide at the
-//! Coulomb acceleration; impacts on two supports at once stay symmetric and follow e.
+//! Coulomb acceleration; impacts on two supports at once stay symmetric and follow e; a
+//! collapsing sand column stops at a static box.
 
 use splatphys_core::material::MaterialSpec;
 use splatphys_core::scene::{
@@ -257,4 +258,85 @@ fn a_jelly_bouncing_off_a_static_box_follows_e() {
             assert!(v > 0.8 && v <= 1.0, "e = 1: rebound {v}");
         }
     }
+}
+
+/// A sand column collapsing next to a static box stops at the box's face: the box is a boundary
+/// on the sand's grid. Without the box the same sand runs out past where the face would be, so
+/// the check can fail.
+#[test]
+fn a_sand_column_collapsing_against_a_static_box_stops_at_it() {
+    // The box's face toward the sand, m (the column's edge is at x = 0.05).
+    const FACE_X: f32 = 0.08;
+    let run = |with_box: bool| {
+        let mut scene = Scene::builder()
+            .grid_dx_m(0.01)
+            .duration_s(0.8)
+            .frame_rate_hz(30.0)
+            .sleep(false)
+            .collider(
+                ColliderSpec::plane("floor", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+                    .surface(Surface::Separate)
+                    .friction(0.5),
+            )
+            .object(
+                SceneObject::cylinder("sand", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.05, 0.15)
+                    .spacing_m(0.006)
+                    .material(MaterialSpec::new(
+                        splatphys_core::material::MaterialModel::Sand,
+                        3.5e5,
+                        0.3,
+                        1600.0,
+                    ))
+                    .friction(0.5),
+            );
+        if with_box {
+            scene = scene.object(
+                SceneObject::cuboid("wall", [FACE_X, -0.12, 0.0], [FACE_X + 0.04, 0.12, 0.1])
+                    .kind(ObjectKind::Static)
+                    .friction(0.5),
+            );
+        }
+        let mut w = World::from_scene(&scene.build().expect("scene")).expect("world");
+        run_until(&mut w, 0.8);
+        // The farthest grain in +x below the wall's top, m.
+        let sand = &w.bodies[0].particles;
+        let reach = sand
+            .x
+            .iter()
+            .filter(|x| x.z < 0.1 && x.y.abs() < 0.1)
+            .map(|x| x.x)
+            .fold(f32::MIN, f32::max);
+        let top = sand.x.iter().map(|x| x.z).fold(0.0f32, f32::max);
+        (reach, top)
+    };
+    let (free_reach, free_top) = run(false);
+    let (reach, top) = run(true);
+    println!(
+        "sand reaches x = {:.1} mm without the box, {:.1} mm with its face at {:.0} mm (tops {:.0} / {:.0} mm)",
+        free_reach * 1e3,
+        reach * 1e3,
+        FACE_X * 1e3,
+        free_top * 1e3,
+        top * 1e3
+    );
+    assert!(
+        free_top < 0.13,
+        "the column collapses (top at {free_top} m)"
+    );
+    assert!(
+        free_reach > FACE_X + 0.01,
+        "without the box the sand runs past the face ({free_reach} m)"
+    );
+    // With it: stopped at the face, within half a grid cell, and piled against it (the
+    // boundary nodes hold grains off the face by up to a cell and a half).
+    assert!(
+        reach < FACE_X + 0.005,
+        "sand went {:.1} mm into the box",
+        (reach - FACE_X) * 1e3
+    );
+    assert!(
+        reach > FACE_X - 0.015,
+        "the sand stopped {:.1} mm short of the face",
+        (FACE_X - reach) * 1e3
+    );
 }
