@@ -67,7 +67,8 @@ fn explanation_names_what_was_modelled_and_what_sets_dt() {
     assert_eq!(soft.substeps_computed, e.substeps);
     assert!(soft.grid_blocks > 0 && block.grid_blocks == 0);
 
-    // c_p = sqrt((λ + 2μ) / ρ); snow's bound uses its hardened moduli, so it is at least the
+    // c_p = sqrt((λ + 2μ) / ρ); snow's bound uses its moduli hardened as at its hardest
+    // particle (plus a margin for the coming substep), so a falling snowball's is at least the
     // unhardened value and far above the soft jelly's.
     let cp = |e: f32, nu: f32, rho: f32| {
         let mu = e / (2.0 * (1.0 + nu));

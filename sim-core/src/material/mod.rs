@@ -72,6 +72,12 @@ pub trait ConstitutiveModel {
     fn max_wave_speed_m_s(&self) -> f32 {
         self.elastic().dilational_wave_speed_m_s()
     }
+    /// Largest dilational wave speed in m/s that particles in the plastic states `plastic`
+    /// (`[N]`) can reach within the next substep: the CFL bound of the current state. The same
+    /// as [`Self::max_wave_speed_m_s`] for models whose moduli do not depend on it.
+    fn wave_speed_for_m_s(&self, _plastic: &[f32]) -> f32 {
+        self.max_wave_speed_m_s()
+    }
 }
 
 /// A material, dispatched by enum (no virtual call per particle).
@@ -130,6 +136,9 @@ impl ConstitutiveModel for Material {
     }
     fn max_wave_speed_m_s(&self) -> f32 {
         dispatch!(self, m => m.max_wave_speed_m_s())
+    }
+    fn wave_speed_for_m_s(&self, plastic: &[f32]) -> f32 {
+        dispatch!(self, m => m.wave_speed_for_m_s(plastic))
     }
 }
 

@@ -79,7 +79,8 @@ impl MpmSystem {
         }
     }
 
-    /// Largest dilational wave speed over the materials in use (m/s).
+    /// Largest dilational wave speed over the materials in use, in their current plastic state
+    /// (m/s; see [`ConstitutiveModel::wave_speed_for_m_s`]).
     pub fn max_wave_speed_m_s(&self) -> f32 {
         let mut used = vec![false; self.materials.len()];
         for &m in &self.particles.material {
@@ -91,7 +92,7 @@ impl MpmSystem {
             .iter()
             .zip(used)
             .filter(|(_, u)| *u)
-            .map(|(m, _)| m.max_wave_speed_m_s())
+            .map(|(m, _)| m.wave_speed_for_m_s(&self.particles.plastic))
             .fold(0.0, f32::max)
     }
 

@@ -77,7 +77,11 @@ impl World {
             .iter()
             .map(|b| {
                 let deformable = b.kind == ObjectKind::Deformable;
-                let wave = b.materials.first().map(|m| m.max_wave_speed_m_s());
+                // The CFL bound of the current state (snow: its moduli at its hardest particle).
+                let wave = b
+                    .materials
+                    .first()
+                    .map(|m| m.wave_speed_for_m_s(&b.particles.plastic));
                 let kind = b.kind.name().to_string();
                 let modelled_as = match b.kind {
                     ObjectKind::Deformable if b.particles.len() < b.gaussians.len() => format!(

@@ -500,7 +500,7 @@ impl World {
         let mut vmax = 0.0f32;
         for b in self.bodies.iter().filter(|b| b.is_active()) {
             if b.kind == ObjectKind::Deformable {
-                wave = wave.max(b.materials[0].max_wave_speed_m_s());
+                wave = wave.max(b.materials[0].wave_speed_for_m_s(&b.particles.plastic));
             }
             vmax = vmax.max(b.max_speed_m_s);
         }
