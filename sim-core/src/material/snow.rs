@@ -131,7 +131,7 @@ impl ConstitutiveModel for Snow {
         self.params.dilational_wave_speed_m_s() * HARDENING_RANGE.1.sqrt()
     }
     /// c_p of the hardest particle: the moduli harden by h(Jp) = e^{ξ(1 - Jp)}, so the bound is
-    /// c_p0 √h at the smallest Jp (less [`CFL_JP_MARGIN`]), not at the hardening cap: snow that
+    /// c_p0 √h at the smallest Jp (less `CFL_JP_MARGIN`), not at the hardening cap: snow that
     /// is not compressed to the cap steps at up to √5 ≈ 2.2× the capped dt.
     fn wave_speed_for_m_s(&self, plastic: &[f32]) -> f32 {
         use rayon::prelude::*;
