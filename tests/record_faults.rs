@@ -251,18 +251,23 @@ fn children_running(parent: u32, name: &str) -> Vec<u32> {
         .collect()
 }
 
+/// `splatphys run --duration-s <duration_s> --out <out>` on the built-in scene, stderr piped.
+fn run_job(out: &Path, duration_s: &str) -> Proc {
+    Proc::spawn(
+        Command::new(bin("splatphys"))
+            .args(["run", "--duration-s", duration_s, "--out"])
+            .arg(out)
+            .env(IOX_PREFIX_ENV, iox())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped()),
+    )
+}
+
 #[test]
 fn a_run_whose_recording_lost_frames_fails_and_says_so() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("run");
-    let run = Proc::spawn(
-        Command::new(bin("splatphys"))
-            .args(["run", "--duration-s", "8", "--out"])
-            .arg(&out)
-            .env(IOX_PREFIX_ENV, iox())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped()),
-    );
+    let run = run_job(&out, "8");
     let mut recorder = Vec::new();
     wait_until(
         "the run starts its recorder",
@@ -316,14 +321,7 @@ fn a_run_whose_recording_lost_frames_fails_and_says_so() {
 fn an_interrupted_run_stops_its_processes_and_keeps_what_it_did() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("run");
-    let run = Proc::spawn(
-        Command::new(bin("splatphys"))
-            .args(["run", "--duration-s", "60", "--out"])
-            .arg(&out)
-            .env(IOX_PREFIX_ENV, iox())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped()),
-    );
+    let run = run_job(&out, "60");
     wait_until(
         "the run starts its recorder",
         Duration::from_secs(60),

@@ -234,31 +234,8 @@ fn the_browser_viewer_shows_the_simulation_and_pushes_it() {
             .stdout(Stdio::null())
             .stderr(Stdio::piped()),
     );
-    let mut web = Proc::spawn(
-        Command::new(bin("splatphys-web"))
-            .args(["--prefix", &prefix, "--port", "0"])
-            .args(["--camera-pos", &csv(CAMERA_POS), "--look-at", &csv(LOOK_AT)])
-            .args(["--fov-deg", &FOV_DEG.to_string()])
-            .args([
-                "--width",
-                &WIDTH.to_string(),
-                "--height",
-                &HEIGHT.to_string(),
-            ])
-            .env(IOX_PREFIX_ENV, &iox)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped()),
-    );
-    let url = web
-        .wait_line("http://", Duration::from_secs(30))
-        .trim()
-        .to_owned();
-    let published = Arc::new(Mutex::new(Published::default()));
-    let stop = Arc::new(AtomicBool::new(false));
-    let follower = {
-        let (prefix, stop, published) = (prefix.clone(), stop.clone(), published.clone());
-        std::thread::spawn(move || follow(prefix, stop, published))
-    };
+    let (web, url) = bridge(&iox, &prefix, (&CAMERA_POS, &LOOK_AT));
+    let (published, stop, follower) = follower(&prefix);
     let (w, h) = (WIDTH.to_string(), HEIGHT.to_string());
 
     // 1. Live, then paused: the page's image of the paused frame against the CPU renderer's.
