@@ -109,6 +109,20 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
         let end = match frame {
             Ok(Some(f)) => {
                 let h = f.user_header();
+                // The server publishes a generation's scene before its frames, but the two
+                // services deliver independently: a frame can be seen first. Take its scene
+                // before writing it (waiting at most ~100 ms).
+                for _ in 0..50 {
+                    if held.has_scene(h.scene_generation) {
+                        break;
+                    }
+                    match conn.recv_scene()? {
+                        Some(s) => held
+                            .scenes
+                            .push_back((*s.user_header(), s.payload().to_vec())),
+                        None => std::thread::sleep(Duration::from_millis(2)),
+                    }
+                }
                 held.write_before(&mut w, h.scene_generation, h.frame_index)?;
                 w.frame(h, f.payload())?;
                 held.write_before(&mut w, h.scene_generation, h.frame_index + 1)?;
@@ -151,12 +165,23 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
 /// after it.
 #[derive(Default)]
 struct Held {
+    /// The newest scene generation written.
+    written: Option<u32>,
     scenes: VecDeque<(SceneHeader, Vec<SceneGaussian>)>,
     names: VecDeque<(FrameHeader, Vec<ObjectName>)>,
     objects: VecDeque<(FrameHeader, Vec<ObjectState>)>,
 }
 
 impl Held {
+    /// Whether the scene of `generation` (or a later one) was written or is held.
+    fn has_scene(&self, generation: u32) -> bool {
+        self.written.is_some_and(|g| g >= generation)
+            || self
+                .scenes
+                .iter()
+                .any(|(h, _)| h.scene_generation >= generation)
+    }
+
     /// Writes the scenes and names of generations up to `generation` and the objects of frames
     /// before `frame_index`, each in the order received.
     fn write_before(
@@ -170,6 +195,7 @@ impl Held {
         {
             let (h, payload) = self.scenes.pop_front().expect("front exists");
             w.scene(&h, &payload)?;
+            self.written = Some(h.scene_generation);
         }
         while let Some((h, _)) = self.names.front()
             && h.scene_generation <= generation
