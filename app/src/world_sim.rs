@@ -172,6 +172,8 @@ impl Simulation for WorldSim {
                 orientation_wxyz: s.orientation_wxyz,
                 angular_velocity_rad_s: s.angular_velocity_rad_s.map(|v| v as f32),
                 mass_kg: s.mass_kg as f32,
+                contact_force_n: s.contact_force_n.map(|v| v as f32),
+                contact_torque_n_m: s.contact_torque_n_m.map(|v| v as f32),
             };
         }
     }

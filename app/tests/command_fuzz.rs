@@ -87,10 +87,16 @@ fn command() -> impl Strategy<Value = Command> {
         6 => (object(), vec3(), proptest::option::of(vec3())).prop_map(|(object, j, p)| {
             Command::Impulse { object, impulse_n_s: j, point_m: p }
         }),
-        3 => (object(), vec3()).prop_map(|(object, v)| Command::SetVelocity {
-            object,
-            velocity_m_s: v,
+        3 => (object(), vec3(), proptest::option::of(vec3())).prop_map(|(object, v, w)| {
+            Command::SetVelocity { object, velocity_m_s: v, angular_velocity_rad_s: w }
         }),
+        3 => (object(), vec3(), [value(), value(), value(), value()], proptest::option::of(0..400u64))
+            .prop_map(|(object, p, q, at_step)| Command::SetPose {
+                object,
+                position_m: p,
+                orientation_wxyz: q,
+                at_step,
+            }),
         4 => (object(), edit()).prop_map(|(object, edit)| Command::EditMaterial { object, edit }),
         2 => (object(), proptest::sample::select(ObjectKind::ALL.to_vec()))
             .prop_map(|(object, kind)| Command::SetKind { object, kind }),

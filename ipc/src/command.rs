@@ -30,6 +30,8 @@ pub enum CommandKind {
     Reset = 8,
     /// [`Command::Shutdown`].
     Shutdown = 9,
+    /// [`Command::SetPose`].
+    SetPose = 10,
 }
 
 /// [`CommandMsg::fields`]: `point_m` is present.
@@ -46,6 +48,10 @@ pub const FIELD_DENSITY: u32 = 16;
 pub const FIELD_RESTITUTION: u32 = 32;
 /// [`CommandMsg::fields`]: `friction` is present.
 pub const FIELD_FRICTION: u32 = 64;
+/// [`CommandMsg::fields`]: `angular_velocity_rad_s` is present.
+pub const FIELD_ANGULAR: u32 = 128;
+/// [`CommandMsg::fields`]: `count` is a pose's `at_step`.
+pub const FIELD_AT_STEP: u32 = 256;
 
 pub use splatphys_types::{
     Command, CommandToml, MaterialEdit, MaterialModel, ObjectKind, UnknownName,
@@ -104,10 +110,30 @@ pub fn encode(command: &Command, sequence: u64) -> CommandMsg {
         Command::SetVelocity {
             object,
             velocity_m_s,
+            angular_velocity_rad_s,
         } => {
             m.kind = CommandKind::SetVelocity as u32;
             m.object_id = object;
             m.vector = velocity_m_s;
+            if let Some(w) = angular_velocity_rad_s {
+                m.angular_velocity_rad_s = w;
+                m.fields |= FIELD_ANGULAR;
+            }
+        }
+        Command::SetPose {
+            object,
+            position_m,
+            orientation_wxyz,
+            at_step,
+        } => {
+            m.kind = CommandKind::SetPose as u32;
+            m.object_id = object;
+            m.vector = position_m;
+            m.orientation_wxyz = orientation_wxyz;
+            if let Some(step) = at_step {
+                m.count = step;
+                m.fields |= FIELD_AT_STEP;
+            }
         }
         Command::EditMaterial { object, edit } => {
             m.kind = CommandKind::EditMaterial as u32;
@@ -165,6 +191,8 @@ pub fn decode(m: &CommandMsg) -> Result<Command, DecodeError> {
         2 => Command::SetVelocity {
             object: m.object_id,
             velocity_m_s: m.vector,
+            angular_velocity_rad_s: (m.fields & FIELD_ANGULAR != 0)
+                .then_some(m.angular_velocity_rad_s),
         },
         3 => Command::EditMaterial {
             object: m.object_id,
@@ -194,6 +222,12 @@ pub fn decode(m: &CommandMsg) -> Result<Command, DecodeError> {
         7 => Command::Step { count: m.count },
         8 => Command::Reset,
         9 => Command::Shutdown,
+        10 => Command::SetPose {
+            object: m.object_id,
+            position_m: m.vector,
+            orientation_wxyz: m.orientation_wxyz,
+            at_step: (m.fields & FIELD_AT_STEP != 0).then_some(m.count),
+        },
         kind => return Err(DecodeError::UnknownKind { kind }),
     })
 }
@@ -318,6 +352,24 @@ mod tests {
             Command::SetVelocity {
                 object: 1,
                 velocity_m_s: [0.5, 0.0, 0.0],
+                angular_velocity_rad_s: None,
+            },
+            Command::SetVelocity {
+                object: 1,
+                velocity_m_s: [0.5, 0.0, 0.0],
+                angular_velocity_rad_s: Some([0.0, -1.0, 3.0]),
+            },
+            Command::SetPose {
+                object: 4,
+                position_m: [0.1, 0.2, 0.3],
+                orientation_wxyz: [0.5, 0.5, 0.5, 0.5],
+                at_step: Some(40),
+            },
+            Command::SetPose {
+                object: 4,
+                position_m: [0.1, 0.2, 0.3],
+                orientation_wxyz: [1.0, 0.0, 0.0, 0.0],
+                at_step: None,
             },
             Command::EditMaterial {
                 object: 2,

@@ -214,6 +214,8 @@ impl Simulation for FreeFall {
                 orientation_wxyz: [1.0, 0.0, 0.0, 0.0],
                 angular_velocity_rad_s: [0.0; 3],
                 mass_kg: 1.0,
+                contact_force_n: [0.0; 3],
+                contact_torque_n_m: [0.0; 3],
             };
         }
     }
@@ -234,7 +236,11 @@ impl Simulation for FreeFall {
             Command::SetVelocity {
                 object,
                 velocity_m_s,
+                ..
             } => self.vel_m_s[object as usize] = velocity_m_s,
+            Command::SetPose {
+                object, position_m, ..
+            } => self.com_m[object as usize] = position_m,
             Command::Reset => {
                 self.reset_state();
                 self.generation += 1;

@@ -87,7 +87,33 @@ pub fn validate(cmd: &Command, object_count: u32, limits: &Limits) -> Result<(),
                 );
             }
         }
-        Command::SetVelocity { velocity_m_s, .. } => {
+        Command::SetPose {
+            position_m,
+            orientation_wxyz,
+            ..
+        } => {
+            finite3("position", position_m)?;
+            if !orientation_wxyz.iter().all(|x| x.is_finite()) {
+                return reject(
+                    RejectCode::NotFinite,
+                    format!("orientation {orientation_wxyz:?} is not finite"),
+                );
+            }
+            if orientation_wxyz.iter().map(|x| x * x).sum::<f64>() < 1e-12 {
+                return reject(
+                    RejectCode::OutOfRange,
+                    "orientation (0, 0, 0, 0) is not a rotation".into(),
+                );
+            }
+        }
+        Command::SetVelocity {
+            velocity_m_s,
+            angular_velocity_rad_s,
+            ..
+        } => {
+            if let Some(w) = angular_velocity_rad_s {
+                finite3("angular velocity", w)?;
+            }
             finite3("velocity", velocity_m_s)?;
             let s = norm(velocity_m_s);
             if s > limits.max_speed_m_s {
@@ -201,6 +227,7 @@ mod tests {
         let c = Command::SetVelocity {
             object: 2,
             velocity_m_s: [0.0; 3],
+            angular_velocity_rad_s: None,
         };
         assert_eq!(
             code(validate(&c, 2, &Limits::default())),

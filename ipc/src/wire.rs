@@ -16,7 +16,7 @@ use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Version of the byte layout of every type in this module. Bumped on any change.
-pub const LAYOUT_VERSION: u32 = 2;
+pub const LAYOUT_VERSION: u32 = 3;
 
 /// Maximum SH degree carried on the wire (degree 3: 16 coefficients per colour channel).
 pub const MAX_SH_DEGREE: u32 = 3;
@@ -189,8 +189,14 @@ pub struct ObjectState {
     pub angular_velocity_rad_s: [f32; 3],
     /// Mass, kilograms.
     pub mass_kg: f32,
+    /// Contact force on a rigid, static or kinematic object, averaged over the last step: the
+    /// impulses it received (contacts, deformable objects' grids) over the step's time, newtons,
+    /// world frame. Zero for deformable objects.
+    pub contact_force_n: [f32; 3],
+    /// The moment of those impulses about its centre of mass over the step's time, N·m.
+    pub contact_torque_n_m: [f32; 3],
 }
-const _: () = assert!(size_of::<ObjectState>() == 64);
+const _: () = assert!(size_of::<ObjectState>() == 88);
 
 /// Wire form of a command (see [`crate::command::Command`] for the typed view).
 #[repr(C)]
@@ -203,7 +209,7 @@ pub struct CommandMsg {
     pub object_id: u32,
     /// Client-chosen sequence number, echoed in the reply.
     pub sequence: u64,
-    /// Impulse (N·s) or velocity (m/s), world frame.
+    /// Impulse (N·s), velocity (m/s) or pose position (m, centre of mass), world frame.
     pub vector: [f64; 3],
     /// Point of application of an impulse, world metres (valid when `FIELD_POINT` is set).
     pub point_m: [f64; 3],
@@ -221,14 +227,19 @@ pub struct CommandMsg {
     pub restitution: f64,
     /// Coulomb friction coefficient.
     pub friction: f64,
-    /// Step count for `StepN`.
+    /// Step count for `Step`, or the step at whose end a pose is reached (`SetPose`, valid
+    /// when `FIELD_AT_STEP` is set).
     pub count: u64,
+    /// Angular velocity, rad/s, world frame (`SetVelocity`, valid when `FIELD_ANGULAR` is set).
+    pub angular_velocity_rad_s: [f64; 3],
+    /// Orientation (w, x, y, z) relative to the rest pose (`SetPose`).
+    pub orientation_wxyz: [f64; 4],
     /// [`LAYOUT_VERSION`] of the sender; the server rejects another version as malformed.
     pub layout_version: u32,
     /// Reserved, zero.
     pub reserved: u32,
 }
-const _: () = assert!(size_of::<CommandMsg>() == 128);
+const _: () = assert!(size_of::<CommandMsg>() == 184);
 
 /// Wire form of a reply (see [`crate::command::Reply`]).
 #[repr(C)]
@@ -290,7 +301,7 @@ pub struct CommandLogEntry {
     /// The reply sent.
     pub reply: ReplyMsg,
 }
-const _: () = assert!(size_of::<CommandLogEntry>() == 424);
+const _: () = assert!(size_of::<CommandLogEntry>() == 480);
 
 /// Statistics of one subscriber of the `frame` service as seen by the server.
 #[repr(C)]

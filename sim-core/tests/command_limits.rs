@@ -90,6 +90,7 @@ fn an_impulse_with_a_far_lever_arm_is_refused_by_the_speed_it_would_cause() {
             w.apply(&Command::SetVelocity {
                 object: 0,
                 velocity_m_s: [500.0, 0.0, 0.0],
+                angular_velocity_rad_s: None,
             }),
             "limit",
         );

@@ -134,6 +134,7 @@ fn builder() -> SceneBuilder {
             command: Command::SetVelocity {
                 object: "ball".into(),
                 velocity_m_s: [0.0, 0.0, 1.0],
+                angular_velocity_rad_s: None,
             },
         })
         .event(EventSpec {

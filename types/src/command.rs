@@ -20,12 +20,30 @@ pub enum Command<O = u32> {
         /// Point of application, metres; `None` = centre of mass.
         point_m: Option<[f64; 3]>,
     },
-    /// Set an object's COM velocity, m/s (angular velocity unchanged).
+    /// Set an object's COM velocity, m/s, and optionally its angular velocity, rad/s (unchanged
+    /// when `None`). A kinematic object keeps moving at these velocities until the next command.
     SetVelocity {
         /// Target object.
         object: O,
         /// Velocity, m/s.
         velocity_m_s: [f64; 3],
+        /// Angular velocity about the COM, rad/s, world frame.
+        angular_velocity_rad_s: Option<[f64; 3]>,
+    },
+    /// Drive a kinematic object to a pose: its COM reaches `position_m` and its orientation
+    /// (relative to its rest pose, as `objects` publishes it) reaches `orientation_wxyz` at the
+    /// end of step `at_step`, moving at constant linear and angular velocity from where it is
+    /// (interpolated over the substeps); it then holds still. `None`, or a step already begun:
+    /// the end of the current step.
+    SetPose {
+        /// Target object (kinematic).
+        object: O,
+        /// COM position, m, world frame.
+        position_m: [f64; 3],
+        /// Orientation (w, x, y, z) relative to the rest pose; normalised on arrival.
+        orientation_wxyz: [f64; 4],
+        /// The step at whose end the pose is reached.
+        at_step: Option<u64>,
     },
     /// Edit an object's material; only the fields named change.
     EditMaterial {
@@ -62,6 +80,7 @@ impl<O> Command<O> {
         match self {
             Self::Impulse { object, .. }
             | Self::SetVelocity { object, .. }
+            | Self::SetPose { object, .. }
             | Self::EditMaterial { object, .. }
             | Self::SetKind { object, .. } => Some(object),
             _ => None,
@@ -69,12 +88,13 @@ impl<O> Command<O> {
     }
 
     /// The command's name as written in TOML and on the command line (`impulse`,
-    /// `set-velocity`, `edit-material`, `set-kind`, `pause`, `resume`, `step`, `reset`,
+    /// `set-velocity`, `set-pose`, `edit-material`, `set-kind`, `pause`, `resume`, `step`, `reset`,
     /// `shutdown`).
     pub fn name(&self) -> &'static str {
         match self {
             Self::Impulse { .. } => "impulse",
             Self::SetVelocity { .. } => "set-velocity",
+            Self::SetPose { .. } => "set-pose",
             Self::EditMaterial { .. } => "edit-material",
             Self::SetKind { .. } => "set-kind",
             Self::Pause => "pause",
@@ -103,9 +123,22 @@ impl<O> Command<O> {
             Self::SetVelocity {
                 object,
                 velocity_m_s,
+                angular_velocity_rad_s,
             } => Command::SetVelocity {
                 object: f(object)?,
                 velocity_m_s,
+                angular_velocity_rad_s,
+            },
+            Self::SetPose {
+                object,
+                position_m,
+                orientation_wxyz,
+                at_step,
+            } => Command::SetPose {
+                object: f(object)?,
+                position_m,
+                orientation_wxyz,
+                at_step,
             },
             Self::EditMaterial { object, edit } => Command::EditMaterial {
                 object: f(object)?,

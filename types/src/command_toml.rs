@@ -16,9 +16,10 @@ use crate::{Command, MaterialEdit, MaterialModel, ObjectKind};
 /// | `command` | keys |
 /// |---|---|
 /// | `impulse` | `object`, `impulse_n_s` [x, y, z] N·s, optional `point_m` [x, y, z] m (default: the COM) |
-/// | `set-velocity` | `object`, `velocity_m_s` [x, y, z] m/s |
+/// | `set-velocity` | `object`, `velocity_m_s` [x, y, z] m/s, optional `angular_velocity_rad_s` [x, y, z] rad/s |
+/// | `set-pose` | `object` (kinematic), `position_m` [x, y, z] m (COM), `orientation_wxyz` [w, x, y, z] (relative to the rest pose), optional `at_step` |
 /// | `edit-material` | `object`, any of `model`, `youngs_modulus_pa`, `poisson_ratio`, `density_kg_m3`, `restitution`, `friction` |
-/// | `set-kind` | `object`, `kind` (`deformable`, `rigid`, `static`) |
+/// | `set-kind` | `object`, `kind` (`deformable`, `rigid`, `static`, `kinematic`) |
 /// | `step` | `count` |
 /// | `pause`, `resume`, `reset`, `shutdown` | none |
 ///
@@ -44,6 +45,18 @@ pub struct CommandToml<O> {
     /// `set-velocity`: velocity, m/s.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub velocity_m_s: Option<[f64; 3]>,
+    /// `set-velocity`: angular velocity, rad/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular_velocity_rad_s: Option<[f64; 3]>,
+    /// `set-pose`: COM position, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_m: Option<[f64; 3]>,
+    /// `set-pose`: orientation (w, x, y, z) relative to the rest pose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub orientation_wxyz: Option<[f64; 4]>,
+    /// `set-pose`: the step at whose end the pose is reached.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at_step: Option<u64>,
     /// `edit-material`: model.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model: Option<MaterialModel>,
@@ -79,6 +92,10 @@ impl<O> From<Command<O>> for CommandToml<O> {
             impulse_n_s: None,
             point_m: None,
             velocity_m_s: None,
+            angular_velocity_rad_s: None,
+            position_m: None,
+            orientation_wxyz: None,
+            at_step: None,
             model: None,
             youngs_modulus_pa: None,
             poisson_ratio: None,
@@ -101,9 +118,22 @@ impl<O> From<Command<O>> for CommandToml<O> {
             Command::SetVelocity {
                 object,
                 velocity_m_s,
+                angular_velocity_rad_s,
             } => {
                 t.object = Some(object);
                 t.velocity_m_s = Some(velocity_m_s);
+                t.angular_velocity_rad_s = angular_velocity_rad_s;
+            }
+            Command::SetPose {
+                object,
+                position_m,
+                orientation_wxyz,
+                at_step,
+            } => {
+                t.object = Some(object);
+                t.position_m = Some(position_m);
+                t.orientation_wxyz = Some(orientation_wxyz);
+                t.at_step = at_step;
             }
             Command::EditMaterial { object, edit } => {
                 t.object = Some(object);
@@ -133,6 +163,13 @@ impl<O> CommandToml<O> {
             (self.impulse_n_s.is_some(), "impulse_n_s"),
             (self.point_m.is_some(), "point_m"),
             (self.velocity_m_s.is_some(), "velocity_m_s"),
+            (
+                self.angular_velocity_rad_s.is_some(),
+                "angular_velocity_rad_s",
+            ),
+            (self.position_m.is_some(), "position_m"),
+            (self.orientation_wxyz.is_some(), "orientation_wxyz"),
+            (self.at_step.is_some(), "at_step"),
             (self.model.is_some(), "model"),
             (self.youngs_modulus_pa.is_some(), "youngs_modulus_pa"),
             (self.poisson_ratio.is_some(), "poisson_ratio"),
@@ -155,7 +192,8 @@ impl<O> CommandToml<O> {
     pub fn into_command(self) -> Result<Command<O>, String> {
         let allowed: &[&str] = match self.command.as_str() {
             "impulse" => &["object", "impulse_n_s", "point_m"],
-            "set-velocity" => &["object", "velocity_m_s"],
+            "set-velocity" => &["object", "velocity_m_s", "angular_velocity_rad_s"],
+            "set-pose" => &["object", "position_m", "orientation_wxyz", "at_step"],
             "edit-material" => &[
                 "object",
                 "model",
@@ -170,7 +208,7 @@ impl<O> CommandToml<O> {
             "pause" | "resume" | "reset" | "shutdown" => &[],
             other => {
                 return Err(format!(
-                    "unknown command `{other}` (impulse, set-velocity, edit-material, set-kind, pause, resume, step, reset, shutdown)"
+                    "unknown command `{other}` (impulse, set-velocity, set-pose, edit-material, set-kind, pause, resume, step, reset, shutdown)"
                 ));
             }
         };
@@ -189,6 +227,15 @@ impl<O> CommandToml<O> {
             "set-velocity" => Command::SetVelocity {
                 object: object?,
                 velocity_m_s: self.velocity_m_s.ok_or_else(|| need("velocity_m_s"))?,
+                angular_velocity_rad_s: self.angular_velocity_rad_s,
+            },
+            "set-pose" => Command::SetPose {
+                object: object?,
+                position_m: self.position_m.ok_or_else(|| need("position_m"))?,
+                orientation_wxyz: self
+                    .orientation_wxyz
+                    .ok_or_else(|| need("orientation_wxyz"))?,
+                at_step: self.at_step,
             },
             "edit-material" => {
                 let edit = MaterialEdit {
@@ -276,7 +323,7 @@ mod tests {
             friction: Some(0.4),
             ..MaterialEdit::default()
         };
-        let all: [Command<String>; 9] = [
+        let all: [Command<String>; 11] = [
             Command::Impulse {
                 object: "a".into(),
                 impulse_n_s: [1.0, 2.0, 3.0],
@@ -285,6 +332,18 @@ mod tests {
             Command::SetVelocity {
                 object: "a".into(),
                 velocity_m_s: [0.0, 1.0, 0.0],
+                angular_velocity_rad_s: None,
+            },
+            Command::SetVelocity {
+                object: "a".into(),
+                velocity_m_s: [0.0, 1.0, 0.0],
+                angular_velocity_rad_s: Some([0.0, 0.0, 2.0]),
+            },
+            Command::SetPose {
+                object: "a".into(),
+                position_m: [0.1, 0.2, 0.3],
+                orientation_wxyz: [0.0, 1.0, 0.0, 0.0],
+                at_step: Some(12),
             },
             Command::EditMaterial {
                 object: "a".into(),
@@ -324,6 +383,10 @@ mod tests {
                 "changes nothing",
             ),
             ("command = \"pause\"\nbogus = 1", "bogus"),
+            (
+                "command = \"set-pose\"\nobject = \"a\"\nposition_m = [0.0, 0.0, 0.0]",
+                "needs `orientation_wxyz`",
+            ),
         ];
         for (text, want) in cases {
             let e = parse(text).unwrap_err();

@@ -19,18 +19,22 @@ pub enum ObjectKind {
     Rigid = 1,
     /// Does not move; a boundary for the others.
     Static = 2,
+    /// Moves only as commanded (a pose to reach, or a velocity), with infinite mass in contacts:
+    /// a hand or a tool driven by a client.
+    Kinematic = 3,
 }
 
 impl ObjectKind {
     /// Every kind, in wire-code order.
-    pub const ALL: [Self; 3] = [Self::Deformable, Self::Rigid, Self::Static];
+    pub const ALL: [Self; 4] = [Self::Deformable, Self::Rigid, Self::Static, Self::Kinematic];
 
-    /// The scene-file name (`deformable`, `rigid`, `static`).
+    /// The scene-file name (`deformable`, `rigid`, `static`, `kinematic`).
     pub const fn name(self) -> &'static str {
         match self {
             Self::Deformable => "deformable",
             Self::Rigid => "rigid",
             Self::Static => "static",
+            Self::Kinematic => "kinematic",
         }
     }
 
@@ -77,7 +81,7 @@ mod tests {
             assert_eq!(k.name().parse::<ObjectKind>(), Ok(k));
             assert_eq!(ObjectKind::from_code(k.code()), Some(k));
         }
-        assert_eq!(ObjectKind::from_code(3), None);
+        assert_eq!(ObjectKind::from_code(4), None);
         assert!("kinematic".parse::<ObjectKind>().is_err());
     }
 }

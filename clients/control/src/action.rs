@@ -61,16 +61,24 @@ impl fmt::Display for ObjectRef {
 /// # Errors
 /// [`ControlError::BadVector`] when there are not exactly three numbers.
 pub fn parse_vec3(input: &str) -> Result<[f64; 3], ControlError> {
+    parse_floats(input)
+}
+
+/// Parses `N` comma-separated floats, as [`parse_vec3`] (a quaternion `w,x,y,z` is `N` = 4).
+///
+/// # Errors
+/// [`ControlError::BadVector`] when there are not exactly `N` numbers.
+pub fn parse_floats<const N: usize>(input: &str) -> Result<[f64; N], ControlError> {
     let bad = |reason: String| ControlError::BadVector {
         input: input.to_owned(),
         reason,
     };
     let inner = input.trim().trim_start_matches('[').trim_end_matches(']');
     let parts: Vec<&str> = inner.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        return Err(bad(format!("{} components, expected 3", parts.len())));
+    if parts.len() != N {
+        return Err(bad(format!("{} components, expected {N}", parts.len())));
     }
-    let mut out = [0.0; 3];
+    let mut out = [0.0; N];
     for (o, p) in out.iter_mut().zip(&parts) {
         *o = p
             .parse()

@@ -128,11 +128,12 @@ class Reply:
 # Commands: each builds a CommandMsg (see docs/protocol.md for the codes).
 FIELD_POINT, FIELD_MODEL, FIELD_E, FIELD_NU = 1, 2, 4, 8
 FIELD_DENSITY, FIELD_RESTITUTION, FIELD_FRICTION = 16, 32, 64
+FIELD_ANGULAR, FIELD_AT_STEP = 128, 256
 MATERIAL_MODELS = {
     "jelly": 0, "fixed-corotated": 0, "neo-hookean": 1, "snow": 2, "sand": 3,
     "metal": 4, "plasticine": 5, "foam": 6,
 }
-OBJECT_KINDS = {"deformable": 0, "rigid": 1, "static": 2}
+OBJECT_KINDS = {"deformable": 0, "rigid": 1, "static": 2, "kinematic": 3}
 
 
 class Command:
@@ -171,15 +172,41 @@ class Impulse(Command):
 
 @dataclass
 class SetVelocity(Command):
-    """Set the COM velocity of `object_id`, m/s."""
+    """Set the COM velocity of `object_id`, m/s, and optionally its angular velocity, rad/s
+    (None: unchanged). A kinematic object keeps both until its next command."""
 
     object_id: int
     velocity_m_s: Sequence[float]
+    angular_velocity_rad_s: Optional[Sequence[float]] = None
     kind = 2
 
     def fill(self, m):
         m.object_id = self.object_id
         m.vector[:] = [float(x) for x in self.velocity_m_s]
+        if self.angular_velocity_rad_s is not None:
+            m.angular_velocity_rad_s[:] = [float(x) for x in self.angular_velocity_rad_s]
+            m.fields |= FIELD_ANGULAR
+
+
+@dataclass
+class SetPose(Command):
+    """Drive kinematic `object_id` to COM `position_m` (world m) and `orientation_wxyz`
+    (relative to its rest pose), reached at the end of step `at_step` (None: of the current
+    step), moving at constant velocity; it then holds still."""
+
+    object_id: int
+    position_m: Sequence[float]
+    orientation_wxyz: Sequence[float] = (1.0, 0.0, 0.0, 0.0)
+    at_step: Optional[int] = None
+    kind = 10
+
+    def fill(self, m):
+        m.object_id = self.object_id
+        m.vector[:] = [float(x) for x in self.position_m]
+        m.orientation_wxyz[:] = [float(x) for x in self.orientation_wxyz]
+        if self.at_step is not None:
+            m.count = int(self.at_step)
+            m.fields |= FIELD_AT_STEP
 
 
 @dataclass
@@ -213,7 +240,7 @@ class EditMaterial(Command):
 
 @dataclass
 class SetKind(Command):
-    """Make `object_id` deformable, rigid or static."""
+    """Make `object_id` deformable, rigid, static or kinematic."""
 
     object_id: int
     object_kind: str

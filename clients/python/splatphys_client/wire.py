@@ -10,7 +10,7 @@ import ctypes
 
 import numpy as np
 
-LAYOUT_VERSION = 2
+LAYOUT_VERSION = 3
 SH_COEFFS_PER_CHANNEL = 16
 MAX_NAMED_OBJECTS = 64
 OBJECT_NAME_BYTES = 32
@@ -109,7 +109,7 @@ class ObjectName(_Wire):
 
 
 class ObjectState(_Wire):
-    """Per-object COM state (64 B)."""
+    """Per-object COM state (88 B); contact force (N) and torque (N m) of solid objects."""
 
     _fields_ = [
         ("id", ctypes.c_uint32),
@@ -119,11 +119,13 @@ class ObjectState(_Wire):
         ("orientation_wxyz", f32x4),
         ("angular_velocity_rad_s", f32x3),
         ("mass_kg", ctypes.c_float),
+        ("contact_force_n", f32x3),
+        ("contact_torque_n_m", f32x3),
     ]
 
 
 class CommandMsg(_Wire):
-    """A command (128 B); see docs/protocol.md for kinds, codes and field flags."""
+    """A command (184 B); see docs/protocol.md for kinds, codes and field flags."""
 
     _fields_ = [
         ("kind", ctypes.c_uint32),
@@ -139,6 +141,8 @@ class CommandMsg(_Wire):
         ("restitution", ctypes.c_double),
         ("friction", ctypes.c_double),
         ("count", ctypes.c_uint64),
+        ("angular_velocity_rad_s", f64x3),
+        ("orientation_wxyz", ctypes.c_double * 4),
         ("layout_version", ctypes.c_uint32),
         ("reserved", ctypes.c_uint32),
     ]
@@ -159,7 +163,7 @@ class ReplyMsg(_Wire):
 
 
 class CommandLogEntry(_Wire):
-    """One `command_log` entry (424 B): a command and its reply, or a step failure."""
+    """One `command_log` entry (480 B): a command and its reply, or a step failure."""
 
     _fields_ = [
         ("received_step", ctypes.c_uint64),
@@ -234,10 +238,10 @@ RUST_SIZES = {
     SceneGaussian: 228,
     SceneHeader: 32 + SCENE_NAME_BYTES + MAX_NAMED_OBJECTS * OBJECT_NAME_BYTES,
     ObjectName: OBJECT_NAME_FULL_BYTES,
-    ObjectState: 64,
-    CommandMsg: 128,
+    ObjectState: 88,
+    CommandMsg: 184,
     ReplyMsg: 256,
-    CommandLogEntry: 424,
+    CommandLogEntry: 480,
     SubscriberLag: 32,
     Status: 96 + 32 * MAX_REPORTED_SUBSCRIBERS + 24 + FAILURE_REASON_BYTES,
 }

@@ -67,7 +67,7 @@ mod tests {
     #[test]
     fn a_million_gaussians_need_the_scene_twice_and_sixteen_frames() {
         let (b, detail) = needed_bytes(1_000_000, 2);
-        let frame = 52_000_000 + 2 * 64 + 2 * 56;
+        let frame = 52_000_000 + 2 * 88 + 2 * 56;
         assert_eq!(b, 2 * 228_000_000 + 16 * frame);
         assert!(detail.contains("228.0 MB"), "{detail}");
     }

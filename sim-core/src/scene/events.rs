@@ -6,7 +6,7 @@ use splatphys_types::{CommandToml, MaterialEdit};
 
 use super::SceneError;
 use super::build::Ctx;
-use super::model::{Command, EventSpec, MaterialSpec, SceneObject};
+use super::model::{Command, EventSpec, MaterialSpec, ObjectKind, SceneObject};
 use super::schema::{ImpulseToml, SceneFile, SetMaterialToml, SetVelocityToml};
 
 /// The `[[event]]` tables: `at_s` plus a [`CommandToml`] (the keys control timelines use). The
@@ -90,6 +90,7 @@ fn deprecated_event(
             Command::SetVelocity {
                 object: v.object,
                 velocity_m_s: v.velocity_m_s,
+                angular_velocity_rad_s: None,
             }
         }
         _ => {
@@ -136,7 +137,7 @@ fn check_event(
         return Err(ctx.invalid(
             format!("{key}.command"),
             format!(
-                "`{}` is a server command and cannot be scripted in a scene (impulse, set-velocity, edit-material, set-kind can)",
+                "`{}` is a server command and cannot be scripted in a scene (impulse, set-velocity, set-pose, edit-material, set-kind can)",
                 command.name()
             ),
         ));
@@ -162,7 +163,37 @@ fn check_event(
             finite(impulse_n_s, "impulse_n_s")?;
             finite(point_m.as_ref().map_or(&[], |p| &p[..]), "point_m")
         }
-        Command::SetVelocity { velocity_m_s, .. } => finite(velocity_m_s, "velocity_m_s"),
+        Command::SetVelocity {
+            velocity_m_s,
+            angular_velocity_rad_s,
+            ..
+        } => {
+            finite(velocity_m_s, "velocity_m_s")?;
+            finite(
+                angular_velocity_rad_s.as_ref().map_or(&[], |w| &w[..]),
+                "angular_velocity_rad_s",
+            )
+        }
+        Command::SetPose {
+            position_m,
+            orientation_wxyz,
+            ..
+        } => {
+            ctx.check(
+                objects
+                    .iter()
+                    .any(|o| &o.name == object && o.kind == ObjectKind::Kinematic),
+                format!("{key}.object"),
+                format!("{object:?} is not kinematic; set-pose drives kinematic objects"),
+            )?;
+            finite(position_m, "position_m")?;
+            finite(orientation_wxyz, "orientation_wxyz")?;
+            ctx.check(
+                orientation_wxyz.iter().map(|x| x * x).sum::<f64>() > 1e-12,
+                format!("{key}.orientation_wxyz"),
+                "must be a rotation (not zero)",
+            )
+        }
         Command::EditMaterial { edit, .. } => {
             let range = |v: Option<f64>, k: &str, ok: fn(f64) -> bool, what: &str| {
                 ctx.check(v.is_none_or(ok), format!("{key}.{k}"), what)

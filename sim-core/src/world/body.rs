@@ -171,7 +171,7 @@ pub struct RigidState {
 pub struct Body {
     /// Name from the scene.
     pub name: String,
-    /// Deformable, rigid or static.
+    /// Deformable, rigid, static or kinematic.
     pub kind: ObjectKind,
     /// Coefficient of restitution e in [0, 1].
     pub restitution: f32,
@@ -217,6 +217,13 @@ pub struct Body {
     pub collision: Option<Collision>,
     /// The contact solver's push-out pseudo-velocities (m/s, rad/s) for this substep.
     pub push: (DVec3, DVec3),
+    /// What moves a kinematic object (unused for other kinds).
+    pub drive: super::kinematic::Drive,
+    /// Contact impulses a solid object received this frame, from the contact solver, deformable
+    /// objects' grids and the restitution law (N s); over the frame time, its contact force.
+    pub frame_impulse_n_s: DVec3,
+    /// Their moment about the object's COM (N m s); over the frame time, its contact torque.
+    pub frame_angular_impulse_n_m_s: DVec3,
 }
 
 /// Most cells of an object's sampled surface before its cell size grows.
@@ -294,10 +301,18 @@ impl Body {
             },
             collision: None,
             push: (DVec3::ZERO, DVec3::ZERO),
+            drive: Default::default(),
+            frame_impulse_n_s: DVec3::ZERO,
+            frame_angular_impulse_n_m_s: DVec3::ZERO,
         };
         body.capture_rigid_pose();
         if o.kind != ObjectKind::Deformable {
             body.build_collision(o.shape);
+        }
+        if o.kind == ObjectKind::Kinematic {
+            // It moves only as commanded: the scene's initial velocity is its first command.
+            body.sync_rigid_particles();
+            body.max_speed_m_s = v0.length();
         }
         if o.kind == ObjectKind::Static {
             body.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
@@ -311,18 +326,28 @@ impl Body {
         !self.sleeping && self.kind != ObjectKind::Static
     }
 
-    /// Inverse mass (1/kg): zero for static objects.
+    /// Whether contacts cannot move it: a static or kinematic object.
+    pub fn is_immovable(&self) -> bool {
+        matches!(self.kind, ObjectKind::Static | ObjectKind::Kinematic)
+    }
+
+    /// Whether it moves as a rigid body this substep: an awake rigid or a kinematic object.
+    pub fn moves_rigidly(&self) -> bool {
+        (self.kind == ObjectKind::Rigid && !self.sleeping) || self.kind == ObjectKind::Kinematic
+    }
+
+    /// Inverse mass (1/kg): zero for static and kinematic objects.
     pub fn inverse_mass(&self, state: &BodyState) -> f64 {
-        if self.kind == ObjectKind::Static || state.mass_kg <= 0.0 {
+        if self.is_immovable() || state.mass_kg <= 0.0 {
             0.0
         } else {
             1.0 / state.mass_kg
         }
     }
 
-    /// Inverse inertia about the COM (1/(kg m²)): zero for static objects.
+    /// Inverse inertia about the COM (1/(kg m²)): zero for static and kinematic objects.
     pub fn inverse_inertia(&self, state: &BodyState) -> DMat3 {
-        if self.kind == ObjectKind::Static {
+        if self.is_immovable() {
             DMat3::ZERO
         } else {
             inverse_or_zero(state.inertia)

@@ -1,5 +1,6 @@
-//! Commands on objects: impulses, velocities, material and kind edits. Each wakes the object;
-//! static objects refuse to move. Used by scene events and the server's command service.
+//! Commands on objects: impulses, velocities, poses, material and kind edits. Each wakes the
+//! object; static objects refuse to move, kinematic objects refuse impulses (`set-pose` is in
+//! [`super::kinematic`]). Used by scene events and the server's command service.
 
 use glam::{DVec3, Mat3A, Vec3A};
 use splatphys_types::{Command, MaterialEdit};
@@ -26,7 +27,18 @@ impl World {
             Command::SetVelocity {
                 object,
                 velocity_m_s,
-            } => self.set_velocity(object as usize, v(velocity_m_s)),
+                angular_velocity_rad_s,
+            } => self.set_velocity(
+                object as usize,
+                v(velocity_m_s),
+                angular_velocity_rad_s.map(v),
+            ),
+            Command::SetPose {
+                object,
+                position_m,
+                orientation_wxyz,
+                at_step,
+            } => self.set_pose(object as usize, position_m, orientation_wxyz, at_step),
             Command::EditMaterial { object, edit } => self.edit_material(object as usize, &edit),
             Command::SetKind { object, kind } => self.set_kind(object as usize, kind),
             Command::Reset => {
@@ -83,6 +95,12 @@ impl World {
         point_m: Option<Vec3A>,
     ) -> Result<(), WorldError> {
         self.movable(id)?;
+        if self.bodies[id].kind == ObjectKind::Kinematic {
+            return Err(WorldError::Refused {
+                object: self.bodies[id].name.clone(),
+                reason: "kinematic objects move only as commanded (set-pose, set-velocity)".into(),
+            });
+        }
         if !j_n_s.is_finite() || point_m.is_some_and(|p| !p.is_finite()) {
             return Err(WorldError::Refused {
                 object: self.bodies[id].name.clone(),
@@ -115,28 +133,44 @@ impl World {
         Ok(())
     }
 
-    /// Sets object `id`'s COM velocity (m/s), keeping its spin and internal motion.
+    /// Sets object `id`'s COM velocity (m/s) and, when `omega_rad_s` is given, its angular
+    /// velocity about the COM (rad/s), keeping its internal motion (a deformable object gets the
+    /// angular momentum I ω). A kinematic object keeps these velocities until its next command.
     ///
     /// # Errors
-    /// Unknown or static object, or a non-finite value.
-    pub fn set_velocity(&mut self, id: usize, v_m_s: Vec3A) -> Result<(), WorldError> {
+    /// Unknown or static object, a non-finite value, or a speed above the command limit.
+    pub fn set_velocity(
+        &mut self,
+        id: usize,
+        v_m_s: Vec3A,
+        omega_rad_s: Option<Vec3A>,
+    ) -> Result<(), WorldError> {
         self.movable(id)?;
-        if !v_m_s.is_finite() {
+        if !v_m_s.is_finite() || omega_rad_s.is_some_and(|w| !w.is_finite()) {
             return Err(WorldError::Refused {
                 object: self.bodies[id].name.clone(),
                 reason: "non-finite velocity".into(),
             });
         }
-        self.check_velocity(id, v_m_s.as_dvec3())?;
+        let omega = omega_rad_s.map(|w| w.as_dvec3());
+        self.check_velocity(id, v_m_s.as_dvec3(), omega)?;
         self.wake(id);
         let dx = self.dx_m();
         let b = &mut self.bodies[id];
-        if b.kind == ObjectKind::Rigid {
-            b.rigid.velocity_m_s = v_m_s.as_dvec3();
-            b.sync_rigid_particles();
-        } else {
-            let s = measure(&b.particles, dx);
-            coherence::enforce(b, v_m_s.as_dvec3() * s.mass_kg, s.angular_momentum, s.com_m);
+        match b.kind {
+            ObjectKind::Rigid | ObjectKind::Kinematic => {
+                b.rigid.velocity_m_s = v_m_s.as_dvec3();
+                if let Some(w) = omega {
+                    b.rigid.omega_rad_s = w;
+                }
+                b.drive = super::kinematic::Drive::Velocity;
+                b.sync_rigid_particles();
+            }
+            _ => {
+                let s = measure(&b.particles, dx);
+                let l = omega.map_or(s.angular_momentum, |w| s.inertia * w);
+                coherence::enforce(b, v_m_s.as_dvec3() * s.mass_kg, l, s.com_m);
+            }
         }
         b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
         Ok(())
@@ -211,7 +245,8 @@ impl World {
         Ok(())
     }
 
-    /// Changes object `id`'s kind. Becoming rigid freezes the current shape as the rest shape.
+    /// Changes object `id`'s kind. Becoming a solid (rigid, static, kinematic) freezes the
+    /// current shape as the rest shape; a kinematic object starts still.
     ///
     /// # Errors
     /// Unknown object.
@@ -228,13 +263,13 @@ impl World {
         } else if !solid(kind) {
             b.collision = None;
         }
-        if kind == ObjectKind::Static {
+        if matches!(kind, ObjectKind::Static | ObjectKind::Kinematic) {
             b.rigid.velocity_m_s = glam::DVec3::ZERO;
             b.rigid.omega_rad_s = glam::DVec3::ZERO;
-        }
-        if kind == ObjectKind::Static {
+            b.drive = super::kinematic::Drive::Velocity;
             b.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
             b.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
+            b.max_speed_m_s = 0.0;
         }
         b.kind = kind;
         self.wake(id);

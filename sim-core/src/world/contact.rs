@@ -1,7 +1,8 @@
 //! The world's contact pass, once per substep after the velocity half of the rigid step
 //! ([`crate::contact`] says which pairs come here and which are grid boundaries).
 //!
-//! 1. Manifolds: rigid and static objects against each other, and rigid objects against the
+//! 1. Manifolds: rigid, static and kinematic objects against each other (pairs with a rigid
+//!    object in them), and rigid objects against the
 //!    grid colliders and the captured background, on their surfaces
 //!    ([`crate::contact::manifold`]).
 //! 2. One solve of all points ([`crate::contact::solver`]), warm-started from the previous
@@ -85,6 +86,17 @@ pub struct ContactReport {
     pub normal_impulse_n_s: f64,
 }
 
+/// Whether two solids may exchange impulses: one must be an awake rigid object, or a moving
+/// kinematic object against a sleeping rigid one (which it wakes); two immovable or sleeping
+/// objects cannot.
+fn may_touch(a: &body::Body, b: &body::Body) -> bool {
+    let dynamic = |x: &body::Body| x.kind == ObjectKind::Rigid && !x.sleeping;
+    let wakes = |x: &body::Body, y: &body::Body| {
+        x.kind == ObjectKind::Kinematic && x.is_moving() && y.kind == ObjectKind::Rigid
+    };
+    dynamic(a) || dynamic(b) || wakes(a, b) || wakes(b, a)
+}
+
 fn overlaps(a: (Vec3A, Vec3A), b: (Vec3A, Vec3A), margin: f32) -> bool {
     (a.0 - margin).cmple(b.1).all() && (b.0 - margin).cmple(a.1).all()
 }
@@ -106,7 +118,8 @@ impl World {
         Some(c.placed(c.rest_com_m.as_dvec3(), Quat::IDENTITY))
     }
 
-    /// Object `k` as the solver sees it: an awake rigid object moves, anything else does not.
+    /// Object `k` as the solver sees it: an awake rigid object moves, a kinematic object moves
+    /// as driven with infinite mass, anything else does not.
     fn solver_body(&self, k: usize) -> SolverBody {
         let b = &self.bodies[k];
         if b.kind == ObjectKind::Rigid && !b.sleeping {
@@ -116,6 +129,14 @@ impl World {
                 b.rigid.omega_rad_s,
                 1.0 / b.rigid.mass_kg.max(f64::MIN_POSITIVE),
                 body::inverse_or_zero(b.rigid_world_inertia()),
+            )
+        } else if b.kind == ObjectKind::Kinematic {
+            SolverBody::new(
+                b.rigid.com_m,
+                b.rigid.velocity_m_s,
+                b.rigid.omega_rad_s,
+                0.0,
+                glam::DMat3::ZERO,
             )
         } else {
             let mut s = SolverBody::immovable(DVec3::ZERO);
@@ -138,8 +159,7 @@ impl World {
                 let (Some(a), Some(b)) = (&placed[i], &placed[j]) else {
                     continue;
                 };
-                if !(bi.is_active() || bj.is_active()) || !overlaps(a.bounds_m, b.bounds_m, margin)
-                {
+                if !may_touch(bi, bj) || !overlaps(a.bounds_m, b.bounds_m, margin) {
                     continue;
                 }
                 let points = manifold::between(a, b, margin);
@@ -279,9 +299,12 @@ impl World {
         }
         // Write back: impulses received, then the rigid objects' new velocities and push-out.
         for p in &points {
-            let j = (p.normal * p.normal_impulse + p.tangent_impulse).length();
-            for k in [p.a, p.b].into_iter().filter(|&k| k < n) {
-                self.bodies[k].impulse_total_n_s += j;
+            let on_b = p.normal * p.normal_impulse + p.tangent_impulse;
+            for (k, j) in [(p.a, -on_b), (p.b, on_b)] {
+                if k < n {
+                    self.bodies[k].impulse_total_n_s += j.length();
+                    self.bodies[k].record_contact(j, p.point_m);
+                }
             }
         }
         for (k, s) in bodies.iter().enumerate().take(n) {

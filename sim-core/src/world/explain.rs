@@ -92,6 +92,7 @@ impl World {
                     ObjectKind::Deformable => "MPM, one particle per Gaussian".to_string(),
                     ObjectKind::Rigid => "rigid body (no MPM)".to_string(),
                     ObjectKind::Static => "static (never stepped)".to_string(),
+                    ObjectKind::Kinematic => "kinematic (moves as commanded, no MPM)".to_string(),
                 };
                 ObjectExplanation {
                     name: b.name.clone(),

@@ -7,7 +7,8 @@
 //! contact normal n (the direction of the grid's impulse on it) is recorded; when the contact
 //! ends, a separation speed s above e·a (e = max(e_object, e_solid), the background's e is 0) is
 //! removed by a uniform velocity change −(s − e a) n, which leaves its deformation and angular
-//! momentum alone and only ever removes energy; a rigid solid takes the opposite momentum. A
+//! momentum alone and only ever removes energy; a rigid solid takes the opposite momentum (a
+//! kinematic or static one counts it in its contact force). A
 //! resting object never ends its contact and is not touched.
 
 use glam::DVec3;
@@ -32,9 +33,7 @@ pub struct Impact {
 impl World {
     fn solid_velocity(&self, solid: SolidOf) -> DVec3 {
         match solid {
-            Some(k) if self.bodies[k].kind == ObjectKind::Rigid && !self.bodies[k].sleeping => {
-                self.bodies[k].rigid.velocity_m_s
-            }
+            Some(k) if self.bodies[k].moves_rigidly() => self.bodies[k].rigid.velocity_m_s,
             _ => DVec3::ZERO,
         }
     }
@@ -83,13 +82,13 @@ impl World {
             let b = &mut self.bodies[k];
             b.particles.v.iter_mut().for_each(|v| *v += dv);
             b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
-            if let Some(o) = solid
-                && self.bodies[o].kind == ObjectKind::Rigid
-                && !self.bodies[o].sleeping
-            {
+            if let Some(o) = solid {
                 let p = imp.normal * (excess * s.mass_kg);
                 let com = self.bodies[o].rigid.com_m;
-                self.bodies[o].apply_rigid_impulse(p, com);
+                self.bodies[o].record_contact(p, com);
+                if self.bodies[o].kind == ObjectKind::Rigid && !self.bodies[o].sleeping {
+                    self.bodies[o].apply_rigid_impulse(p, com);
+                }
             }
         }
     }

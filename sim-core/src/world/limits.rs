@@ -18,6 +18,8 @@ use crate::scene::ObjectKind;
 
 /// Fastest a command may make any particle of an object move (m/s).
 pub const MAX_COMMAND_SPEED_M_S: f64 = 100.0;
+/// Farthest from the origin a command may place an object (m).
+pub const MAX_POSITION_M: f64 = 1e4;
 /// Default particle-substeps per published frame a material edit may raise the world to (all
 /// objects): about 10 s of stepping per frame on a 2-core machine.
 pub const DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME: f64 = 1e8;
@@ -77,13 +79,27 @@ impl World {
         Ok(())
     }
 
-    /// Refuses a COM velocity above [`MAX_COMMAND_SPEED_M_S`].
-    pub(super) fn check_velocity(&self, id: usize, v_m_s: DVec3) -> Result<(), WorldError> {
-        let speed = v_m_s.length();
+    /// Refuses a COM velocity `v_m_s` plus, when given, an angular velocity `omega_rad_s` whose
+    /// speed at the object's farthest particle from its COM exceeds [`MAX_COMMAND_SPEED_M_S`].
+    pub(super) fn check_velocity(
+        &self,
+        id: usize,
+        v_m_s: DVec3,
+        omega_rad_s: Option<DVec3>,
+    ) -> Result<(), WorldError> {
+        let arm = match omega_rad_s {
+            Some(_) => measure(&self.bodies[id].particles, self.dx_m()).radius_m,
+            None => 0.0,
+        };
+        let spin = omega_rad_s.map_or(0.0, |w| w.length() * arm);
+        let speed = v_m_s.length() + spin;
         if !speed.is_finite() || speed > MAX_COMMAND_SPEED_M_S {
             return Err(self.refuse(
                 id,
-                format!("speed {speed:.3e} m/s is above the limit of {MAX_COMMAND_SPEED_M_S} m/s"),
+                format!(
+                    "speed {speed:.3e} m/s ({spin:.3e} m/s of it from the spin about a lever arm \
+                     of {arm:.3} m) is above the limit of {MAX_COMMAND_SPEED_M_S} m/s"
+                ),
             ));
         }
         Ok(())

@@ -11,7 +11,8 @@
 //! 4. deformable pairs: one COM-level impulse per pair (`deformable_pair.rs`, [`coherence`]);
 //! 5. one contact solve for rigid and static objects, colliders and the background
 //!    ([`contact`], [`crate::contact::solver`]);
-//! 6. rigid objects' position half, then sleeping (`sleep.rs`).
+//! 6. rigid objects' position half, kinematic objects' motion ([`kinematic`]: their velocities
+//!    for the substep are set before its dt is chosen), then sleeping (`sleep.rs`).
 //!
 //! [`overlap`] measures how deep objects lie inside each other, on occupied cells; [`explain`]
 //! reports per object what the scene needed and what was modelled. An object with a
@@ -33,6 +34,7 @@ pub mod contact;
 mod deformable_pair;
 pub mod explain;
 mod impact;
+pub mod kinematic;
 pub mod limits;
 mod mpm_step;
 mod output;
@@ -175,6 +177,12 @@ pub struct ObjectSummary {
     pub contacts: u32,
     /// Asleep.
     pub sleeping: bool,
+    /// Contact force on a solid object, averaged over the last frame: the impulses it received
+    /// from contacts, deformable objects' grids and the restitution law, over the frame time (N).
+    /// Zero for deformable objects.
+    pub contact_force_n: [f64; 3],
+    /// The moment of those impulses about its COM over the frame time (N m).
+    pub contact_torque_n_m: [f64; 3],
 }
 
 /// All objects of a scene and their clock.
@@ -343,8 +351,7 @@ impl World {
             .map(|(k, o)| Body::from_object(o, k as u32, dx))
             .collect::<Result<Vec<_>, _>>()?;
         let background_state = background_state(&scene.background);
-        let mut events = scene.events.clone();
-        events.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+        let events = kinematic::keyframes(scene.events.clone(), s.frame_rate_hz);
         let (background_collision, background_report) = if s.background_collision {
             background::collision(
                 &scene.background,
@@ -442,6 +449,8 @@ impl World {
         let mut substeps = 0;
         for b in &mut self.bodies {
             b.contacts = 0;
+            b.frame_impulse_n_s = glam::DVec3::ZERO;
+            b.frame_angular_impulse_n_m_s = glam::DVec3::ZERO;
         }
         while end - self.time_s > 1e-9 {
             self.apply_due_events()?;
@@ -496,6 +505,7 @@ impl World {
     /// # Errors
     /// [`WorldError::TimeStep`] or [`WorldError::Solver`].
     pub fn substep(&mut self, max_dt_s: f64) -> Result<f64, WorldError> {
+        self.drive_kinematic();
         let mut wave = 0.0f32;
         let mut vmax = 0.0f32;
         for b in self.bodies.iter().filter(|b| b.is_active()) {
@@ -528,6 +538,7 @@ impl World {
         self.resolve_deformable_pairs(dt as f64);
         self.solve_contacts(dt as f64);
         self.rigid_positions(dt as f64);
+        self.kinematic_positions(dt as f64);
         self.update_sleep(dt as f64);
         let t2 = Instant::now();
         self.stats.mpm_wall_s += (t1 - t0).as_secs_f64();
@@ -540,14 +551,17 @@ impl World {
     }
 
     /// Velocity half of the rigid step: gravity and the reactions of deformable objects' grids
-    /// (`reactions[k]`: the impulse and angular impulse object k received this substep).
+    /// (`reactions[k]`: the impulse and angular impulse object k received this substep; every
+    /// solid adds its reaction to its frame's contact impulses).
     fn rigid_velocities(&mut self, dt: f64, reactions: &[boundary::Reaction]) {
         let g = self.gravity_m_s2.as_dvec3();
         for (k, b) in self.bodies.iter_mut().enumerate() {
+            let r = reactions.get(k).copied().unwrap_or_default();
+            b.frame_impulse_n_s += r.impulse_n_s;
+            b.frame_angular_impulse_n_m_s += r.angular_impulse_n_m_s;
             if b.kind != ObjectKind::Rigid {
                 continue;
             }
-            let r = reactions.get(k).copied().unwrap_or_default();
             if b.sleeping {
                 // A moving deformable object pushing on it wakes it.
                 if r.nodes == 0 || r.impulse_n_s.length() < b.rigid.mass_kg * g.length() * dt {

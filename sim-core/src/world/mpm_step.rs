@@ -98,7 +98,7 @@ impl World {
             if !near(placed.bounds_m) {
                 continue;
             }
-            let moving = b.kind == ObjectKind::Rigid && !b.sleeping;
+            let moving = b.moves_rigidly();
             out.push(Obstacle {
                 placed,
                 velocity_m_s: if moving {

@@ -55,12 +55,13 @@ impl World {
     /// Per-object summaries (COM, velocity, orientation, spin, mass, contacts).
     pub fn objects(&self) -> Vec<ObjectSummary> {
         let dx = self.dx_m();
+        let per_s = 1.0 / self.frame_dt_s();
         self.bodies
             .iter()
             .enumerate()
             .map(|(k, b)| {
                 let s = measure(&b.particles, dx);
-                let (q, w) = if b.kind == ObjectKind::Rigid {
+                let (q, w) = if b.kind != ObjectKind::Deformable {
                     (b.rigid.orientation, b.rigid.omega_rad_s)
                 } else {
                     (best_fit_rotation(b, s.com_m), s.angular_velocity())
@@ -75,6 +76,8 @@ impl World {
                     mass_kg: s.mass_kg,
                     contacts: b.contacts,
                     sleeping: b.sleeping,
+                    contact_force_n: (b.frame_impulse_n_s * per_s).to_array(),
+                    contact_torque_n_m: (b.frame_angular_impulse_n_m_s * per_s).to_array(),
                 }
             })
             .collect()

@@ -67,8 +67,10 @@ impl World {
             return;
         }
         let n = self.bodies.len();
+        // Kinematic objects move as commanded and never sleep; to islands they are supports.
+        let sleeper = |b: &Body| b.is_active() && b.kind != ObjectKind::Kinematic;
         for b in &mut self.bodies {
-            if b.is_active() {
+            if sleeper(b) {
                 if b.max_speed_m_s < SLEEP_SPEED_M_S {
                     b.still_s += dt;
                 } else {
@@ -83,7 +85,7 @@ impl World {
                 Other::Object(b) => (c.a as usize, b as usize),
                 _ => continue,
             };
-            if self.bodies[a].is_active() && self.bodies[b].is_active() {
+            if sleeper(&self.bodies[a]) && sleeper(&self.bodies[b]) {
                 let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
                 parent[ra.max(rb)] = ra.min(rb);
             }
@@ -91,13 +93,13 @@ impl World {
         let mut ready = vec![true; n];
         for k in 0..n {
             let r = root(&mut parent, k);
-            if self.bodies[k].is_active() && self.bodies[k].still_s < SLEEP_AFTER_S {
+            if sleeper(&self.bodies[k]) && self.bodies[k].still_s < SLEEP_AFTER_S {
                 ready[r] = false;
             }
         }
         for k in 0..n {
             let r = root(&mut parent, k);
-            if self.bodies[k].is_active() && ready[r] {
+            if sleeper(&self.bodies[k]) && ready[r] {
                 self.bodies[k].fall_asleep();
             }
         }

@@ -8,7 +8,9 @@ use std::time::Duration;
 
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
-use splatphys_control::action::{Action, ObjectRef, parse_kind, parse_model, parse_vec3};
+use splatphys_control::action::{
+    Action, ObjectRef, parse_floats, parse_kind, parse_model, parse_vec3,
+};
 use splatphys_control::follow::{FollowConfig, FollowStop, follow};
 use splatphys_control::session::{describe_reply, reply_json};
 use splatphys_control::timeline::{load_timeline, run_timeline};
@@ -24,6 +26,8 @@ Examples:
   splatphys-control --prefix splatphys/vase impulse --object donut --vector 0,0,2
   splatphys-control --prefix splatphys/vase impulse --object 1 --vector=-1,0,0 --point 0.1,0,0.5
   splatphys-control --prefix splatphys/vase set-velocity --object donut --vector 0,0,0
+  splatphys-control --prefix splatphys/vase set-velocity --object finger --vector 0.1,0,0 --angular 0,0,1
+  splatphys-control --prefix splatphys/vase set-pose --object finger --position 0.2,0,0.05 --orientation 1,0,0,0 --at-step 30
   splatphys-control --prefix splatphys/vase edit-material --object donut --model snow --youngs-modulus-pa 1.4e5 --poisson-ratio 0.2
   splatphys-control --prefix splatphys/vase set-kind --object donut --kind rigid
   splatphys-control --prefix splatphys/vase pause
@@ -75,13 +79,32 @@ enum Cmd {
         #[arg(long, value_parser = vec3, allow_hyphen_values = true)]
         point: Option<[f64; 3]>,
     },
-    /// Set an object's COM velocity (m/s, world frame).
+    /// Set an object's COM velocity (m/s, world frame) and optionally its angular velocity; a
+    /// kinematic object keeps them until its next command.
     SetVelocity {
         #[command(flatten)]
         object: ObjectArg,
         /// Velocity x,y,z in m/s.
         #[arg(long, alias = "velocity", value_parser = vec3, allow_hyphen_values = true)]
         vector: [f64; 3],
+        /// Angular velocity x,y,z in rad/s about the COM (default: unchanged).
+        #[arg(long, value_parser = vec3, allow_hyphen_values = true)]
+        angular: Option<[f64; 3]>,
+    },
+    /// Drive a kinematic object to a pose (COM position, orientation relative to its rest
+    /// pose), reached at the end of a step.
+    SetPose {
+        #[command(flatten)]
+        object: ObjectArg,
+        /// COM position x,y,z in world metres.
+        #[arg(long, value_parser = vec3, allow_hyphen_values = true)]
+        position: [f64; 3],
+        /// Orientation w,x,y,z relative to the rest pose.
+        #[arg(long, value_parser = quat, allow_hyphen_values = true, default_value = "1,0,0,0")]
+        orientation: [f64; 4],
+        /// The step at whose end the pose is reached (default: the end of the current step).
+        #[arg(long)]
+        at_step: Option<u64>,
     },
     /// Edit an object's material; unspecified fields keep their value.
     EditMaterial {
@@ -106,11 +129,11 @@ enum Cmd {
         #[arg(long)]
         friction: Option<f64>,
     },
-    /// Change how an object moves: deformable, rigid or static.
+    /// Change how an object moves: deformable, rigid, static or kinematic.
     SetKind {
         #[command(flatten)]
         object: ObjectArg,
-        /// deformable, rigid or static.
+        /// deformable, rigid, static or kinematic.
         #[arg(long)]
         kind: String,
     },
@@ -174,6 +197,10 @@ fn vec3(s: &str) -> Result<[f64; 3], String> {
     parse_vec3(s).map_err(|e| e.to_string())
 }
 
+fn quat(s: &str) -> Result<[f64; 4], String> {
+    parse_floats(s).map_err(|e| e.to_string())
+}
+
 /// Exit status for an error: 2 for connection trouble, 1 otherwise.
 fn exit_code(e: &ControlError) -> i32 {
     if e.is_connection() { 2 } else { 1 }
@@ -190,9 +217,25 @@ fn one_shot_action(cmd: &Cmd) -> Result<Option<Action>, ControlError> {
             impulse_n_s: *vector,
             point_m: *point,
         },
-        Cmd::SetVelocity { object, vector } => Action::SetVelocity {
+        Cmd::SetVelocity {
+            object,
+            vector,
+            angular,
+        } => Action::SetVelocity {
             object: object.object.clone(),
             velocity_m_s: *vector,
+            angular_velocity_rad_s: *angular,
+        },
+        Cmd::SetPose {
+            object,
+            position,
+            orientation,
+            at_step,
+        } => Action::SetPose {
+            object: object.object.clone(),
+            position_m: *position,
+            orientation_wxyz: *orientation,
+            at_step: *at_step,
         },
         Cmd::EditMaterial {
             object,
