@@ -112,6 +112,46 @@ impl Geometry {
         }
     }
 
+    /// Whether rest point `x0` is nearest an edge or a corner of a box, or the rim of a cylinder,
+    /// rather than a face: there the outward normal of [`Self::distance`] turns with the point
+    /// (a sphere and a level set are smooth). Inside, within 1 % of the shape's smallest
+    /// half-extent of two faces counts as an edge.
+    pub fn near_edge(&self, x0: Vec3A) -> bool {
+        let edge = |q: &mut [f32], tol: f32| {
+            if q.iter().filter(|v| **v > 0.0).count() >= 2 {
+                return true;
+            }
+            if q.iter().any(|v| *v > 0.0) {
+                return false;
+            }
+            q.sort_by(|a, b| b.total_cmp(a));
+            q[0] - q[1] < tol
+        };
+        match self {
+            Geometry::Analytic(Shape::Box { min_m, max_m }) => {
+                let (lo, hi) = (Vec3A::from(*min_m), Vec3A::from(*max_m));
+                let half = (hi - lo) * 0.5;
+                let q = (x0 - (lo + hi) * 0.5).abs() - half;
+                edge(&mut q.to_array(), 0.01 * half.min_element())
+            }
+            Geometry::Analytic(Shape::Cylinder {
+                base_m,
+                axis,
+                radius_m,
+                height_m,
+            }) => {
+                let a = Vec3A::from(*axis).try_normalize().unwrap_or(Vec3A::Z);
+                let half = 0.5 * height_m;
+                let d = x0 - Vec3A::from(*base_m) - a * half;
+                let t = d.dot(a);
+                let rho = (d - a * t).length();
+                let tol = 0.01 * radius_m.min(half);
+                edge(&mut [rho - radius_m, t.abs() - half], tol)
+            }
+            Geometry::Analytic(Shape::Sphere { .. }) | Geometry::Sampled(_) => false,
+        }
+    }
+
     /// Points on the surface (rest frame, m), about `spacing_m` apart; edges and corners of a box
     /// included.
     pub fn surface_points(&self, spacing_m: f32) -> Vec<Vec3A> {
@@ -297,6 +337,35 @@ mod tests {
             radius_m: 0.5,
         });
         assert!((s.distance(Vec3A::ZERO).0 - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn edges_and_rims_are_told_from_faces() {
+        let b = Geometry::Analytic(Shape::Box {
+            min_m: [0.0; 3],
+            max_m: [0.1, 0.2, 0.3],
+        });
+        // Beside a face, on it, inside it: a face.
+        assert!(!b.near_edge(Vec3A::new(0.05, 0.1, 0.35)));
+        assert!(!b.near_edge(Vec3A::new(0.05, 0.1, 0.3)));
+        assert!(!b.near_edge(Vec3A::new(0.05, 0.1, 0.29)));
+        // Beyond an edge, beyond a corner, inside along an edge: not.
+        assert!(b.near_edge(Vec3A::new(0.12, 0.1, 0.32)));
+        assert!(b.near_edge(Vec3A::new(-0.01, -0.01, -0.01)));
+        assert!(b.near_edge(Vec3A::new(0.0999, 0.1, 0.2999)));
+        let c = Geometry::Analytic(Shape::Cylinder {
+            base_m: [0.0; 3],
+            axis: [0.0, 0.0, 1.0],
+            radius_m: 0.1,
+            height_m: 0.5,
+        });
+        assert!(!c.near_edge(Vec3A::new(0.12, 0.0, 0.25)));
+        assert!(c.near_edge(Vec3A::new(0.12, 0.0, 0.52)));
+        let s = Geometry::Analytic(Shape::Sphere {
+            center_m: [0.0; 3],
+            radius_m: 0.5,
+        });
+        assert!(!s.near_edge(Vec3A::new(0.6, 0.0, 0.0)));
     }
 
     #[test]

@@ -3,7 +3,8 @@
 //!
 //! Each object carries points on its own surface (rest frame). A point of A whose signed distance
 //! in B is below a margin is a contact point: at that point, with B's outward normal there
-//! (reversed: normals run from A to B) and that distance as the separation. The same is done with
+//! (reversed: normals run from A to B; where the point is on a face of A and nearest an edge of
+//! B, A's face normal instead) and that distance as the separation. The same is done with
 //! B's points in A, so an edge or a corner of either object is caught, and several separate
 //! patches (a donut on a post, a box on two supports) each get their own points. A pair keeps at
 //! most [`MAX_POINTS`] spanning the contact's area, in a fixed order.
@@ -72,9 +73,18 @@ fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<R
         // The surfaces must face each other: a point on a side face that merely lies on the
         // other's edge plane is not a contact.
         let (_, own) = from.geometry.distance(*p0);
-        if (from.pose.rotation * own).dot(normal) > -FACING {
+        let own = from.pose.rotation * own;
+        if own.dot(normal) > -FACING {
             continue;
         }
+        // A face point of `from` against an edge of `into`: the normal is the face's (the
+        // edge's own normal turns from face to face across it and would push sideways).
+        let normal =
+            if into.geometry.near_edge(into.pose.to_rest(p)) && !from.geometry.near_edge(*p0) {
+                -own
+            } else {
+                normal
+            };
         {
             out.push(RawContact {
                 point_m: p,

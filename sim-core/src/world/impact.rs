@@ -5,8 +5,10 @@
 //! table for ever whatever e says. The law is applied at the object level, as the paper does for
 //! object pairs: when a deformable object starts touching a solid, its approach speed a along the
 //! contact normal n (the direction of the grid's impulse on it) is recorded; when the contact
-//! ends, a separation speed s above e·a (e = max(e_object, e_solid), the background's e is 0) is
-//! removed by a uniform velocity change −(s − e a) n, which leaves its deformation and angular
+//! ends, a separation speed s above e·a (e = max(e_object, e_solid), the background's e is 0;
+//! above the normal velocity at first touch when the object was already separating then, so a
+//! grazing second touch does not take a rebound away) is removed by a uniform velocity change
+//! −(s − e a) n, which leaves its deformation and angular
 //! momentum alone and only ever removes energy; a rigid solid takes the opposite momentum (a
 //! kinematic or static one counts it in its contact force). A
 //! resting object never ends its contact and is not touched.
@@ -28,6 +30,8 @@ pub struct Impact {
     pub normal: DVec3,
     /// Approach speed along the normal at first touch (m/s, >= 0).
     pub approach_m_s: f64,
+    /// Relative normal velocity at first touch (m/s, positive when already separating).
+    pub touch_m_s: f64,
 }
 
 impl World {
@@ -48,12 +52,13 @@ impl World {
                 continue;
             }
             let v = measure_bounds(&self.bodies[k].particles, dx).velocity_m_s;
-            let approach = (-(v - self.solid_velocity(solid)).dot(n)).max(0.0);
+            let touch = (v - self.solid_velocity(solid)).dot(n);
             self.impacts.insert(
                 (k, solid),
                 Impact {
                     normal: n,
-                    approach_m_s: approach,
+                    approach_m_s: (-touch).max(0.0),
+                    touch_m_s: touch,
                 },
             );
         }
@@ -74,7 +79,9 @@ impl World {
             let separation = (s.velocity_m_s - self.solid_velocity(solid)).dot(imp.normal);
             let e_solid = solid.map_or(0.0, |o| self.bodies[o].restitution);
             let e = mix_restitution(b.restitution, e_solid) as f64;
-            let excess = separation - e * imp.approach_m_s;
+            // A touch while already separating (the far side of a ringing object grazing the
+            // boundary again) keeps the speed it came with: the law caps what a contact adds.
+            let excess = separation - (e * imp.approach_m_s).max(imp.touch_m_s);
             if excess <= 0.0 || !excess.is_finite() {
                 continue;
             }

@@ -75,7 +75,8 @@ impl Body {
             }
         }
         let rs = &self.rigid;
-        self.max_speed_m_s = (rs.velocity_m_s.length() + rs.omega_rad_s.length() * self.arm_m()) as f32;
+        self.max_speed_m_s =
+            (rs.velocity_m_s.length() + rs.omega_rad_s.length() * self.arm_m()) as f32;
     }
 
     /// Puts a kinematic object on its target pose, still.
@@ -187,7 +188,9 @@ impl World {
             )));
         }
         if q.length() < 1e-6 {
-            return Err(refuse("orientation_wxyz is not a rotation (zero length)".into()));
+            return Err(refuse(
+                "orientation_wxyz is not a rotation (zero length)".into(),
+            ));
         }
         let q = q.normalize();
         let step = at_step.unwrap_or(0).max(self.frame + 1);
