@@ -54,7 +54,7 @@ fn check_objects_csv(
     let text = std::fs::read_to_string(out.join("objects.csv")).unwrap();
     assert_eq!(
         text.lines().next(),
-        Some("step,time_s,object,name,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg")
+        Some("step,time_s,object,name,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg,fx_n,fy_n,fz_n")
     );
     let rows = read_csv(&out.join("objects.csv"));
     assert!(!rows.is_empty(), "objects.csv has no rows");

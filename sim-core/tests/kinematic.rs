@@ -316,9 +316,8 @@ fn a_kinematic_pusher_wakes_a_sleeping_box_and_pushes_it_without_being_pushed_ba
     let (b, p) = (&w.objects()[0], &w.objects()[1]);
     // The pusher moved 0.4 m, unimpeded; its front face, 0.15 m from the box's back face, has
     // pushed the box 0.25 m, give or take the contact gap.
-    for a in 0..3 {
-        let want = if a == 0 { 0.4 } else { 0.0 };
-        assert!((p.com_m[a] - p0[a] - want).abs() < 1e-6, "{:?}", p.com_m);
+    for ((now, then), want) in p.com_m.iter().zip(p0).zip([0.4, 0.0, 0.0]) {
+        assert!((now - then - want).abs() < 1e-6, "{:?}", p.com_m);
     }
     let moved = b.com_m[0] - b0[0];
     assert!((moved - 0.25).abs() < 0.01, "the box moved {moved} m");

@@ -251,6 +251,7 @@ for _t, _size in RUST_SIZES.items():
 # Spot-check offsets the dtypes rely on.
 assert FRAME_GAUSSIAN_DTYPE.fields["rotation_wxyz"][1] == 36
 assert OBJECT_STATE_DTYPE.fields["mass_kg"][1] == 60
+assert OBJECT_STATE_DTYPE.fields["contact_force_n"][1] == 64
 assert SCENE_GAUSSIAN_DTYPE.fields["object_id"][1] == 224
 assert STATUS_DTYPE.fields["subscribers"][1] == 96
 

@@ -1,9 +1,10 @@
 //! `objects.csv`: every object's state per published step, one row each. The one writer of this
 //! file: `splatphys run` (both modes) and `splatphys-record export-objects` use it.
 //!
-//! Columns: `step,time_s,object,name,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg`: `object` is the
-//! object id, `name` its scene name (empty when unknown), positions and velocities are the COM's
-//! in world metres and m/s, at the wire's f32 precision. Fields are quoted as RFC 4180 asks
+//! Columns: `step,time_s,object,name,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg,fx_n,fy_n,fz_n`:
+//! `object` is the object id, `name` its scene name (empty when unknown), positions and
+//! velocities are the COM's in world metres and m/s, `f*_n` the contact force on a solid object
+//! over the step (N; zero for deformable objects), at the wire's f32 precision. Fields are quoted as RFC 4180 asks
 //! (only names can need it).
 
 use std::io::Write;
@@ -11,7 +12,8 @@ use std::io::Write;
 use splatphys_ipc::wire::ObjectState;
 
 /// The header line, without the line break.
-pub const HEADER: &str = "step,time_s,object,name,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg";
+pub const HEADER: &str =
+    "step,time_s,object,name,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,mass_kg,fx_n,fy_n,fz_n";
 
 /// Writes `objects.csv` rows to `W`.
 #[derive(Debug)]
@@ -47,10 +49,10 @@ impl<W: Write> ObjectsCsv<W> {
     ) -> std::io::Result<()> {
         for o in objects {
             let name = self.names.get(o.id as usize).map_or("", String::as_str);
-            let (p, v) = (o.position_m, o.velocity_m_s);
+            let (p, v, f) = (o.position_m, o.velocity_m_s, o.contact_force_n);
             writeln!(
                 self.out,
-                "{step},{time_s},{},{},{},{},{},{},{},{},{}",
+                "{step},{time_s},{},{},{},{},{},{},{},{},{},{},{},{}",
                 o.id,
                 quoted(name),
                 p[0],
@@ -59,7 +61,10 @@ impl<W: Write> ObjectsCsv<W> {
                 v[0],
                 v[1],
                 v[2],
-                o.mass_kg
+                o.mass_kg,
+                f[0],
+                f[1],
+                f[2]
             )?;
             self.rows += 1;
         }
@@ -100,6 +105,7 @@ mod tests {
             id,
             position_m: [x, 0.0, 1.0],
             mass_kg: 2.0,
+            contact_force_n: [0.0, 0.0, x * 10.0],
             ..Default::default()
         }
     }
@@ -114,8 +120,11 @@ mod tests {
         let text = String::from_utf8(w.finish().unwrap()).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], HEADER);
-        assert_eq!(lines[1], "3,0.05,0,ball,0.5,0,1,0,0,0,2");
-        assert_eq!(lines[2], "3,0.05,1,\"say \"\"hi\"\", box\",-1,0,1,0,0,0,2");
-        assert_eq!(lines[3], "3,0.05,2,,0,0,1,0,0,0,2");
+        assert_eq!(lines[1], "3,0.05,0,ball,0.5,0,1,0,0,0,2,0,0,5");
+        assert_eq!(
+            lines[2],
+            "3,0.05,1,\"say \"\"hi\"\", box\",-1,0,1,0,0,0,2,0,0,-10"
+        );
+        assert_eq!(lines[3], "3,0.05,2,,0,0,1,0,0,0,2,0,0,0");
     }
 }
