@@ -82,6 +82,6 @@ mod tests {
             assert_eq!(ObjectKind::from_code(k.code()), Some(k));
         }
         assert_eq!(ObjectKind::from_code(4), None);
-        assert!("kinematic".parse::<ObjectKind>().is_err());
+        assert!("liquid".parse::<ObjectKind>().is_err());
     }
 }
