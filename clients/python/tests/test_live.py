@@ -63,12 +63,12 @@ def server(request):
 def test_dtypes_match_the_rust_sizes():
     assert wire.FRAME_GAUSSIAN_DTYPE.itemsize == 52
     assert wire.SCENE_GAUSSIAN_DTYPE.itemsize == 228
-    assert wire.OBJECT_STATE_DTYPE.itemsize == 64
+    assert wire.OBJECT_STATE_DTYPE.itemsize == 88
     assert wire.FRAME_HEADER_DTYPE.itemsize == 56
     assert wire.STATUS_DTYPE.itemsize == 600
-    assert wire.COMMAND_DTYPE.itemsize == 128
+    assert wire.COMMAND_DTYPE.itemsize == 184
     assert wire.REPLY_DTYPE.itemsize == 256
-    assert wire.COMMAND_LOG_DTYPE.itemsize == 424
+    assert wire.COMMAND_LOG_DTYPE.itemsize == 480
     assert wire.FRAME_GAUSSIAN_DTYPE["position_m"].shape == (3,)
 
 
@@ -126,6 +126,13 @@ def test_commands_get_replies(server):
         r = c.command(sc.SetVelocity(7, (0, 0, 0)))
         assert not r.accepted and r.reject_code == 3
         r = c.command(sc.Impulse(0, (float("nan"), 0, 0)))
+        assert not r.accepted and r.reject_code == 2
+        # Pose and angular velocity travel and are checked (the stand-in moves the COM).
+        assert c.command(sc.SetPose(1, (0.5, 0.0, 3.0), at_step=40)).accepted
+        assert c.command(sc.SetVelocity(1, (0, 0, 0), angular_velocity_rad_s=(0, 0, 1))).accepted
+        r = c.command(sc.SetPose(1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0)))
+        assert not r.accepted and r.reject_code == 4 and "not a rotation" in r.reason
+        r = c.command(sc.SetVelocity(1, (0, 0, 0), angular_velocity_rad_s=(float("inf"), 0, 0)))
         assert not r.accepted and r.reject_code == 2
         assert c.command(sc.Pause()).accepted
         assert c.command(sc.Step(2)).accepted
