@@ -124,6 +124,12 @@ impl Shape {
         Ok(())
     }
 
+    /// The centre of its bounding box, m: what `rotation_deg` turns it about.
+    pub fn center(&self) -> Vec3 {
+        let (lo, hi) = self.aabb();
+        (lo + hi) * 0.5
+    }
+
     /// Axis-aligned bounding box `(min, max)`, m.
     pub fn aabb(&self) -> (Vec3, Vec3) {
         match *self {

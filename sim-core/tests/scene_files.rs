@@ -254,6 +254,16 @@ fn invalid_values_name_the_key() {
             "collider[0]",
         ),
         (
+            format!("{base}rotation_deg = [0.0, nan, 0.0]\n"),
+            "object[0].rotation_deg",
+        ),
+        (
+            format!(
+                "{base}\n[[event]]\nat_s = 0.1\ncommand = \"set-pose\"\nobject = \"a\"\nposition_m = [0.0, 0.0, 0.0]\norientation_wxyz = [1.0, 0.0, 0.0, 0.0]\n"
+            ),
+            "event[0].object",
+        ),
+        (
             "[[object]]\nname = \"a\"\nselect = { source = \"nope\" }\n".to_string(),
             "object[0].select.source",
         ),

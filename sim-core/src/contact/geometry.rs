@@ -19,6 +19,13 @@ pub enum Geometry {
     Analytic(Shape),
     /// A level set built from the object's particles.
     Sampled(LevelSet),
+    /// A procedural shape turned by `rotation` about its centre ([`Shape::center`]).
+    Turned {
+        /// The shape as written.
+        shape: Shape,
+        /// Its rotation about its centre.
+        rotation: Quat,
+    },
 }
 
 /// Where the rest frame is now: x = `com_m` + R (x0 − `rest_com_m`).
@@ -67,6 +74,11 @@ impl Geometry {
     /// normal there (any unit vector where it is undefined).
     pub fn distance(&self, x0: Vec3A) -> (f32, Vec3A) {
         match self {
+            Geometry::Turned { shape, rotation } => {
+                let c = Vec3A::from(shape.center());
+                let (d, n) = Geometry::Analytic(*shape).distance(c + rotation.inverse() * (x0 - c));
+                (d, *rotation * n)
+            }
             Geometry::Analytic(Shape::Sphere { center_m, radius_m }) => {
                 let d = x0 - Vec3A::from(*center_m);
                 let len = d.length();
@@ -128,6 +140,10 @@ impl Geometry {
             q[0] - q[1] < tol
         };
         match self {
+            Geometry::Turned { shape, rotation } => {
+                let c = Vec3A::from(shape.center());
+                Geometry::Analytic(*shape).near_edge(c + rotation.inverse() * (x0 - c))
+            }
             Geometry::Analytic(Shape::Box { min_m, max_m }) => {
                 let (lo, hi) = (Vec3A::from(*min_m), Vec3A::from(*max_m));
                 let half = (hi - lo) * 0.5;
@@ -157,6 +173,14 @@ impl Geometry {
     pub fn surface_points(&self, spacing_m: f32) -> Vec<Vec3A> {
         let s = spacing_m.max(1e-6);
         match self {
+            Geometry::Turned { shape, rotation } => {
+                let c = Vec3A::from(shape.center());
+                Geometry::Analytic(*shape)
+                    .surface_points(s)
+                    .into_iter()
+                    .map(|p| c + *rotation * (p - c))
+                    .collect()
+            }
             Geometry::Analytic(Shape::Sphere { center_m, radius_m }) => {
                 let n =
                     ((4.0 * std::f32::consts::PI * radius_m * radius_m) / (s * s)).ceil() as usize;

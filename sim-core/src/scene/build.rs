@@ -496,15 +496,28 @@ fn object(
                 format!("{key}.color"),
                 "each channel in [0, 1]",
             )?;
-            shape_gaussians(shape, spacing, color, seed).map_err(|source| {
+            let mut cloud = shape_gaussians(shape, spacing, color, seed).map_err(|source| {
                 SceneError::Procedural {
                     file: ctx.file.to_path_buf(),
                     key_path: format!("{key}.shape"),
                     source,
                 }
-            })?
+            })?;
+            if let Some(r) = o.rotation_deg {
+                ctx.finite3(r, format!("{key}.rotation_deg"))?;
+                // p' = c + R (p - c): about the shape's centre.
+                let q = euler_xyz_deg(r);
+                let c = shape.center();
+                apply_similarity(&mut cloud, 1.0, q, c - q * c);
+            }
+            cloud
         }
     };
+    ctx.check(
+        o.rotation_deg.is_none() || o.shape.is_some(),
+        format!("{key}.rotation_deg"),
+        "only turns a procedural `shape` (a selection keeps its source's rotation_deg)",
+    )?;
     ctx.check(!gaussians.is_empty(), &key, "selects no Gaussians")?;
     let mut visible = vec![true; gaussians.len()];
     let mut gaussians = gaussians;
@@ -543,6 +556,7 @@ fn object(
         visible,
         physics_spacing_m,
         shape: o.shape,
+        shape_rotation: o.rotation_deg.map_or(glam::Quat::IDENTITY, euler_xyz_deg),
         surface: o.surface.unwrap_or(super::model::Surface::Separate),
     })
 }

@@ -233,6 +233,7 @@ impl ObjectBuilder {
                 name: name.into(),
                 select: None,
                 shape: Some(shape),
+                rotation_deg: None,
                 spacing_m: None,
                 color: None,
                 kind: ObjectKind::default(),
@@ -245,6 +246,12 @@ impl ObjectBuilder {
                 physics_spacing_m: None,
             },
         }
+    }
+
+    /// Turns the shape about its centre: Euler angles x, y, z in degrees. Default none.
+    pub fn rotation_deg(mut self, rotation_deg: [f32; 3]) -> Self {
+        self.toml.rotation_deg = Some(rotation_deg);
+        self
     }
 
     /// How it moves. Default [`ObjectKind::Deformable`].

@@ -54,6 +54,7 @@ impl Scene {
                 gaussians: table,
                 physics_spacing_m: None,
                 shape: table_shape,
+                shape_rotation: glam::Quat::IDENTITY,
                 surface: Surface::Separate,
             },
             SceneObject {
@@ -67,6 +68,7 @@ impl Scene {
                 gaussians: jelly,
                 physics_spacing_m: None,
                 shape: jelly_shape,
+                shape_rotation: glam::Quat::IDENTITY,
                 surface: Surface::Separate,
             },
             SceneObject {
@@ -80,6 +82,7 @@ impl Scene {
                 gaussians: snow,
                 physics_spacing_m: None,
                 shape: snow_shape,
+                shape_rotation: glam::Quat::IDENTITY,
                 surface: Surface::Separate,
             },
         ];

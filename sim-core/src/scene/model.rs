@@ -135,6 +135,8 @@ pub struct SceneObject {
     /// surface. `None` for objects selected from a capture (their surface is sampled from
     /// their particles, `crate::contact::LevelSet`).
     pub shape: Option<crate::procedural::Shape>,
+    /// How `shape` is turned about its centre (identity: as written).
+    pub shape_rotation: glam::Quat,
     /// The boundary rule this object imposes, as a static or rigid object, on deformable
     /// objects' grids. Default [`Surface::Separate`].
     pub surface: Surface,

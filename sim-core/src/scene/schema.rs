@@ -214,6 +214,8 @@ pub struct ObjectToml {
     pub select: Option<SelectToml>,
     /// Or a procedural shape.
     pub shape: Option<Shape>,
+    /// Turns a procedural shape about its centre: Euler angles x, y, z in degrees (as sources).
+    pub rotation_deg: Option<[f32; 3]>,
     /// Procedural lattice spacing, m.
     pub spacing_m: Option<f32>,
     /// Procedural colour, linear RGB 0..1.

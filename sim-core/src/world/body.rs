@@ -307,7 +307,7 @@ impl Body {
         };
         body.capture_rigid_pose();
         if o.kind != ObjectKind::Deformable {
-            body.build_collision(o.shape);
+            body.build_collision(o.shape, o.shape_rotation);
         }
         if o.kind == ObjectKind::Kinematic {
             // It moves only as commanded: the scene's initial velocity is its first command.
@@ -408,12 +408,13 @@ impl Body {
     }
 
     /// Builds the collision surface in the current rest frame (call after
-    /// [`Self::capture_rigid_pose`]): `shape`'s exact surface, or a level set of the particles
-    /// with cells of the grid's size.
-    pub fn build_collision(&mut self, shape: Option<Shape>) {
+    /// [`Self::capture_rigid_pose`]): `shape`'s exact surface turned by `rotation` about its
+    /// centre, or a level set of the particles with cells of the grid's size.
+    pub fn build_collision(&mut self, shape: Option<Shape>, rotation: Quat) {
         let dx = self.solver.dx_m;
         let geometry = match shape {
-            Some(s) => Geometry::Analytic(s),
+            Some(shape) if rotation == Quat::IDENTITY => Geometry::Analytic(shape),
+            Some(shape) => Geometry::Turned { shape, rotation },
             None => match LevelSet::from_points(&self.particles.x, dx, MAX_SURFACE_CELLS) {
                 Some(ls) => Geometry::Sampled(ls),
                 None => {

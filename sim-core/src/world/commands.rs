@@ -259,7 +259,7 @@ impl World {
         if solid(kind) && !solid(b.kind) {
             // The current shape becomes the rest shape and the collision surface.
             b.capture_rigid_pose();
-            b.build_collision(None);
+            b.build_collision(None, glam::Quat::IDENTITY);
         } else if !solid(kind) {
             b.collision = None;
         }
