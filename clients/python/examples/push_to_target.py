@@ -123,7 +123,6 @@ class Controller:
 
     def __init__(self, radius_m, finger_m, top_z, dt_s, a):
         self.clear = radius_m + finger_m + 0.01  # finger centre to donut COM, lowered behind it
-        self.touch = radius_m + finger_m
         self.safe_z = top_z + finger_m + 0.02
         self.dt = dt_s
         self.a = a

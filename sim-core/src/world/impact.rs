@@ -8,10 +8,9 @@
 //! ends, a separation speed s above e·a (e = max(e_object, e_solid), the background's e is 0;
 //! above the normal velocity at first touch when the object was already separating then, so a
 //! grazing second touch does not take a rebound away) is removed by a uniform velocity change
-//! −(s − e a) n, which leaves its deformation and angular
-//! momentum alone and only ever removes energy; a rigid solid takes the opposite momentum (a
-//! kinematic or static one counts it in its contact force). A
-//! resting object never ends its contact and is not touched.
+//! −(s − e a) n, which leaves its deformation and angular momentum alone and only ever removes
+//! energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
+//! contact force). A resting object never ends its contact and is not touched.
 
 use glam::DVec3;
 
