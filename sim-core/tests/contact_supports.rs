@@ -325,6 +325,62 @@ fn a_jelly_bouncing_off_a_static_box_follows_e() {
     }
 }
 
+#[test]
+fn a_jelly_dropped_on_a_collider_table_follows_e_and_still_jumps_when_pushed() {
+    // The same law at a grid collider (the collider's e is the object's): a jelly cube at 1 m/s
+    // onto a plane, no gravity, rebounds at e.
+    let scene = |e: f32| {
+        Scene::builder()
+            .grid_dx_m(0.01)
+            .frame_rate_hz(100.0)
+            .duration_s(0.3)
+            .gravity_m_s2([0.0; 3])
+            .sleep(false)
+            .collider(
+                ColliderSpec::plane("table", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+                    .surface(Surface::Separate)
+                    .friction(0.0),
+            )
+            .object(
+                SceneObject::cuboid("jelly", [-0.05, -0.05, 0.01], [0.05, 0.05, 0.11])
+                    .spacing_m(0.005)
+                    .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
+                    .restitution(e)
+                    .friction(0.0)
+                    .velocity([0.0, 0.0, -1.0]),
+            )
+            .build()
+            .expect("scene")
+    };
+    for e in [0.0f32, 0.5] {
+        let mut w = World::from_scene(&scene(e)).expect("world");
+        while !w.is_finished() {
+            w.advance_frame().expect("step");
+        }
+        let v = com(&w, 0).1[2];
+        println!("collider, e = {e}: rebound {v:.4} m/s");
+        assert!((v - f64::from(e)).abs() < 0.01, "e = {e}: rebound {v}");
+    }
+    // A jelly resting on the table (e = 0) and then sent up at 0.5 m/s keeps that speed when it
+    // leaves: a command is not a rebound.
+    let mut w = World::from_scene(&scene(0.0)).expect("world");
+    while !w.is_finished() {
+        w.advance_frame().expect("step");
+    }
+    w.apply(&splatphys_core::scene::Command::SetVelocity {
+        object: 0,
+        velocity_m_s: [0.0, 0.0, 0.5],
+        angular_velocity_rad_s: None,
+    })
+    .expect("accepted");
+    for _ in 0..10 {
+        w.advance_frame().expect("step");
+    }
+    let v = com(&w, 0).1[2];
+    println!("sent up from rest at 0.5 m/s: {v:.4} m/s after 0.1 s");
+    assert!((v - 0.5).abs() < 0.02, "{v}");
+}
+
 /// A sand column collapsing next to a static box stops at the box's face: the box is a boundary
 /// on the sand's grid. Without the box the same sand runs out past where the face would be, so
 /// the check can fail.

@@ -11,8 +11,10 @@ use super::grid::{CORNERS, NONE, SparseGrid};
 use super::p2g::{Region, region_index};
 use crate::collider::Collider;
 
-/// Reduces `scratch` into `grid`, then updates node velocities. Returns the first non-finite
-/// node velocity's block index if any.
+/// Reduces `scratch` into `grid`, then updates node velocities. Adds to `collider_impulse_n_s`
+/// (one entry per collider) the impulse each collider gave the grid, Σ m Δv over the nodes it
+/// touched (summed per block, blocks in order: independent of the thread count). Returns the
+/// first non-finite node velocity's block index if any.
 #[allow(clippy::too_many_arguments)]
 pub fn update(
     grid: &mut SparseGrid,
@@ -23,6 +25,7 @@ pub fn update(
     colliders: &[Collider],
     time_s: f64,
     v_ref: Vec3A,
+    collider_impulse_n_s: &mut Vec<glam::DVec3>,
 ) -> Option<usize> {
     let SparseGrid {
         keys,
@@ -31,14 +34,14 @@ pub fn update(
         velocity_m_s,
         ..
     } = grid;
-    let bad = mass_kg
+    let per_block: Vec<(bool, Option<Vec<glam::DVec3>>)> = mass_kg
         .par_chunks_mut(BLOCK_NODES)
         .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
         .zip(keys.par_iter().zip(contributors.par_iter()))
-        .enumerate()
-        .map(|(gb, ((mass, vel), (key, contrib)))| {
+        .map(|((mass, vel), (key, contrib))| {
             let origin = *key * BLOCK;
             let mut finite = true;
+            let mut pushed: Option<Vec<glam::DVec3>> = None;
             // Sum the regions corner by corner (a fixed order per node): corner d covers local
             // nodes 0..4 on axes where d = 0 and 0..2 on axes where d = 1 (region index l + 4d).
             let mut acc = [Vec4::ZERO; BLOCK_NODES];
@@ -78,9 +81,14 @@ pub fn update(
                                 * dx_m;
                             // v is relative to v_ref; colliders see absolute velocity, and only the
                             // nodes they touch take the round trip through it.
-                            for collider in colliders {
+                            for (ci, collider) in colliders.iter().enumerate() {
                                 if collider.contact_normal(node, time_s).is_some() {
+                                    let before = v;
                                     v = collider.apply(node, v + v_ref, time_s) - v_ref;
+                                    let j = pushed.get_or_insert_with(|| {
+                                        vec![glam::DVec3::ZERO; colliders.len()]
+                                    });
+                                    j[ci] += ((v - before) * sum.w).as_dvec3();
                                 }
                             }
                             finite &= v.is_finite();
@@ -91,9 +99,19 @@ pub fn update(
                     }
                 }
             }
-            if finite { usize::MAX } else { gb }
+            (finite, pushed)
         })
-        .min()
-        .unwrap_or(usize::MAX);
-    (bad != usize::MAX).then_some(bad)
+        .collect();
+    collider_impulse_n_s.clear();
+    collider_impulse_n_s.resize(colliders.len(), glam::DVec3::ZERO);
+    let mut bad = None;
+    for (gb, (finite, pushed)) in per_block.into_iter().enumerate() {
+        if !finite && bad.is_none() {
+            bad = Some(gb);
+        }
+        for (total, j) in collider_impulse_n_s.iter_mut().zip(pushed.iter().flatten()) {
+            *total += *j;
+        }
+    }
+    bad
 }

@@ -91,6 +91,7 @@ pub struct MpmSolver {
     scratch: Vec<Region>,
     velocity_regions: Vec<g2p::VelocityRegion>,
     v_ref: Vec3A,
+    collider_impulse_n_s: Vec<glam::DVec3>,
 }
 
 impl MpmSolver {
@@ -103,6 +104,7 @@ impl MpmSolver {
             scratch: Vec::new(),
             velocity_regions: Vec::new(),
             v_ref: Vec3A::ZERO,
+            collider_impulse_n_s: Vec::new(),
         }
     }
 
@@ -178,6 +180,7 @@ impl MpmSolver {
             input.colliders,
             input.time_s,
             self.v_ref,
+            &mut self.collider_impulse_n_s,
         ) {
             Some(block) => Err(MpmError::NonFiniteGrid { block }),
             None => Ok(()),
@@ -222,6 +225,12 @@ impl MpmSolver {
     /// relative to it.
     pub fn reference_velocity_m_s(&self) -> Vec3A {
         self.v_ref
+    }
+
+    /// The impulse each grid collider gave this grid in the last grid update (N s, one entry
+    /// per collider; empty before the first update).
+    pub fn collider_impulses_n_s(&self) -> &[glam::DVec3] {
+        &self.collider_impulse_n_s
     }
 
     /// The sparse grid for editing between [`Self::scatter_and_update`] and [`Self::gather`]

@@ -109,6 +109,7 @@ impl World {
         }
         self.check_impulse(id, j_n_s.as_dvec3(), point_m.map(|p| p.as_dvec3()))?;
         self.wake(id);
+        self.forget_impacts(id);
         let dx = self.dx_m();
         let b = &mut self.bodies[id];
         let s = measure(&b.particles, dx);
@@ -155,6 +156,7 @@ impl World {
         let omega = omega_rad_s.map(|w| w.as_dvec3());
         self.check_velocity(id, v_m_s.as_dvec3(), omega)?;
         self.wake(id);
+        self.forget_impacts(id);
         let dx = self.dx_m();
         let b = &mut self.bodies[id];
         match b.kind {

@@ -5,12 +5,15 @@
 //! table for ever whatever e says. The law is applied at the object level, as the paper does for
 //! object pairs: when a deformable object starts touching a solid, its approach speed a along the
 //! contact normal n (the direction of the grid's impulse on it) is recorded; when the contact
-//! ends, a separation speed s above e·a (e = max(e_object, e_solid), the background's e is 0;
+//! ends, a separation speed s above e·a (e = max(e_object, e_solid); a grid collider's and the
+//! background's e is 0, so the object's own applies;
 //! above the normal velocity at first touch when the object was already separating then, so a
 //! grazing second touch does not take a rebound away) is removed by a uniform velocity change
 //! −(s − e a) n, which leaves its deformation and angular momentum alone and only ever removes
 //! energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
-//! contact force). A resting object never ends its contact and is not touched.
+//! contact force). A resting object never ends its contact and is not touched; a contact older
+//! than [`IMPACT_SETTLES_S`], or one a command interrupts (an impulse or a velocity on the
+//! object), ends without the law.
 
 use glam::DVec3;
 
@@ -19,8 +22,16 @@ use super::body::measure_bounds;
 use crate::contact::mix_restitution;
 use crate::scene::ObjectKind;
 
-/// A solid a deformable object touched: an object index, or `None` for the background.
-pub(super) type SolidOf = Option<usize>;
+/// A solid a deformable object touched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub(super) enum SolidOf {
+    /// A static, rigid or kinematic object.
+    Object(usize),
+    /// A grid collider (its e is the object's).
+    Collider(usize),
+    /// The captured background (its e is the object's).
+    Background,
+}
 
 /// A contact between a deformable object and a solid, from its first substep.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,14 +42,29 @@ pub struct Impact {
     pub approach_m_s: f64,
     /// Relative normal velocity at first touch (m/s, positive when already separating).
     pub touch_m_s: f64,
+    /// When it began (simulated s).
+    pub start_s: f64,
 }
+
+/// A contact that lasts longer than this (s) has come to rest: what ends it later (a command, a
+/// push from another object) is not its rebound, and the law leaves it alone. Impacts of the
+/// softest jellies last about 0.1 s.
+pub const IMPACT_SETTLES_S: f64 = 0.5;
 
 impl World {
     fn solid_velocity(&self, solid: SolidOf) -> DVec3 {
         match solid {
-            Some(k) if self.bodies[k].moves_rigidly() => self.bodies[k].rigid.velocity_m_s,
+            SolidOf::Object(k) if self.bodies[k].moves_rigidly() => {
+                self.bodies[k].rigid.velocity_m_s
+            }
+            SolidOf::Collider(c) => self.colliders[c].velocity_at(self.time_s).as_dvec3(),
             _ => DVec3::ZERO,
         }
+    }
+
+    /// Forgets object `k`'s open impacts: a command moved it, so how they end is not a rebound.
+    pub(super) fn forget_impacts(&mut self, k: usize) {
+        self.impacts.retain(|(object, _), _| *object != k);
     }
 
     /// Opens and closes impacts from this substep's `touches` (deformable, solid, impulse the
@@ -58,6 +84,7 @@ impl World {
                     normal: n,
                     approach_m_s: (-touch).max(0.0),
                     touch_m_s: touch,
+                    start_s: self.time_s,
                 },
             );
         }
@@ -67,16 +94,28 @@ impl World {
             .filter(|(key, _)| !touches.iter().any(|(k, s, _)| (*k, *s) == **key))
             .map(|(key, imp)| (*key, *imp))
             .collect();
-        ended.sort_by_key(|((k, s), _)| (*k, s.map_or(usize::MAX, |s| s)));
+        ended.sort_by_key(|(key, _)| *key);
         for ((k, solid), imp) in ended {
             self.impacts.remove(&(k, solid));
             let b = &self.bodies[k];
             if b.kind != ObjectKind::Deformable || b.sleeping {
                 continue;
             }
+            // A settled contact, or a collider whose active window closed, is not a rebound.
+            if self.time_s - imp.start_s > IMPACT_SETTLES_S {
+                continue;
+            }
+            if let SolidOf::Collider(c) = solid
+                && !self.colliders[c].is_active(self.time_s)
+            {
+                continue;
+            }
             let s = measure_bounds(&b.particles, dx);
             let separation = (s.velocity_m_s - self.solid_velocity(solid)).dot(imp.normal);
-            let e_solid = solid.map_or(0.0, |o| self.bodies[o].restitution);
+            let e_solid = match solid {
+                SolidOf::Object(o) => self.bodies[o].restitution,
+                SolidOf::Collider(_) | SolidOf::Background => 0.0,
+            };
             let e = mix_restitution(b.restitution, e_solid) as f64;
             // A touch while already separating (the far side of a ringing object grazing the
             // boundary again) keeps the speed it came with: the law caps what a contact adds.
@@ -88,7 +127,7 @@ impl World {
             let b = &mut self.bodies[k];
             b.particles.v.iter_mut().for_each(|v| *v += dv);
             b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
-            if let Some(o) = solid {
+            if let SolidOf::Object(o) = solid {
                 let p = imp.normal * (excess * s.mass_kg);
                 let com = self.bodies[o].rigid.com_m;
                 self.bodies[o].record_contact(p, com);

@@ -75,8 +75,20 @@ impl<'a> Step<'a> {
     }
 }
 
-/// Which object an obstacle is (`None`: the background).
-type ObstacleOf = Option<usize>;
+/// Deformable `k`'s touches of grid colliders in its last grid update: (k, collider, impulse the
+/// collider gave it in N s), for the restitution law (`impact.rs`).
+fn collider_touches(k: usize, solver: &MpmSolver) -> Vec<(usize, ObstacleOf, DVec3)> {
+    solver
+        .collider_impulses_n_s()
+        .iter()
+        .enumerate()
+        .filter(|(_, j)| **j != DVec3::ZERO)
+        .map(|(c, j)| (k, ObstacleOf::Collider(c), *j))
+        .collect()
+}
+
+/// Which solid an obstacle is.
+type ObstacleOf = super::impact::SolidOf;
 
 impl World {
     /// The solids near `bounds` (m) as boundaries for a deformable of friction `friction`.
@@ -114,7 +126,7 @@ impl World {
                 friction: mix_friction(friction, b.friction),
                 surface: b.surface,
             });
-            of.push(Some(k));
+            of.push(ObstacleOf::Object(k));
         }
         if let Some(placed) = self.placed_background()
             && near(placed.bounds_m)
@@ -126,7 +138,7 @@ impl World {
                 friction: mix_friction(friction, self.background_friction),
                 surface: crate::collider::Surface::Separate,
             });
-            of.push(None);
+            of.push(ObstacleOf::Background);
         }
         (out, of)
     }
@@ -162,7 +174,7 @@ impl World {
                 // The grid's impulse on the deformable is the solid's reaction reversed.
                 touched.push((k, -r.impulse_n_s));
             }
-            if let Some(k) = k {
+            if let ObstacleOf::Object(k) = k {
                 reactions[k].impulse_n_s += r.impulse_n_s;
                 reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
                 reactions[k].nodes += r.nodes;
@@ -193,6 +205,7 @@ impl World {
             let materials = &self.bodies[k].materials;
             let r = solver.scatter_and_update(&particles, &step.input(materials));
             if r.is_ok() {
+                touches.extend(collider_touches(k, &solver));
                 let t = self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
                 touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
             }
