@@ -11,9 +11,9 @@ use super::grid::{CORNERS, NONE, SparseGrid};
 use super::p2g::{Region, region_index};
 use crate::collider::Collider;
 
-/// Reduces `scratch` into `grid`, then updates node velocities. Adds to `collider_impulse_n_s`
-/// (one entry per collider) the impulse each collider gave the grid, Σ m Δv over the nodes it
-/// touched (summed per block, blocks in order: independent of the thread count). Returns the
+/// Reduces `scratch` into `grid`, then updates node velocities. Sets `collider_impulse_n_s`
+/// (one entry per collider) to the impulse each collider gave the grid, Σ m Δv over the nodes
+/// it touched (summed per block, blocks in order: independent of the thread count). Returns the
 /// first non-finite node velocity's block index if any.
 #[allow(clippy::too_many_arguments)]
 pub fn update(
