@@ -281,31 +281,39 @@ fn impacts_on_two_supports_stay_symmetric_and_follow_e() {
     }
 }
 
+/// 0.3 s without gravity, dx = 1 cm.
+fn weightless() -> SceneBuilder {
+    Scene::builder()
+        .grid_dx_m(0.01)
+        .frame_rate_hz(100.0)
+        .duration_s(0.3)
+        .gravity_m_s2([0.0; 3])
+        .sleep(false)
+}
+
+/// A 10 cm jelly cube 1 cm above z = 0, thrown down at 1 m/s, restitution `e`, no friction.
+fn thrown_jelly(e: f32) -> ObjectBuilder {
+    SceneObject::cuboid("jelly", [-0.05, -0.05, 0.01], [0.05, 0.05, 0.11])
+        .spacing_m(0.005)
+        .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
+        .restitution(e)
+        .friction(0.0)
+        .velocity([0.0, 0.0, -1.0])
+}
+
 #[test]
 fn a_jelly_bouncing_off_a_static_box_follows_e() {
     // No gravity: a jelly cube at 1 m/s onto a static slab. The grid stops it and its elasticity
     // throws it back; the restitution law then leaves e times the approach speed.
     for e in [0.0f32, 0.5, 1.0] {
-        let scene = Scene::builder()
-            .grid_dx_m(0.01)
-            .frame_rate_hz(100.0)
-            .duration_s(0.3)
-            .gravity_m_s2([0.0; 3])
-            .sleep(false)
+        let scene = weightless()
             .object(
                 SceneObject::cuboid("slab", [-0.2, -0.2, -0.1], [0.2, 0.2, 0.0])
                     .kind(ObjectKind::Static)
                     .restitution(0.0)
                     .friction(0.0),
             )
-            .object(
-                SceneObject::cuboid("jelly", [-0.05, -0.05, 0.01], [0.05, 0.05, 0.11])
-                    .spacing_m(0.005)
-                    .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
-                    .restitution(e)
-                    .friction(0.0)
-                    .velocity([0.0, 0.0, -1.0]),
-            )
+            .object(thrown_jelly(e))
             .build()
             .expect("scene");
         let mut w = World::from_scene(&scene).expect("world");
@@ -330,25 +338,13 @@ fn a_jelly_dropped_on_a_collider_table_follows_e_and_still_jumps_when_pushed() {
     // The same law at a grid collider (the collider's e is the object's): a jelly cube at 1 m/s
     // onto a plane, no gravity, rebounds at e.
     let scene = |e: f32| {
-        Scene::builder()
-            .grid_dx_m(0.01)
-            .frame_rate_hz(100.0)
-            .duration_s(0.3)
-            .gravity_m_s2([0.0; 3])
-            .sleep(false)
+        weightless()
             .collider(
                 ColliderSpec::plane("table", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
                     .surface(Surface::Separate)
                     .friction(0.0),
             )
-            .object(
-                SceneObject::cuboid("jelly", [-0.05, -0.05, 0.01], [0.05, 0.05, 0.11])
-                    .spacing_m(0.005)
-                    .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
-                    .restitution(e)
-                    .friction(0.0)
-                    .velocity([0.0, 0.0, -1.0]),
-            )
+            .object(thrown_jelly(e))
             .build()
             .expect("scene")
     };

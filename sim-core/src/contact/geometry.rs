@@ -63,6 +63,22 @@ impl Pose {
 /// How far, in surface-point spacings, a box's edge points are moved into their face.
 const EDGE_INSET: f32 = 0.02;
 
+/// `x0` in a cylinder's frame: (unit axis, height above the middle along it, radial offset from
+/// the axis, half height).
+#[inline]
+fn cylinder_frame(
+    x0: Vec3A,
+    base_m: [f32; 3],
+    axis: [f32; 3],
+    height_m: f32,
+) -> (Vec3A, f32, Vec3A, f32) {
+    let a = Vec3A::from(axis).try_normalize().unwrap_or(Vec3A::Z);
+    let half = 0.5 * height_m;
+    let d = x0 - Vec3A::from(base_m) - a * half;
+    let t = d.dot(a);
+    (a, t, d - a * t, half)
+}
+
 /// 2D box distance: outside length plus the inside part, for (a, b) offsets from the faces.
 #[inline]
 fn box2(a: f32, b: f32) -> f32 {
@@ -95,12 +111,7 @@ impl Geometry {
                 radius_m,
                 height_m,
             }) => {
-                let a = Vec3A::from(*axis).try_normalize().unwrap_or(Vec3A::Z);
-                let half = 0.5 * height_m;
-                let c = Vec3A::from(*base_m) + a * half;
-                let d = x0 - c;
-                let t = d.dot(a);
-                let radial = d - a * t;
+                let (a, t, radial, half) = cylinder_frame(x0, *base_m, *axis, *height_m);
                 let rho = radial.length();
                 let er = radial
                     .try_normalize()
@@ -156,13 +167,9 @@ impl Geometry {
                 radius_m,
                 height_m,
             }) => {
-                let a = Vec3A::from(*axis).try_normalize().unwrap_or(Vec3A::Z);
-                let half = 0.5 * height_m;
-                let d = x0 - Vec3A::from(*base_m) - a * half;
-                let t = d.dot(a);
-                let rho = (d - a * t).length();
+                let (_, t, radial, half) = cylinder_frame(x0, *base_m, *axis, *height_m);
                 let tol = 0.01 * radius_m.min(half);
-                edge(&mut [rho - radius_m, t.abs() - half], tol)
+                edge(&mut [radial.length() - radius_m, t.abs() - half], tol)
             }
             Geometry::Analytic(Shape::Sphere { .. }) | Geometry::Sampled(_) => false,
         }

@@ -11,10 +11,19 @@ use super::grid::{CORNERS, NONE, SparseGrid};
 use super::p2g::{Region, region_index};
 use crate::collider::Collider;
 
-/// Reduces `scratch` into `grid`, then updates node velocities. Sets `collider_impulse_n_s`
-/// (one entry per collider) to the impulse each collider gave the grid, Σ m Δv over the nodes
-/// it touched (summed per block, blocks in order: independent of the thread count). Returns the
-/// first non-finite node velocity's block index if any.
+/// The impulse each grid collider gave a grid in its last update, Σ m Δv over the nodes it
+/// touched (N s). Kept by the solver between updates, so that no substep allocates for it.
+#[derive(Debug, Clone, Default)]
+pub struct ColliderImpulses {
+    /// `[blocks × colliders]` per grid block (one slot when there is no collider).
+    per_block: Vec<glam::DVec3>,
+    /// `[colliders]` their sums over the blocks, in block order (independent of the thread
+    /// count).
+    pub total_n_s: Vec<glam::DVec3>,
+}
+
+/// Reduces `scratch` into `grid`, then updates node velocities; `impulses` gets each collider's
+/// impulse on the grid. Returns the first non-finite node velocity's block index if any.
 #[allow(clippy::too_many_arguments)]
 pub fn update(
     grid: &mut SparseGrid,
@@ -25,7 +34,7 @@ pub fn update(
     colliders: &[Collider],
     time_s: f64,
     v_ref: Vec3A,
-    collider_impulse_n_s: &mut Vec<glam::DVec3>,
+    impulses: &mut ColliderImpulses,
 ) -> Option<usize> {
     let SparseGrid {
         keys,
@@ -34,14 +43,20 @@ pub fn update(
         velocity_m_s,
         ..
     } = grid;
-    let per_block: Vec<(bool, Option<Vec<glam::DVec3>>)> = mass_kg
+    let stride = colliders.len().max(1);
+    impulses.per_block.clear();
+    impulses
+        .per_block
+        .resize(keys.len() * stride, glam::DVec3::ZERO);
+    let bad = mass_kg
         .par_chunks_mut(BLOCK_NODES)
         .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
         .zip(keys.par_iter().zip(contributors.par_iter()))
-        .map(|((mass, vel), (key, contrib))| {
+        .zip(impulses.per_block.par_chunks_mut(stride))
+        .enumerate()
+        .map(|(gb, (((mass, vel), (key, contrib)), pushed))| {
             let origin = *key * BLOCK;
             let mut finite = true;
-            let mut pushed: Option<Vec<glam::DVec3>> = None;
             // Sum the regions corner by corner (a fixed order per node): corner d covers local
             // nodes 0..4 on axes where d = 0 and 0..2 on axes where d = 1 (region index l + 4d).
             let mut acc = [Vec4::ZERO; BLOCK_NODES];
@@ -85,10 +100,7 @@ pub fn update(
                                 if collider.contact_normal(node, time_s).is_some() {
                                     let before = v;
                                     v = collider.apply(node, v + v_ref, time_s) - v_ref;
-                                    let j = pushed.get_or_insert_with(|| {
-                                        vec![glam::DVec3::ZERO; colliders.len()]
-                                    });
-                                    j[ci] += ((v - before) * sum.w).as_dvec3();
+                                    pushed[ci] += ((v - before) * sum.w).as_dvec3();
                                 }
                             }
                             finite &= v.is_finite();
@@ -99,19 +111,18 @@ pub fn update(
                     }
                 }
             }
-            (finite, pushed)
+            if finite { usize::MAX } else { gb }
         })
-        .collect();
-    collider_impulse_n_s.clear();
-    collider_impulse_n_s.resize(colliders.len(), glam::DVec3::ZERO);
-    let mut bad = None;
-    for (gb, (finite, pushed)) in per_block.into_iter().enumerate() {
-        if !finite && bad.is_none() {
-            bad = Some(gb);
-        }
-        for (total, j) in collider_impulse_n_s.iter_mut().zip(pushed.iter().flatten()) {
+        .min()
+        .unwrap_or(usize::MAX);
+    impulses.total_n_s.clear();
+    impulses
+        .total_n_s
+        .resize(colliders.len(), glam::DVec3::ZERO);
+    for block in impulses.per_block.chunks(stride) {
+        for (total, j) in impulses.total_n_s.iter_mut().zip(block) {
             *total += *j;
         }
     }
-    bad
+    (bad != usize::MAX).then_some(bad)
 }

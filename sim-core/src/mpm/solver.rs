@@ -91,7 +91,7 @@ pub struct MpmSolver {
     scratch: Vec<Region>,
     velocity_regions: Vec<g2p::VelocityRegion>,
     v_ref: Vec3A,
-    collider_impulse_n_s: Vec<glam::DVec3>,
+    collider_impulses: grid_update::ColliderImpulses,
 }
 
 impl MpmSolver {
@@ -104,7 +104,7 @@ impl MpmSolver {
             scratch: Vec::new(),
             velocity_regions: Vec::new(),
             v_ref: Vec3A::ZERO,
-            collider_impulse_n_s: Vec::new(),
+            collider_impulses: Default::default(),
         }
     }
 
@@ -180,7 +180,7 @@ impl MpmSolver {
             input.colliders,
             input.time_s,
             self.v_ref,
-            &mut self.collider_impulse_n_s,
+            &mut self.collider_impulses,
         ) {
             Some(block) => Err(MpmError::NonFiniteGrid { block }),
             None => Ok(()),
@@ -230,7 +230,7 @@ impl MpmSolver {
     /// The impulse each grid collider gave this grid in the last grid update (N s, one entry
     /// per collider; empty before the first update).
     pub fn collider_impulses_n_s(&self) -> &[glam::DVec3] {
-        &self.collider_impulse_n_s
+        &self.collider_impulses.total_n_s
     }
 
     /// The sparse grid for editing between [`Self::scatter_and_update`] and [`Self::gather`]

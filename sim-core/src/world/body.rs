@@ -426,6 +426,15 @@ impl Body {
         self.collision = Some(Collision::new(geometry, dx, self.rigid.com_m.as_vec3a()));
     }
 
+    /// The largest distance of a particle from the COM in the rest pose (m): the lever arm that
+    /// turns ω into the fastest particle speed.
+    pub fn arm_m(&self) -> f64 {
+        self.rest_offsets
+            .iter()
+            .map(|r| r.length())
+            .fold(0.0f32, f32::max) as f64
+    }
+
     /// Gives rigid body impulse `j` (N s) at `point` (m).
     pub fn apply_rigid_impulse(&mut self, j: DVec3, point: DVec3) {
         let inv_i = inverse_or_zero(self.rigid_world_inertia());

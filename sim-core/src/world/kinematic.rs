@@ -48,14 +48,6 @@ fn rotation_between(from: DQuat, to: DQuat) -> DVec3 {
 }
 
 impl Body {
-    /// The largest distance of a particle from the COM in the rest pose (m).
-    pub fn arm_m(&self) -> f64 {
-        self.rest_offsets
-            .iter()
-            .map(|r| r.length())
-            .fold(0.0f32, f32::max) as f64
-    }
-
     /// Sets a kinematic object's velocity for the substep starting at `time_s` from its drive
     /// (module docs), and its fastest particle speed for the CFL bound.
     fn drive_velocity(&mut self, time_s: f64) {

@@ -77,14 +77,16 @@ impl<'a> Step<'a> {
 
 /// Deformable `k`'s touches of grid colliders in its last grid update: (k, collider, impulse the
 /// collider gave it in N s), for the restitution law (`impact.rs`).
-fn collider_touches(k: usize, solver: &MpmSolver) -> Vec<(usize, ObstacleOf, DVec3)> {
+fn collider_touches(
+    k: usize,
+    solver: &MpmSolver,
+) -> impl Iterator<Item = (usize, ObstacleOf, DVec3)> + '_ {
     solver
         .collider_impulses_n_s()
         .iter()
         .enumerate()
         .filter(|(_, j)| **j != DVec3::ZERO)
-        .map(|(c, j)| (k, ObstacleOf::Collider(c), *j))
-        .collect()
+        .map(move |(c, j)| (k, ObstacleOf::Collider(c), *j))
 }
 
 /// Which solid an obstacle is.

@@ -53,11 +53,7 @@ pub fn integrate_position(body: &mut Body, dt_s: f64, push_m_s: DVec3, push_rad_
         rs.omega_rad_s = omega_at(q1);
     }
     body.sync_rigid_particles();
-    let arm = body
-        .rest_offsets
-        .iter()
-        .map(|r| r.length())
-        .fold(0.0f32, f32::max) as f64;
+    let arm = body.arm_m();
     let rs = &body.rigid;
     body.max_speed_m_s = (rs.velocity_m_s.length() + rs.omega_rad_s.length() * arm) as f32;
 }
