@@ -3,10 +3,13 @@
 //!
 //! - [`world_sim`]: the adapter that makes a sim-core [`World`](splatphys_core::world::World) a
 //!   server-ready [`Simulation`](splatphys_ipc::Simulation);
+//! - [`level_of_detail`]: `--budget-fps` and `--spacing-from` (calibrated or recorded level of
+//!   detail);
 //! - [`plan`]: what the parent of `splatphys run` reads from the scene, once;
 //! - [`report`]: `server.json` and `summary.json` as typed reports;
 //! - [`view`]: the browser viewer as a child process (`--view`).
 
+pub mod level_of_detail;
 pub mod plan;
 pub mod report;
 pub mod view;

@@ -118,6 +118,9 @@ pub struct RunSummary {
     pub explain: Explanation,
     /// Why the simulation stopped early, if it did.
     pub error: Option<String>,
+    /// The level of detail the run used, when `--budget-fps`, `[simulation] budget_fps` or
+    /// `--spacing-from` asked for one (`--spacing-from` reads it back).
+    pub level_of_detail: Option<crate::level_of_detail::LodRecord>,
 }
 
 impl RunSummary {
@@ -152,6 +155,7 @@ impl RunSummary {
             diagnostics_end: world.diagnostics(),
             explain: world.explain(),
             error: None,
+            level_of_detail: None,
         }
     }
 
@@ -185,6 +189,7 @@ impl RunSummary {
             diagnostics_end: s.diagnostics,
             explain: s.explain,
             error: None,
+            level_of_detail: None,
         }
     }
 }

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use splatphys::level_of_detail::{self, LodArgs};
 use splatphys::plan::RunPlan;
 use splatphys::report::{RunSummary, ServerJson, read_json, write_json};
 use splatphys::view::{ViewArgs, Viewer};
@@ -33,7 +34,9 @@ use splatphys_render::report::RenderReport;
   splatphys run scenes/donut_drop.toml --out out/donut   # a captured donut dropped on a table
   splatphys run scenes/guitar_topple.toml --out out/g --duration-s 0.5 --threads 2
   splatphys run scenes/donut_drop.toml --out out/d --in-process   # simulation only
-  splatphys run scenes/guitar_topple.toml --out out/g --explain   # what each object needed")]
+  splatphys run scenes/guitar_topple.toml --out out/g --explain   # what each object needed
+  splatphys run scenes/donut_snow_push.toml --out out/s --budget-fps 30   # coarsen to real time
+  splatphys run scenes/donut_snow_push.toml --out out/s2 --spacing-from out/s/summary.json")]
 pub struct RunArgs {
     /// Scene file (TOML); the built-in default scene when absent.
     pub scene: Option<PathBuf>,
@@ -63,6 +66,9 @@ pub struct RunArgs {
     /// run until Ctrl-C.
     #[command(flatten)]
     pub view: ViewArgs,
+    /// Level of detail by budget.
+    #[command(flatten)]
+    pub lod: LodArgs,
 }
 
 /// Runs the main job.
@@ -108,7 +114,13 @@ fn in_process(args: &RunArgs) -> Result<()> {
             .build_global()
             .context("setting --threads")?;
     }
-    let (plan, scene) = RunPlan::new(args.scene.as_deref(), args.duration_s, None)?;
+    let (plan, mut scene) = RunPlan::new(args.scene.as_deref(), args.duration_s, None)?;
+    let lod = level_of_detail::resolve(
+        &mut scene,
+        &args.lod,
+        rayon::current_num_threads(),
+        "splatphys run",
+    )?;
     let mut sim = WorldSim::new(&plan.name, &scene)
         .with_context(|| format!("building scene {:?}", plan.name))?;
     let mut csv = create_objects_csv(&args.out, plan.object_names.clone())?;
@@ -138,6 +150,7 @@ fn in_process(args: &RunArgs) -> Result<()> {
     let mut summary = RunSummary::from_world("in-process", &plan.name, &sim.world, wall_s);
     summary.objects_csv_rows = rows;
     summary.error = error.as_ref().map(ToString::to_string);
+    summary.level_of_detail = lod;
     write_json(&args.out.join("summary.json"), &summary)?;
     if args.explain {
         explain(&args.out, &summary.explain)?;
@@ -338,7 +351,12 @@ fn follow_server(
 }
 
 fn multi_process(args: &RunArgs) -> Result<()> {
-    let (plan, _scene) = RunPlan::new(args.scene.as_deref(), args.duration_s, args.prefix.clone())?;
+    let (plan, mut scene) =
+        RunPlan::new(args.scene.as_deref(), args.duration_s, args.prefix.clone())?;
+    let threads = args.threads.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    let lod = level_of_detail::resolve(&mut scene, &args.lod, threads, "splatphys run")?;
     let logs = args.out.join("logs");
     let frames = args.out.join("frames");
     std::fs::create_dir_all(&logs)?;
@@ -368,6 +386,12 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         .stdout(Stdio::null());
     if let Some(d) = plan.duration_s {
         server_cmd.args(["--duration-s", &d.to_string()]);
+    }
+    if let Some(r) = &lod {
+        // The server uses the level of detail chosen here rather than calibrating again.
+        let path = args.out.join("level_of_detail.json");
+        level_of_detail::write(&path, &r.chosen)?;
+        server_cmd.arg("--spacing-from").arg(path);
     }
     let mut server = Proc::spawn("server", server_cmd, &logs.join("server.log"), args.threads)?;
     let viewer = if args.view.view {
@@ -501,6 +525,7 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     summary.recorder_ok = recorder_ok;
     summary.renderer_ok = renderer_ok;
     summary.objects_csv_rows = *csv_rows.as_ref().unwrap_or(&0);
+    summary.level_of_detail = lod;
     write_json(&args.out.join("summary.json"), &summary)?;
     if args.explain {
         explain(&args.out, &summary.explain)?;

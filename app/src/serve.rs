@@ -5,6 +5,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
+use splatphys::level_of_detail::{self, LodArgs};
 use splatphys::plan::camera_args;
 use splatphys::report::{ServerJson, method_name, write_json};
 use splatphys::view::{ViewArgs, Viewer};
@@ -62,6 +63,9 @@ pub struct ServeArgs {
     /// The browser viewer.
     #[command(flatten)]
     pub view: ViewArgs,
+    /// Level of detail by budget.
+    #[command(flatten)]
+    pub lod: LodArgs,
 }
 
 /// Starts the viewer when `--view` asks for it, printing its URL.
@@ -130,10 +134,17 @@ pub fn run(args: &ServeArgs) -> Result<()> {
 
 /// Serves the scene file (or the built-in default scene) with the real simulation.
 fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
-    let (name, scene) = splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
+    let (name, mut scene) =
+        splatphys_core::scene::load_named(args.scene.as_deref(), args.duration_s)?;
     for w in &scene.warnings {
         eprintln!("splatphys serve: warning: {w}");
     }
+    level_of_detail::resolve(
+        &mut scene,
+        &args.lod,
+        rayon::current_num_threads(),
+        "splatphys serve",
+    )?;
     let mut sim =
         WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
     eprintln!(

@@ -10,6 +10,7 @@
 //! soak` ([`crate::soak`]) memory growth of a server and a recorder over minutes. Charts
 //! go through [`crate::chart`].
 
+pub mod budget;
 pub mod chart;
 pub mod compare;
 pub mod contact;

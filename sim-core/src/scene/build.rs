@@ -144,6 +144,12 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
             "must be > 0",
         )?;
     }
+    if let Some(h) = s.collision_dx_m {
+        ctx.check(pos(h), "simulation.collision_dx_m", "must be > 0")?;
+    }
+    if let Some(fps) = s.budget_fps {
+        ctx.check(pos(fps), "simulation.budget_fps", "must be > 0")?;
+    }
     ctx.check(
         (0.0..=1.0).contains(&s.background_min_opacity),
         "simulation.background_min_opacity",
@@ -164,6 +170,8 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
         sleep: s.sleep,
         background_collision: s.background_collision,
         background_min_opacity: s.background_min_opacity,
+        collision_dx_m: s.collision_dx_m,
+        budget_fps: s.budget_fps,
     })
 }
 

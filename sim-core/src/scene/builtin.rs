@@ -102,6 +102,8 @@ impl Scene {
                 sleep: true,
                 background_collision: true,
                 background_min_opacity: 0.5,
+                collision_dx_m: None,
+                budget_fps: None,
             },
             objects,
             background: Default::default(),

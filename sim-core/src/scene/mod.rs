@@ -19,6 +19,7 @@ pub mod build;
 pub mod builder;
 pub mod builtin;
 mod events;
+pub mod level_of_detail;
 pub mod model;
 pub mod schema;
 pub mod transform;
@@ -27,6 +28,7 @@ use std::path::{Path, PathBuf};
 
 pub use build::build_scene;
 pub use builder::{ObjectBuilder, SceneBuilder};
+pub use level_of_detail::LevelOfDetail;
 pub use model::{
     CameraSpec, ColliderShape, ColliderSpec, Command, EventSpec, MaterialSpec, Method, ObjectKind,
     Scene, SceneObject, SimulationSettings, Surface,

@@ -106,6 +106,21 @@ pub struct SimulationSettings {
     pub background_collision: bool,
     /// Opacity a background Gaussian needs to count as solid, in [0, 1]. Default 0.5.
     pub background_min_opacity: f32,
+    /// Cell of the collision surfaces sampled from points (captured rigid, static and kinematic
+    /// objects, and the background), m. `None` (the default): `grid_dx_m`. A level of detail
+    /// that coarsens the grid keeps it at the written grid's cell, so solid objects keep their
+    /// surfaces ([`crate::scene::LevelOfDetail`]).
+    pub collision_dx_m: Option<f64>,
+    /// Simulated frames per wall second that `splatphys run` chooses deformable objects'
+    /// spacing to meet ([`crate::scene::LevelOfDetail`]). `None` (the default): as written.
+    pub budget_fps: Option<f64>,
+}
+
+impl SimulationSettings {
+    /// The cell of collision surfaces sampled from points, m (`collision_dx_m`, else the grid's).
+    pub fn collision_cell_m(&self) -> f64 {
+        self.collision_dx_m.unwrap_or(self.grid_dx_m)
+    }
 }
 
 /// One simulated (or static) object.

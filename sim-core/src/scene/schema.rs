@@ -93,6 +93,10 @@ pub struct SimulationToml {
     /// Opacity a background Gaussian needs to be solid.
     #[serde(default = "default_background_opacity")]
     pub background_min_opacity: f32,
+    /// Cell of the collision surfaces sampled from captured objects and the background, m.
+    pub collision_dx_m: Option<f64>,
+    /// Simulated frames per wall second that `splatphys run` coarsens deformable objects to meet.
+    pub budget_fps: Option<f64>,
 }
 
 fn default_true() -> bool {
@@ -120,6 +124,8 @@ impl Default for SimulationToml {
             sleep: true,
             background_collision: true,
             background_min_opacity: default_background_opacity(),
+            collision_dx_m: None,
+            budget_fps: None,
         }
     }
 }

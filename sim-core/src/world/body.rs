@@ -215,6 +215,9 @@ pub struct Body {
     pub surface: crate::collider::Surface,
     /// Collision surface of a rigid or static object (`None` for a deformable one).
     pub collision: Option<Collision>,
+    /// Cell of the collision surface when it is sampled from particles, m
+    /// ([`crate::scene::SimulationSettings::collision_cell_m`]).
+    pub collision_cell_m: f32,
     /// The contact solver's push-out pseudo-velocities (m/s, rad/s) for this substep.
     pub push: (DVec3, DVec3),
     /// What moves a kinematic object (unused for other kinds).
@@ -238,7 +241,12 @@ impl Body {
     ///
     /// # Errors
     /// [`WorldError::Material`] when the object's material is refused.
-    pub fn from_object(object: &SceneObject, index: u32, dx_m: f32) -> Result<Body, WorldError> {
+    pub fn from_object(
+        object: &SceneObject,
+        index: u32,
+        dx_m: f32,
+        collision_cell_m: f32,
+    ) -> Result<Body, WorldError> {
         let o = object;
         let material = Material::from_spec(&o.material).map_err(|source| WorldError::Material {
             object: o.name.clone(),
@@ -300,6 +308,7 @@ impl Body {
                 crate::scene::Surface::Separate => crate::collider::Surface::Separate,
             },
             collision: None,
+            collision_cell_m,
             push: (DVec3::ZERO, DVec3::ZERO),
             drive: Default::default(),
             frame_impulse_n_s: DVec3::ZERO,
@@ -409,9 +418,9 @@ impl Body {
 
     /// Builds the collision surface in the current rest frame (call after
     /// [`Self::capture_rigid_pose`]): `shape`'s exact surface turned by `rotation` about its
-    /// centre, or a level set of the particles with cells of the grid's size.
+    /// centre, or a level set of the particles with cells of `collision_cell_m`.
     pub fn build_collision(&mut self, shape: Option<Shape>, rotation: Quat) {
-        let dx = self.solver.dx_m;
+        let dx = self.collision_cell_m;
         let geometry = match shape {
             Some(shape) if rotation == Quat::IDENTITY => Geometry::Analytic(shape),
             Some(shape) => Geometry::Turned { shape, rotation },

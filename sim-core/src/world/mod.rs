@@ -348,7 +348,7 @@ impl World {
             .objects
             .iter()
             .enumerate()
-            .map(|(k, o)| Body::from_object(o, k as u32, dx))
+            .map(|(k, o)| Body::from_object(o, k as u32, dx, s.collision_cell_m() as f32))
             .collect::<Result<Vec<_>, _>>()?;
         let background_state = background_state(&scene.background);
         let events = kinematic::keyframes(scene.events.clone(), s.frame_rate_hz);
@@ -356,7 +356,7 @@ impl World {
             background::collision(
                 &scene.background,
                 &bodies,
-                dx,
+                s.collision_cell_m() as f32,
                 s.background_min_opacity,
                 Vec3A::from(s.gravity_m_s2),
             )

@@ -1,0 +1,244 @@
+//! `--budget-fps` and `--spacing-from` of `splatphys run` and `serve`: how coarsely the scene's
+//! deformable objects are simulated, chosen by a calibration on this machine or read back from an
+//! earlier run's `summary.json` so that the run is reproduced exactly elsewhere.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::{Deserialize, Serialize};
+use splatphys_core::scene::level_of_detail::{Choice, candidates};
+use splatphys_core::scene::{LevelOfDetail, Scene};
+
+/// Level-of-detail flags.
+#[derive(Args, Debug, Clone, Default)]
+pub struct LodArgs {
+    /// Coarsen deformable objects (grid cell and physics-particle spacing) to run at this many
+    /// simulated frames per wall second on this machine, chosen by short calibration runs first;
+    /// overrides `[simulation] budget_fps`. Rigid, static and kinematic objects are never changed.
+    #[arg(long)]
+    pub budget_fps: Option<f64>,
+    /// Simulated seconds each calibration run covers (from the scene's start).
+    #[arg(long, default_value_t = 0.2)]
+    pub calibrate_s: f64,
+    /// Use the level of detail recorded in an earlier run's summary.json (or a
+    /// level_of_detail.json) instead of calibrating: the same grid and spacings on any machine.
+    #[arg(long, conflicts_with = "budget_fps")]
+    pub spacing_from: Option<PathBuf>,
+}
+
+/// What a run used, as recorded in `summary.json` under `level_of_detail`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LodRecord {
+    /// `calibrated` (on this machine) or `from <file>`.
+    pub source: String,
+    /// The level of detail the run used.
+    pub chosen: LevelOfDetail,
+    /// The calibration behind it (absent when read from a file).
+    pub calibration: Option<CalibrationRecord>,
+}
+
+/// A calibration, as recorded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationRecord {
+    /// Simulated frames per wall second asked for.
+    pub budget_fps: f64,
+    /// Whether the chosen level met it.
+    pub budget_met: bool,
+    /// Simulated seconds of each calibration run.
+    pub window_s: f64,
+    /// Worker threads of the calibration runs.
+    pub threads: usize,
+    /// Every candidate measured, finest first; the errors are against the scene as written over
+    /// the window.
+    pub candidates: Vec<CandidateRecord>,
+}
+
+/// One measured candidate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateRecord {
+    /// Grid cell, m.
+    pub grid_dx_m: f64,
+    /// Deformable objects' physics-particle spacing, m (`None`: as written).
+    pub physics_spacing_m: Option<f32>,
+    /// Simulated frames per wall second.
+    pub frames_per_wall_s: f64,
+    /// Largest COM error over the window, m.
+    pub com_error_m: f64,
+    /// 95th percentile Gaussian error at the window's end, m.
+    pub p95_error_m: f64,
+    /// Whether this is the one chosen.
+    pub chosen: bool,
+}
+
+impl LodArgs {
+    /// The budget asked for: the flag, else the scene's `budget_fps`.
+    fn budget(&self, scene: &Scene) -> Option<f64> {
+        self.budget_fps.or(scene.simulation.budget_fps)
+    }
+}
+
+/// Applies the level of detail `args` and `scene` ask for to `scene`, printing what was chosen
+/// (`who` prefixes the lines), and returns its record; `None` when neither asks for one.
+///
+/// # Errors
+/// An unreadable `--spacing-from` file or one without a level of detail, one that does not fit
+/// the scene, a budget that is not a positive number, a failing calibration run.
+pub fn resolve(
+    scene: &mut Scene,
+    args: &LodArgs,
+    threads: usize,
+    who: &str,
+) -> Result<Option<LodRecord>> {
+    if let Some(path) = &args.spacing_from {
+        let chosen = read(path)?;
+        chosen
+            .apply(scene)
+            .with_context(|| format!("--spacing-from {}", path.display()))?;
+        eprintln!(
+            "{who}: level of detail from {}: {}",
+            path.display(),
+            describe(&chosen)
+        );
+        return Ok(Some(LodRecord {
+            source: format!("from {}", path.display()),
+            chosen,
+            calibration: None,
+        }));
+    }
+    let Some(budget_fps) = args.budget(scene) else {
+        return Ok(None);
+    };
+    if !(budget_fps.is_finite() && budget_fps > 0.0) {
+        bail!("--budget-fps {budget_fps}: give a positive number of frames per wall second");
+    }
+    let frames = (args.calibrate_s * scene.simulation.frame_rate_hz).round() as u64;
+    let pb = ProgressBar::new(frames * candidates(scene).len() as u64 + frames);
+    pb.set_style(
+        ProgressStyle::with_template("calibrating {msg} [{bar:30}] {pos}/{len} frames {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let choice =
+        splatphys_bench::budget::calibrate(scene, budget_fps, args.calibrate_s, threads, &pb)?;
+    pb.finish_and_clear();
+    choice.chosen.apply(scene)?;
+    let record = record(&choice, args.calibrate_s, threads);
+    eprint!("{}", table(&record, who));
+    Ok(Some(record))
+}
+
+/// The level of detail in `path`: a `summary.json` (its `level_of_detail.chosen`), a record, or a
+/// level of detail itself.
+fn read(path: &Path) -> Result<LevelOfDetail> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("--spacing-from: reading {}", path.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("--spacing-from: {} is not JSON", path.display()))?;
+    let v = v.get("level_of_detail").unwrap_or(&v);
+    if v.is_null() {
+        bail!(
+            "--spacing-from: {} records no level of detail (that run had no --budget-fps)",
+            path.display()
+        );
+    }
+    let v = v.get("chosen").unwrap_or(v);
+    serde_json::from_value(v.clone()).with_context(|| {
+        format!(
+            "--spacing-from: {} holds no level of detail (grid_dx_m, collision_dx_m, objects)",
+            path.display()
+        )
+    })
+}
+
+/// Writes `level` as `path` (the form `--spacing-from` reads).
+///
+/// # Errors
+/// An unwritable path.
+pub fn write(path: &Path, level: &LevelOfDetail) -> Result<()> {
+    let text = serde_json::to_string_pretty(level)?;
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+fn record(c: &Choice, window_s: f64, threads: usize) -> LodRecord {
+    LodRecord {
+        source: "calibrated".into(),
+        chosen: c.chosen.clone(),
+        calibration: Some(CalibrationRecord {
+            budget_fps: c.budget_fps,
+            budget_met: c.budget_met,
+            window_s,
+            threads,
+            candidates: c
+                .calibration
+                .iter()
+                .map(|(level, m)| CandidateRecord {
+                    grid_dx_m: level.grid_dx_m,
+                    physics_spacing_m: level.objects.first().and_then(|o| o.physics_spacing_m),
+                    frames_per_wall_s: m.frames_per_wall_s(),
+                    com_error_m: m.com_error_m,
+                    p95_error_m: m.p95_error_m,
+                    chosen: *level == c.chosen,
+                })
+                .collect(),
+        }),
+    }
+}
+
+fn describe(level: &LevelOfDetail) -> String {
+    let spacings: Vec<String> = level
+        .objects
+        .iter()
+        .map(|o| match o.physics_spacing_m {
+            Some(h) => format!("{} at {:.2} mm", o.name, h * 1e3),
+            None => format!("{} as written", o.name),
+        })
+        .collect();
+    format!(
+        "grid dx {:.2} mm (collision surfaces {:.2} mm); {}",
+        level.grid_dx_m * 1e3,
+        level.collision_dx_m * 1e3,
+        if spacings.is_empty() {
+            "no deformable object".to_owned()
+        } else {
+            spacings.join(", ")
+        }
+    )
+}
+
+/// The calibration as a table for the terminal.
+fn table(r: &LodRecord, who: &str) -> String {
+    let Some(c) = &r.calibration else {
+        return format!("{who}: level of detail: {}\n", describe(&r.chosen));
+    };
+    let mut out = format!(
+        "{who}: level of detail for {} frames per wall second ({} s calibration runs, {} threads; \
+         errors against the scene as written over that window):\n    grid dx    spacing  frames/s  \
+         COM error  p95 error\n",
+        c.budget_fps, c.window_s, c.threads
+    );
+    for k in &c.candidates {
+        let spacing = k
+            .physics_spacing_m
+            .map_or_else(|| "written".to_owned(), |h| format!("{:.2} mm", h * 1e3));
+        out += &format!(
+            "  {} {:>6.2} mm {:>10} {:>9.2} {:>7.2} mm {:>7.2} mm\n",
+            if k.chosen { '>' } else { ' ' },
+            k.grid_dx_m * 1e3,
+            spacing,
+            k.frames_per_wall_s,
+            k.com_error_m * 1e3,
+            k.p95_error_m * 1e3,
+        );
+    }
+    out += &format!("{who}: chose {}", describe(&r.chosen));
+    if !c.budget_met {
+        out += &format!(
+            "; the budget is not met: this is the fastest candidate (the coarsest keeps {} cells \
+             across the thinnest deformable object)",
+            splatphys_core::scene::level_of_detail::MIN_CELLS_ACROSS
+        );
+    }
+    out.push('\n');
+    out
+}
