@@ -93,6 +93,7 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
             "1e9",
             "--calibrate-s",
             "0.1",
+            "--calibrate-errors",
         ],
         &a,
     );
@@ -100,6 +101,8 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
     assert_eq!(lod["source"], "calibrated");
     let cal = &lod["calibration"];
     assert_eq!(cal["budget_met"], false);
+    assert_eq!(cal["errors"], true);
+    assert_eq!(cal["window_s"], 0.1);
     assert_eq!(cal["threads"], 2);
     let candidates = cal["candidates"].as_array().unwrap();
     let dxs: Vec<f64> = candidates
@@ -228,6 +231,47 @@ fn a_budget_the_scene_already_meets_keeps_it_as_written() {
     );
     assert_eq!(lod["chosen"]["grid_dx_m"], 0.01);
     assert!(lod["chosen"]["objects"][0]["physics_spacing_m"].is_null());
+    // Without --calibrate-errors no error is claimed.
+    assert!(lod["calibration"]["candidates"][0]["com_error_m"].is_null());
+}
+
+#[test]
+fn an_unreachable_budget_stops_every_calibration_run_early_and_takes_the_fastest() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("ball.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let out = dir.path().join("out");
+    let s = run(
+        "lod_unreachable",
+        &[
+            scene.to_str().unwrap(),
+            "--in-process",
+            "--threads",
+            "2",
+            "--budget-fps",
+            "1e9",
+        ],
+        &out,
+    );
+    let cal = &s["level_of_detail"]["calibration"];
+    assert_eq!(cal["budget_met"], false);
+    assert_eq!(cal["errors"], false);
+    // The whole scene is the default window.
+    assert_eq!(cal["window_s"], 0.12);
+    let candidates = cal["candidates"].as_array().unwrap();
+    assert_eq!(candidates.len(), 4, "{candidates:?}");
+    let fps: Vec<f64> = candidates
+        .iter()
+        .map(|k| k["frames_per_wall_s"].as_f64().unwrap())
+        .collect();
+    assert!(fps.iter().all(|f| f.is_finite() && *f > 0.0), "{fps:?}");
+    let best = fps.iter().copied().fold(0.0, f64::max);
+    let chosen: Vec<&serde_json::Value> =
+        candidates.iter().filter(|k| k["chosen"] == true).collect();
+    assert_eq!(chosen.len(), 1);
+    assert_eq!(chosen[0]["frames_per_wall_s"].as_f64().unwrap(), best);
+    // The run itself still covers the whole scene.
+    assert_eq!(s["frames"], 12);
 }
 
 #[test]

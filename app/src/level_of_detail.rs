@@ -8,6 +8,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
+use splatphys_bench::budget::CalibrationSettings;
 use splatphys_core::scene::level_of_detail::{Choice, candidates};
 use splatphys_core::scene::{LevelOfDetail, Scene};
 
@@ -19,9 +20,15 @@ pub struct LodArgs {
     /// overrides `[simulation] budget_fps`. Rigid, static and kinematic objects are never changed.
     #[arg(long)]
     pub budget_fps: Option<f64>,
-    /// Simulated seconds each calibration run covers (from the scene's start).
-    #[arg(long, default_value_t = 0.2)]
-    pub calibrate_s: f64,
+    /// Simulated seconds each calibration run covers, from the scene's start; default: the whole
+    /// scene. A run that cannot meet the budget is stopped once it has taken the window's frames
+    /// divided by the budget, so a calibration costs a few such spans of wall time.
+    #[arg(long)]
+    pub calibrate_s: Option<f64>,
+    /// Also measure each candidate's error against the scene as written over the calibration
+    /// window (runs the scene as written and every candidate to the window's end: slow).
+    #[arg(long)]
+    pub calibrate_errors: bool,
     /// Use the level of detail recorded in an earlier run's summary.json (or a
     /// level_of_detail.json) instead of calibrating: the same grid and spacings on any machine.
     #[arg(long, conflicts_with = "budget_fps")]
@@ -48,6 +55,8 @@ pub struct CalibrationRecord {
     pub budget_met: bool,
     /// Simulated seconds of each calibration run.
     pub window_s: f64,
+    /// Whether errors against the scene as written were measured.
+    pub errors: bool,
     /// Worker threads of the calibration runs.
     pub threads: usize,
     /// Every candidate measured, finest first; the errors are against the scene as written over
@@ -62,12 +71,12 @@ pub struct CandidateRecord {
     pub grid_dx_m: f64,
     /// Deformable objects' physics-particle spacing, m (`None`: as written).
     pub physics_spacing_m: Option<f32>,
-    /// Simulated frames per wall second.
+    /// Simulated frames per wall second (until it was stopped, for a run stopped as over budget).
     pub frames_per_wall_s: f64,
-    /// Largest COM error over the window, m.
-    pub com_error_m: f64,
-    /// 95th percentile Gaussian error at the window's end, m.
-    pub p95_error_m: f64,
+    /// Largest COM error over the window, m (when errors were measured).
+    pub com_error_m: Option<f64>,
+    /// 95th percentile Gaussian error at the window's end, m (when errors were measured).
+    pub p95_error_m: Option<f64>,
     /// Whether this is the one chosen.
     pub chosen: bool,
 }
@@ -113,19 +122,57 @@ pub fn resolve(
     if !(budget_fps.is_finite() && budget_fps > 0.0) {
         bail!("--budget-fps {budget_fps}: give a positive number of frames per wall second");
     }
-    let frames = (args.calibrate_s * scene.simulation.frame_rate_hz).round() as u64;
-    let pb = ProgressBar::new(frames * candidates(scene).len() as u64 + frames);
+    let duration_s = scene.simulation.duration_s;
+    let settings = CalibrationSettings {
+        budget_fps,
+        window_s: args.calibrate_s.map_or(duration_s, |w| w.min(duration_s)),
+        threads,
+        errors: args.calibrate_errors,
+    };
+    let frames = (settings.window_s * scene.simulation.frame_rate_hz).round() as u64;
+    let pb = ProgressBar::new(frames * candidates(scene).len() as u64);
     pb.set_style(
         ProgressStyle::with_template("calibrating {msg} [{bar:30}] {pos}/{len} frames {elapsed}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let choice =
-        splatphys_bench::budget::calibrate(scene, budget_fps, args.calibrate_s, threads, &pb)?;
+    let choice = splatphys_bench::budget::calibrate(scene, settings, &pb)?;
     pb.finish_and_clear();
     choice.chosen.apply(scene)?;
-    let record = record(&choice, args.calibrate_s, threads);
+    let record = record(&choice, &settings);
     eprint!("{}", table(&record, who));
     Ok(Some(record))
+}
+
+/// Warns when a calibrated run of `duration_s` simulated `frames` in `wall_s`, slower than its
+/// budget.
+pub fn check_pace(
+    record: Option<&LodRecord>,
+    frames: u64,
+    wall_s: f64,
+    duration_s: f64,
+    who: &str,
+) {
+    let Some(c) = record.and_then(|r| r.calibration.as_ref()) else {
+        return;
+    };
+    let fps = frames as f64 / wall_s.max(1e-9);
+    if !c.budget_met || fps >= c.budget_fps {
+        return;
+    }
+    let hint = if c.window_s < duration_s {
+        format!(
+            ": the calibration timed the first {} s only; without --calibrate-s it times the \
+             whole scene",
+            c.window_s
+        )
+    } else {
+        " (a busy machine, or a chosen level at the edge of the budget)".to_owned()
+    };
+    eprintln!(
+        "{who}: warning: the run simulated {fps:.1} frames per wall second, below the {} asked \
+         for{hint}",
+        c.budget_fps
+    );
 }
 
 /// The level of detail in `path`: a `summary.json` (its `level_of_detail.chosen`), a record, or a
@@ -160,15 +207,16 @@ pub fn write(path: &Path, level: &LevelOfDetail) -> Result<()> {
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
-fn record(c: &Choice, window_s: f64, threads: usize) -> LodRecord {
+fn record(c: &Choice, settings: &CalibrationSettings) -> LodRecord {
     LodRecord {
         source: "calibrated".into(),
         chosen: c.chosen.clone(),
         calibration: Some(CalibrationRecord {
             budget_fps: c.budget_fps,
             budget_met: c.budget_met,
-            window_s,
-            threads,
+            window_s: settings.window_s,
+            errors: settings.errors,
+            threads: settings.threads,
             candidates: c
                 .calibration
                 .iter()
@@ -211,24 +259,29 @@ fn table(r: &LodRecord, who: &str) -> String {
     let Some(c) = &r.calibration else {
         return format!("{who}: level of detail: {}\n", describe(&r.chosen));
     };
+    let errors = if c.errors {
+        "errors against the scene as written over that window"
+    } else {
+        "--calibrate-errors measures errors"
+    };
     let mut out = format!(
         "{who}: level of detail for {} frames per wall second ({} s calibration runs, {} threads; \
-         errors against the scene as written over that window):\n    grid dx    spacing  frames/s  \
-         COM error  p95 error\n",
+         {errors}):\n    grid dx    spacing  frames/s  COM error  p95 error\n",
         c.budget_fps, c.window_s, c.threads
     );
+    let mm = |e: Option<f64>| e.map_or_else(|| "-".to_owned(), |e| format!("{:.2} mm", e * 1e3));
     for k in &c.candidates {
         let spacing = k
             .physics_spacing_m
             .map_or_else(|| "written".to_owned(), |h| format!("{:.2} mm", h * 1e3));
         out += &format!(
-            "  {} {:>6.2} mm {:>10} {:>9.2} {:>7.2} mm {:>7.2} mm\n",
+            "  {} {:>6.2} mm {:>10} {:>9.2} {:>10} {:>10}\n",
             if k.chosen { '>' } else { ' ' },
             k.grid_dx_m * 1e3,
             spacing,
             k.frames_per_wall_s,
-            k.com_error_m * 1e3,
-            k.p95_error_m * 1e3,
+            mm(k.com_error_m),
+            mm(k.p95_error_m),
         );
     }
     out += &format!("{who}: chose {}", describe(&r.chosen));

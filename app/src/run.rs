@@ -160,6 +160,13 @@ fn in_process(args: &RunArgs) -> Result<()> {
         summary.frames,
         args.out.display()
     );
+    level_of_detail::check_pace(
+        summary.level_of_detail.as_ref(),
+        summary.frames,
+        wall_s,
+        scene.simulation.duration_s,
+        "splatphys run",
+    );
     if let Some(e) = error {
         bail!("simulation stopped: {e} (objects.csv and summary.json keep what was done)");
     }

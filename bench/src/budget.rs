@@ -1,22 +1,40 @@
 //! The calibration behind `splatphys run --budget-fps`: short timed runs of a scene at each level
-//! of detail ([`splatphys_core::scene::level_of_detail`]), measured against the scene as written.
+//! of detail ([`splatphys_core::scene::level_of_detail`]).
 //!
 //! Each run simulates the first `window_s` seconds of the scene on the run's thread count, through
 //! the same code as `bench realtime` (no renderer or recorder). Its cost is the wall time of the
-//! frame loop per frame (the world build is not counted); its error is the largest COM distance
-//! over the window and the 95th percentile Gaussian distance at its end, against the scene as
-//! written over the same window. Both describe the window only: a scene whose hard part (an
-//! impact, a push) comes later costs more there than the calibration saw.
+//! frame loop per simulated frame (the world build is not counted). A run that cannot meet the
+//! budget any more (its frame loop has taken the window's frames divided by the budget) is
+//! stopped there, so a fine candidate costs at most that much wall time: the cost is then a lower
+//! bound, enough to reject it.
+//!
+//! With errors asked for, every run goes to the window's end and is compared with the scene as
+//! written over the same window (largest COM distance; 95th percentile Gaussian distance at the
+//! end), which costs a run of the scene as written. Both measures describe the window only.
 
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
 use splatphys_core::scene::level_of_detail::{Choice, CostModel, Measurement, choose};
 use splatphys_core::scene::{LevelOfDetail, Scene};
 
-use crate::subsets::{Trace, gaussian_errors_cells, max_distance, run_scene};
+use crate::subsets::{Trace, gaussian_errors_cells, max_distance, run_scene_within};
+
+/// How a scene is calibrated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalibrationSettings {
+    /// Simulated frames per wall second asked for.
+    pub budget_fps: f64,
+    /// Simulated seconds each run covers, from the scene's start (clamped to its duration).
+    pub window_s: f64,
+    /// Worker threads.
+    pub threads: usize,
+    /// Measure each candidate's error against the scene as written (runs it to the window's end).
+    pub errors: bool,
+}
 
 /// Timed calibration runs of one scene: a [`CostModel`].
 pub struct Calibration<'a> {
+    settings: CalibrationSettings,
     /// The scene, cut to the calibration window.
     window: Scene,
     pool: rayon::ThreadPool,
@@ -25,42 +43,60 @@ pub struct Calibration<'a> {
 }
 
 impl<'a> Calibration<'a> {
-    /// Calibration of `scene` over its first `window_s` simulated seconds on `threads` threads;
-    /// `pb` counts simulated frames.
+    /// Calibration of `scene`; `pb` counts simulated frames.
     ///
     /// # Errors
-    /// `window_s` not positive, or shorter than one frame; a thread pool that cannot start.
-    pub fn new(scene: &Scene, window_s: f64, threads: usize, pb: &'a ProgressBar) -> Result<Self> {
+    /// A window shorter than one frame, a budget that is not a positive number, a thread pool
+    /// that cannot start.
+    pub fn new(scene: &Scene, settings: CalibrationSettings, pb: &'a ProgressBar) -> Result<Self> {
         let frame_s = 1.0 / scene.simulation.frame_rate_hz;
+        let window_s = settings.window_s;
         if !(window_s.is_finite() && window_s >= frame_s) {
             anyhow::bail!(
                 "calibration window {window_s} s: give at least one frame ({frame_s:.4} s)"
             );
         }
+        if !(settings.budget_fps.is_finite() && settings.budget_fps > 0.0) {
+            anyhow::bail!(
+                "budget {} frames per wall second: give a positive number",
+                settings.budget_fps
+            );
+        }
         let mut window = scene.clone();
         window.simulation.duration_s = window_s.min(scene.simulation.duration_s);
         Ok(Self {
+            settings,
             window,
-            pool: crate::thread_pool(threads)?,
+            pool: crate::thread_pool(settings.threads)?,
             reference: None,
             pb,
         })
     }
 
-    /// Frames each calibration run simulates.
+    /// Frames each calibration run simulates (when not stopped).
     pub fn frames(&self) -> u64 {
         let s = &self.window.simulation;
         (s.duration_s * s.frame_rate_hz).round() as u64
     }
 
-    fn run(&self, level: &LevelOfDetail) -> Result<Trace> {
+    /// Runs `level` over the window; stopped once it cannot meet the budget unless `to_end`.
+    fn run(&self, level: &LevelOfDetail, to_end: bool) -> Result<Trace> {
         let mut s = self.window.clone();
         level.apply(&mut s)?;
         self.pb
             .set_message(format!("dx {:.1} mm", level.grid_dx_m * 1e3));
-        self.pool
-            .install(|| run_scene(&s, self.pb))
-            .with_context(|| format!("calibration run at dx {} m", level.grid_dx_m))
+        let max_wall_s = if to_end {
+            f64::INFINITY
+        } else {
+            self.frames() as f64 / self.settings.budget_fps
+        };
+        let position = self.pb.position();
+        let trace = self
+            .pool
+            .install(|| run_scene_within(&s, self.pb, max_wall_s))
+            .with_context(|| format!("calibration run at dx {} m", level.grid_dx_m))?;
+        self.pb.set_position(position + self.frames());
+        Ok(trace)
     }
 }
 
@@ -68,42 +104,42 @@ impl CostModel for Calibration<'_> {
     type Error = anyhow::Error;
 
     fn measure(&mut self, level: &LevelOfDetail) -> Result<Measurement> {
-        let t = self.run(level)?;
-        let frames = t.com.len().max(1) as f64;
-        let wall_s_per_frame = t.wall_s / frames;
+        let errors = self.settings.errors;
+        let t = self.run(level, errors)?;
+        let wall_s_per_frame = t.wall_s / t.frames_run.max(1e-9);
+        if !errors {
+            return Ok(Measurement {
+                wall_s_per_frame,
+                com_error_m: None,
+                p95_error_m: None,
+            });
+        }
         if level.is_as_written(&self.window) {
             self.reference = Some(t);
             return Ok(Measurement {
                 wall_s_per_frame,
-                com_error_m: 0.0,
-                p95_error_m: 0.0,
+                com_error_m: Some(0.0),
+                p95_error_m: Some(0.0),
             });
         }
         if self.reference.is_none() {
             let as_written = LevelOfDetail::as_written(&self.window);
-            self.reference = Some(self.run(&as_written)?);
+            self.reference = Some(self.run(&as_written, true)?);
         }
         let reference = self.reference.as_ref().context("no reference run")?;
         Ok(Measurement {
             wall_s_per_frame,
-            com_error_m: max_distance(&t.com, &reference.com),
-            p95_error_m: gaussian_errors_cells(&t, reference, 1.0).1,
+            com_error_m: Some(max_distance(&t.com, &reference.com)),
+            p95_error_m: Some(gaussian_errors_cells(&t, reference, 1.0).1),
         })
     }
 }
 
-/// Chooses the level of detail of `scene` for `budget_fps` by calibration runs of `window_s`
-/// simulated seconds on `threads` threads.
+/// Chooses the level of detail of `scene` by calibration runs.
 ///
 /// # Errors
-/// A bad window, a world that cannot be built or a failing calibration step.
-pub fn calibrate(
-    scene: &Scene,
-    budget_fps: f64,
-    window_s: f64,
-    threads: usize,
-    pb: &ProgressBar,
-) -> Result<Choice> {
-    let mut model = Calibration::new(scene, window_s, threads, pb)?;
-    choose(scene, budget_fps, &mut model)
+/// Bad settings, a world that cannot be built or a failing calibration step.
+pub fn calibrate(scene: &Scene, settings: CalibrationSettings, pb: &ProgressBar) -> Result<Choice> {
+    let mut model = Calibration::new(scene, settings, pb)?;
+    choose(scene, settings.budget_fps, &mut model)
 }

@@ -27,9 +27,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use splatphys_core::kinematics::GaussianState;
 use splatphys_core::scene::{ObjectKind, Scene};
-use splatphys_core::world::World;
 use splatphys_core::world::carry::subset_count;
 use splatphys_core::world::explain::Explanation;
+use splatphys_core::world::{World, WorldError};
 
 use crate::chart::{self, Series};
 
@@ -56,6 +56,8 @@ pub struct SubsetsBenchArgs {
 
 /// What one run leaves for the comparison (also used by [`crate::realtime`]).
 pub(crate) struct Trace {
+    /// Frames simulated, a fraction when the run was stopped within a frame.
+    pub(crate) frames_run: f64,
     /// `[frame][moving object]` COM (m), after each frame.
     pub(crate) com: Vec<Vec<DVec3>>,
     /// `[moving object]` COM (m) before the first frame.
@@ -121,6 +123,12 @@ fn spacing_for(objects: &[Vec<Vec3A>], target: f64) -> (f32, usize) {
 
 /// Runs `scene` to its end, frame by frame, on the calling thread pool.
 pub(crate) fn run_scene(scene: &Scene, pb: &ProgressBar) -> Result<Trace> {
+    run_scene_within(scene, pb, f64::INFINITY)
+}
+
+/// [`run_scene`], stopped within a substep once the frame loop has taken `max_wall_s` (the world
+/// build not counted); then [`Trace::frames_run`] is below the scene's frame count.
+pub(crate) fn run_scene_within(scene: &Scene, pb: &ProgressBar, max_wall_s: f64) -> Result<Trace> {
     let t = Instant::now();
     let mut w = World::from_scene(scene).context("building the world")?;
     let build_s = t.elapsed().as_secs_f64();
@@ -130,9 +138,18 @@ pub(crate) fn run_scene(scene: &Scene, pb: &ProgressBar) -> Result<Trace> {
     let mut com = Vec::new();
     let mut wall_s = 0.0;
     let cpu0 = process_cpu_s();
+    let started = Instant::now();
     while !w.is_finished() {
         let t = Instant::now();
-        w.advance_frame()?;
+        let mut keep_going = || started.elapsed().as_secs_f64() < max_wall_s;
+        match w.advance_frame_with(&mut keep_going) {
+            Ok(_) => {}
+            Err(WorldError::Interrupted { .. }) => {
+                wall_s += t.elapsed().as_secs_f64();
+                break;
+            }
+            Err(e) => return Err(e.into()),
+        }
         wall_s += t.elapsed().as_secs_f64();
         let o = w.objects();
         com.push(ids.iter().map(|&k| DVec3::from(o[k].com_m)).collect());
@@ -154,6 +171,7 @@ pub(crate) fn run_scene(scene: &Scene, pb: &ProgressBar) -> Result<Trace> {
         at += n;
     }
     Ok(Trace {
+        frames_run: w.time_s / w.frame_dt_s(),
         com,
         com0,
         gaussians,

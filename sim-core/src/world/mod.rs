@@ -454,7 +454,14 @@ impl World {
         }
         while end - self.time_s > 1e-9 {
             self.apply_due_events()?;
-            self.substep(end - self.time_s)?;
+            let remaining_s = end - self.time_s;
+            // A substep makes many short parallel calls; from outside the thread pool each one
+            // is injected and waits for a worker to wake, so the substep runs on a worker.
+            if rayon::current_thread_index().is_some() {
+                self.substep(remaining_s)?;
+            } else {
+                rayon::scope(|_| self.substep(remaining_s))?;
+            }
             substeps += 1;
             self.check_stable()?;
             if !keep_going() {
