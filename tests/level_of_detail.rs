@@ -140,6 +140,10 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
         lod["chosen"]["collision_dx_m"], 0.01,
         "collision surfaces keep their cell"
     );
+    // The expected error is the chosen candidate's, over the calibration window.
+    let expected = &cal["expected_error"];
+    assert_eq!(expected["window_s"], 0.1);
+    assert_eq!(expected["com_error_m"], chosen[0]["com_error_m"]);
 
     // The recorded level, on one thread: the same run, row for row.
     let sb = run(
@@ -231,8 +235,10 @@ fn a_budget_the_scene_already_meets_keeps_it_as_written() {
     );
     assert_eq!(lod["chosen"]["grid_dx_m"], 0.01);
     assert!(lod["chosen"]["objects"][0]["physics_spacing_m"].is_null());
-    // Without --calibrate-errors no error is claimed.
+    // Without --calibrate-errors no candidate's error is measured; the scene as written costs
+    // none.
     assert!(lod["calibration"]["candidates"][0]["com_error_m"].is_null());
+    assert_eq!(lod["calibration"]["expected_error"]["com_error_m"], 0.0);
 }
 
 #[test]
@@ -270,6 +276,16 @@ fn an_unreachable_budget_stops_every_calibration_run_early_and_takes_the_fastest
         candidates.iter().filter(|k| k["chosen"] == true).collect();
     assert_eq!(chosen.len(), 1);
     assert_eq!(chosen[0]["frames_per_wall_s"].as_f64().unwrap(), best);
+    // The chosen level's error, over the default 0.2 s (clamped to the scene's 0.12 s).
+    let expected = &cal["expected_error"];
+    assert_eq!(expected["window_s"], 0.12);
+    let com = expected["com_error_m"].as_f64().unwrap();
+    if chosen[0]["grid_dx_m"] == 0.01 {
+        assert_eq!(com, 0.0);
+    } else {
+        // Measured, and less than the ball's diameter (the coarse run did not blow up).
+        assert!(com > 0.0 && com < 0.1, "{expected}");
+    }
     // The run itself still covers the whole scene.
     assert_eq!(s["frames"], 12);
 }

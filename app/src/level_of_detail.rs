@@ -13,7 +13,7 @@ use splatphys_core::scene::level_of_detail::{Choice, candidates};
 use splatphys_core::scene::{LevelOfDetail, Scene};
 
 /// Level-of-detail flags.
-#[derive(Args, Debug, Clone, Default)]
+#[derive(Args, Debug, Clone)]
 pub struct LodArgs {
     /// Coarsen deformable objects (grid cell and physics-particle spacing) to run at this many
     /// simulated frames per wall second on this machine, chosen by short calibration runs first;
@@ -25,8 +25,12 @@ pub struct LodArgs {
     /// divided by the budget, so a calibration costs a few such spans of wall time.
     #[arg(long)]
     pub calibrate_s: Option<f64>,
-    /// Also measure each candidate's error against the scene as written over the calibration
-    /// window (runs the scene as written and every candidate to the window's end: slow).
+    /// After choosing, measure the chosen level's error against the scene as written over this
+    /// many simulated seconds from the start (runs the scene as written that long); 0 skips it.
+    #[arg(long, default_value_t = 0.2)]
+    pub error_window_s: f64,
+    /// Measure every candidate's error against the scene as written over the whole calibration
+    /// window instead (runs the scene as written and every candidate to the window's end: slow).
     #[arg(long)]
     pub calibrate_errors: bool,
     /// Use the level of detail recorded in an earlier run's summary.json (or a
@@ -62,6 +66,19 @@ pub struct CalibrationRecord {
     /// Every candidate measured, finest first; the errors are against the scene as written over
     /// the window.
     pub candidates: Vec<CandidateRecord>,
+    /// The chosen level's error against the scene as written (absent when not measured).
+    pub expected_error: Option<ExpectedError>,
+}
+
+/// The error a level of detail costs against the scene as written, over a window from the start.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ExpectedError {
+    /// Simulated seconds compared.
+    pub window_s: f64,
+    /// Largest COM distance over the window, m.
+    pub com_error_m: f64,
+    /// 95th percentile Gaussian distance at the window's end, m.
+    pub p95_error_m: f64,
 }
 
 /// One measured candidate.
@@ -122,6 +139,12 @@ pub fn resolve(
     if !(budget_fps.is_finite() && budget_fps > 0.0) {
         bail!("--budget-fps {budget_fps}: give a positive number of frames per wall second");
     }
+    if !(args.error_window_s.is_finite() && args.error_window_s >= 0.0) {
+        bail!(
+            "--error-window-s {}: give simulated seconds, 0 or more",
+            args.error_window_s
+        );
+    }
     let duration_s = scene.simulation.duration_s;
     let settings = CalibrationSettings {
         budget_fps,
@@ -136,11 +159,55 @@ pub fn resolve(
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let choice = splatphys_bench::budget::calibrate(scene, settings, &pb)?;
+    let mut record = record(&choice, &settings);
+    if let Some(c) = &mut record.calibration {
+        c.expected_error = expected_error(scene, &choice, &settings, args.error_window_s, &pb)?;
+    }
     pb.finish_and_clear();
     choice.chosen.apply(scene)?;
-    let record = record(&choice, &settings);
     eprint!("{}", table(&record, who));
     Ok(Some(record))
+}
+
+/// The chosen level's expected error: from the calibration when it measured errors, else by
+/// [`splatphys_bench::budget::expected_error`] over `window_s` (none when 0).
+fn expected_error(
+    scene: &Scene,
+    choice: &Choice,
+    settings: &CalibrationSettings,
+    window_s: f64,
+    pb: &ProgressBar,
+) -> Result<Option<ExpectedError>> {
+    if settings.errors {
+        let m = &choice.expected;
+        return Ok(m
+            .com_error_m
+            .zip(m.p95_error_m)
+            .map(|(com_error_m, p95_error_m)| ExpectedError {
+                window_s: settings.window_s,
+                com_error_m,
+                p95_error_m,
+            }));
+    }
+    if window_s == 0.0 {
+        return Ok(None);
+    }
+    let window_s = window_s.min(scene.simulation.duration_s);
+    let frames = (window_s * scene.simulation.frame_rate_hz).round() as u64;
+    pb.set_length(pb.length().unwrap_or(0) + 2 * frames);
+    let (com_error_m, p95_error_m) = splatphys_bench::budget::expected_error(
+        scene,
+        &choice.chosen,
+        window_s,
+        settings.threads,
+        pb,
+    )
+    .context("--error-window-s")?;
+    Ok(Some(ExpectedError {
+        window_s,
+        com_error_m,
+        p95_error_m,
+    }))
 }
 
 /// Warns when a calibrated run of `duration_s` simulated `frames` in `wall_s`, slower than its
@@ -217,6 +284,7 @@ fn record(c: &Choice, settings: &CalibrationSettings) -> LodRecord {
             window_s: settings.window_s,
             errors: settings.errors,
             threads: settings.threads,
+            expected_error: None,
             candidates: c
                 .calibration
                 .iter()
@@ -285,6 +353,15 @@ fn table(r: &LodRecord, who: &str) -> String {
         );
     }
     out += &format!("{who}: chose {}", describe(&r.chosen));
+    if let Some(e) = c.expected_error {
+        out += &format!(
+            "; error against the scene as written over the first {} s: COM {:.2} mm, p95 \
+             Gaussian {:.2} mm",
+            e.window_s,
+            e.com_error_m * 1e3,
+            e.p95_error_m * 1e3
+        );
+    }
     if !c.budget_met {
         out += &format!(
             "; the budget is not met: this is the fastest candidate (the coarsest keeps {} cells \

@@ -10,7 +10,8 @@
 //!
 //! With errors asked for, every run goes to the window's end and is compared with the scene as
 //! written over the same window (largest COM distance; 95th percentile Gaussian distance at the
-//! end), which costs a run of the scene as written. Both measures describe the window only.
+//! end), which costs a run of the scene as written. Otherwise [`expected_error`] compares the
+//! chosen level alone over a shorter window. Both measures describe their window only.
 
 use anyhow::{Context, Result};
 use indicatif::ProgressBar;
@@ -142,4 +143,37 @@ impl CostModel for Calibration<'_> {
 pub fn calibrate(scene: &Scene, settings: CalibrationSettings, pb: &ProgressBar) -> Result<Choice> {
     let mut model = Calibration::new(scene, settings, pb)?;
     choose(scene, settings.budget_fps, &mut model)
+}
+
+/// The error of `level` against `scene` as written over the first `window_s` simulated seconds
+/// (clamped to the scene): largest COM distance over the window and 95th percentile Gaussian
+/// distance at its end, m. Zero without running when `level` is the scene as written. Runs the
+/// scene as written and `level` on `threads` threads; `pb` counts their frames.
+///
+/// # Errors
+/// A window shorter than one frame, a world that cannot be built, a failing step.
+pub fn expected_error(
+    scene: &Scene,
+    level: &LevelOfDetail,
+    window_s: f64,
+    threads: usize,
+    pb: &ProgressBar,
+) -> Result<(f64, f64)> {
+    if level.is_as_written(scene) {
+        return Ok((0.0, 0.0));
+    }
+    let settings = CalibrationSettings {
+        budget_fps: 1.0,
+        window_s,
+        threads,
+        errors: true,
+    };
+    let mut model = Calibration::new(scene, settings, pb)?;
+    let as_written = LevelOfDetail::as_written(scene);
+    model.measure(&as_written)?;
+    let m = model.measure(level)?;
+    Ok((
+        m.com_error_m.context("no COM error")?,
+        m.p95_error_m.context("no Gaussian error")?,
+    ))
 }
