@@ -62,6 +62,13 @@ fn run(test: &str, args: &[&str], out: &Path) -> serde_json::Value {
     serde_json::from_str(&text).expect("summary.json is JSON")
 }
 
+/// Writes [`SCENE`] into `dir`; returns its path.
+fn ball_scene(dir: &Path) -> String {
+    let path = dir.join("ball.toml");
+    std::fs::write(&path, SCENE).unwrap();
+    path.to_str().unwrap().to_owned()
+}
+
 fn rows_by_key(path: &Path) -> HashMap<(String, String), Row> {
     read_csv(path)
         .into_iter()
@@ -72,9 +79,7 @@ fn rows_by_key(path: &Path) -> HashMap<(String, String), Row> {
 #[test]
 fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("ball.toml");
-    std::fs::write(&scene, SCENE).unwrap();
-    let scene = scene.to_str().unwrap();
+    let scene = ball_scene(dir.path());
     let (a, b, c) = (
         dir.path().join("a"),
         dir.path().join("b"),
@@ -85,7 +90,7 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
     let sa = run(
         "lod_calibrate",
         &[
-            scene,
+            &scene,
             "--in-process",
             "--threads",
             "2",
@@ -149,7 +154,7 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
     let sb = run(
         "lod_from_summary",
         &[
-            scene,
+            &scene,
             "--in-process",
             "--threads",
             "1",
@@ -179,7 +184,7 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
     let sc = run(
         "lod_multi_process",
         &[
-            scene,
+            &scene,
             "--threads",
             "2",
             "--spacing-from",
@@ -210,13 +215,12 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
 #[test]
 fn a_budget_the_scene_already_meets_keeps_it_as_written() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("ball.toml");
-    std::fs::write(&scene, SCENE).unwrap();
+    let scene = ball_scene(dir.path());
     let out = dir.path().join("out");
     let s = run(
         "lod_met",
         &[
-            scene.to_str().unwrap(),
+            &scene,
             "--in-process",
             "--threads",
             "2",
@@ -244,13 +248,12 @@ fn a_budget_the_scene_already_meets_keeps_it_as_written() {
 #[test]
 fn an_unreachable_budget_stops_every_calibration_run_early_and_takes_the_fastest() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("ball.toml");
-    std::fs::write(&scene, SCENE).unwrap();
+    let scene = ball_scene(dir.path());
     let out = dir.path().join("out");
     let s = run(
         "lod_unreachable",
         &[
-            scene.to_str().unwrap(),
+            &scene,
             "--in-process",
             "--threads",
             "2",
@@ -293,9 +296,7 @@ fn an_unreachable_budget_stops_every_calibration_run_early_and_takes_the_fastest
 #[test]
 fn spacing_from_a_file_without_a_fitting_level_of_detail_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("ball.toml");
-    std::fs::write(&scene, SCENE).unwrap();
-    let scene = scene.to_str().unwrap();
+    let scene = ball_scene(dir.path());
     let cases = [
         (
             "none.json",
@@ -321,7 +322,7 @@ fn spacing_from_a_file_without_a_fitting_level_of_detail_is_a_clear_error() {
         let o = splatphys(
             "lod_bad",
             &[
-                scene,
+                &scene,
                 "--in-process",
                 "--spacing-from",
                 path.to_str().unwrap(),

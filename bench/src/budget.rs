@@ -162,6 +162,7 @@ pub fn expected_error(
     if level.is_as_written(scene) {
         return Ok((0.0, 0.0));
     }
+    // Runs that measure errors go to the window's end: the budget stops none of them.
     let settings = CalibrationSettings {
         budget_fps: 1.0,
         window_s,
