@@ -3,9 +3,20 @@
 //! the scheme of Box2D and rapier).
 //!
 //! Per point: the normal impulse P_n ≥ 0 drives the relative normal velocity v_n (B relative to
-//! A along n, A to B) to its target; friction is an isotropic Coulomb cone |P_t| ≤ μ P_n solved
-//! in the tangent plane with its 2×2 effective mass. Bodies' velocities are updated after every
-//! point, so a body with several contacts is never over-pushed. Targets:
+//! A along n, A to B) to its target. Bodies' velocities are updated after every point, so a body
+//! with several contacts is never over-pushed.
+//!
+//! Friction is solved per patch, not per point: the points of one pair whose normals agree
+//! within [`PATCH_COS`] share one isotropic Coulomb cone |P_t| ≤ μ Σ P_n in the tangent plane,
+//! anchored at their centre of pressure (the P_n-weighted centre of the last substep) with its
+//! 2×2 effective mass, and one torsional friction about the normal limited by μ Σ P_n d_i (d_i
+//! each point's distance from the anchor in the plane: the most that sliding points can resist
+//! a spin with). This is the friction anchor of PhysX and Box2D v3's rolling and twist
+//! resistance. Per-point friction would follow each point's share of the normal load, and that
+//! split is statically indeterminate when more than three points carry a flat face: an uneven
+//! split gives a sliding box a spurious spin about the normal, and a spinning box brakes less.
+//!
+//! Normal targets:
 //! - impact (−v_n above the resting speed, the surfaces touching within the substep, e > 0):
 //!   −e v_n;
 //! - speculative (separation s > 0): v_n ≥ −s/dt, the gap may close but not overshoot;
@@ -109,8 +120,45 @@ pub struct ContactPoint {
     pub friction: f64,
     /// Accumulated normal impulse on B (N s); warm-start value on entry.
     pub normal_impulse: f64,
-    /// Accumulated tangential impulse on B (N s), in the tangent plane; warm start on entry.
+    /// This point's share of its patch's tangential impulse on B (N s), in proportion to its
+    /// normal impulse; warm start on entry (a patch starts from the sum of its points' shares).
     pub tangent_impulse: DVec3,
+    /// This point's share of its patch's torsional impulse on B about the normal (N m s); warm
+    /// start on entry.
+    pub twist_impulse: f64,
+}
+
+/// Points of one pair whose normals meet within this cosine (about 18°) share a friction patch.
+pub const PATCH_COS: f64 = 0.95;
+
+/// The friction of the points of one pair that share a normal, as solved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrictionPatch {
+    /// Body A.
+    pub a: usize,
+    /// Body B.
+    pub b: usize,
+    /// Indices of its points in the contact slice.
+    pub points: Vec<usize>,
+    /// Unit normal from A to B: the mean of its points' normals.
+    pub normal: DVec3,
+    /// Where the tangential impulse acts (m): the centre of pressure.
+    pub anchor_m: DVec3,
+    /// Tangential impulse on B (N s).
+    pub tangent_impulse: DVec3,
+    /// Torsional impulse on B about `normal` (N m s).
+    pub twist_impulse: f64,
+    /// Coulomb friction μ of the pair.
+    friction: f64,
+    ra: DVec3,
+    rb: DVec3,
+    tangents: [DVec3; 2],
+    /// Inverse of the 2×2 tangent effective mass, row-major.
+    k_t_inv: [f64; 4],
+    /// Inverse of the torsional effective inertia (kg m²).
+    k_twist_inv: f64,
+    /// Each point's distance from the anchor in the tangent plane (m).
+    arms_m: Vec<f64>,
 }
 
 /// Solver settings.
@@ -148,71 +196,63 @@ struct Row {
     ra: DVec3,
     rb: DVec3,
     k_n: f64,
-    tangents: [DVec3; 2],
-    /// Inverse of the 2×2 tangent effective mass, row-major.
-    k_t_inv: [f64; 4],
     target_vn: f64,
     push_target: f64,
     push_impulse: f64,
 }
 
-fn relative(bodies: &[SolverBody], c: &ContactPoint, row: &Row) -> DVec3 {
-    bodies[c.b].velocity_at(row.rb) - bodies[c.a].velocity_at(row.ra)
+fn relative(bodies: &[SolverBody], a: usize, b: usize, ra: DVec3, rb: DVec3) -> DVec3 {
+    bodies[b].velocity_at(rb) - bodies[a].velocity_at(ra)
 }
 
-fn apply_pair(bodies: &mut [SolverBody], c: &ContactPoint, row: &Row, p: DVec3) {
-    bodies[c.a].apply(row.ra, -p);
-    bodies[c.b].apply(row.rb, p);
+fn apply_pair(bodies: &mut [SolverBody], a: usize, b: usize, ra: DVec3, rb: DVec3, p: DVec3) {
+    bodies[a].apply(ra, -p);
+    bodies[b].apply(rb, p);
+}
+
+/// An angular impulse `l` on B about its COM, and −`l` on A.
+fn apply_twist(bodies: &mut [SolverBody], a: usize, b: usize, l: DVec3) {
+    bodies[a].omega_rad_s -= bodies[a].inverse_inertia * l;
+    bodies[b].omega_rad_s += bodies[b].inverse_inertia * l;
 }
 
 fn effective(
     bodies: &[SolverBody],
-    c: &ContactPoint,
+    a: usize,
+    b: usize,
     ra: DVec3,
     rb: DVec3,
     d: DVec3,
     e: DVec3,
 ) -> f64 {
-    bodies[c.a].response(ra, d, e) + bodies[c.b].response(rb, d, e)
+    bodies[a].response(ra, d, e) + bodies[b].response(rb, d, e)
 }
 
 /// Solves `contacts` on `bodies` for a substep of `dt_s`: warm start from each point's stored
 /// impulses, then the velocity iterations, then the split-impulse iterations. On return each
-/// point holds its accumulated impulses (for the next substep's warm start) and each body its new
-/// velocities and pseudo-velocities.
+/// point holds its accumulated impulses (for the next substep's warm start), each body its new
+/// velocities and pseudo-velocities, and the returned patches the friction as it acted.
 pub fn solve(
     bodies: &mut [SolverBody],
     contacts: &mut [ContactPoint],
     dt_s: f64,
     settings: &SolverSettings,
-) {
+) -> Vec<FrictionPatch> {
     let mut rows: Vec<Row> = Vec::with_capacity(contacts.len());
     for c in contacts.iter_mut() {
         let ra = c.point_m - bodies[c.a].com_m;
         let rb = c.point_m - bodies[c.b].com_m;
         let n = c.normal;
-        let k_n = effective(bodies, c, ra, rb, n, n);
-        let (t0, t1) = n.any_orthonormal_pair();
-        let k00 = effective(bodies, c, ra, rb, t0, t0);
-        let k01 = effective(bodies, c, ra, rb, t0, t1);
-        let k11 = effective(bodies, c, ra, rb, t1, t1);
-        let det = k00 * k11 - k01 * k01;
-        let k_t_inv = if det > 1e-12 * (k00 * k11).max(f64::MIN_POSITIVE) {
-            [k11 / det, -k01 / det, -k01 / det, k00 / det]
-        } else {
-            [0.0; 4]
-        };
+        let k_n = effective(bodies, c.a, c.b, ra, rb, n, n);
         let mut row = Row {
             ra,
             rb,
             k_n,
-            tangents: [t0, t1],
-            k_t_inv,
             target_vn: 0.0,
             push_target: 0.0,
             push_impulse: 0.0,
         };
-        let vn = relative(bodies, c, &row).dot(n);
+        let vn = relative(bodies, c.a, c.b, ra, rb).dot(n);
         let s = c.separation_m;
         row.target_vn = if s > 0.0 { -s / dt_s } else { 0.0 };
         // An impact within this substep bounces now (a gap closed first would leave only the
@@ -228,45 +268,39 @@ pub fn solve(
         if !(k_n > 0.0 && k_n.is_finite()) {
             c.normal_impulse = 0.0;
             c.tangent_impulse = DVec3::ZERO;
+            c.twist_impulse = 0.0;
         }
-        // Warm start: the stored impulses, the tangential part projected on the new plane.
-        c.tangent_impulse -= n * c.tangent_impulse.dot(n);
-        let p = n * c.normal_impulse + c.tangent_impulse;
-        apply_pair(bodies, c, &row, p);
+        apply_pair(bodies, c.a, c.b, ra, rb, n * c.normal_impulse);
         rows.push(row);
     }
+    let mut patches = patches(bodies, contacts);
+    for patch in &patches {
+        apply_pair(
+            bodies,
+            patch.a,
+            patch.b,
+            patch.ra,
+            patch.rb,
+            patch.tangent_impulse,
+        );
+        apply_twist(bodies, patch.a, patch.b, patch.normal * patch.twist_impulse);
+    }
     for _ in 0..settings.iterations {
-        for (c, row) in contacts.iter_mut().zip(&rows) {
-            if row.k_n <= 0.0 || !row.k_n.is_finite() {
-                continue;
-            }
-            let n = c.normal;
-            // Friction first (Box2D order), within the cone of the current normal impulse.
-            if row.k_t_inv != [0.0; 4] {
-                let vt = relative(bodies, c, row);
-                let (a, b) = (vt.dot(row.tangents[0]), vt.dot(row.tangents[1]));
-                let k = row.k_t_inv;
-                let d = -(row.tangents[0] * (k[0] * a + k[1] * b)
-                    + row.tangents[1] * (k[2] * a + k[3] * b));
-                let mut total = c.tangent_impulse + d;
-                let limit = c.friction * c.normal_impulse;
-                let len = total.length();
-                if len > limit {
-                    total = if limit > 0.0 {
-                        total * (limit / len)
-                    } else {
-                        DVec3::ZERO
-                    };
+        for patch in patches.iter_mut() {
+            // Friction first (Box2D order), within the cone of the current normal impulses.
+            patch.solve_friction(bodies, contacts);
+            for &i in &patch.points {
+                let (c, row) = (&mut contacts[i], &rows[i]);
+                if row.k_n <= 0.0 || !row.k_n.is_finite() {
+                    continue;
                 }
-                let delta = total - c.tangent_impulse;
-                c.tangent_impulse = total;
-                apply_pair(bodies, c, row, delta);
+                let n = c.normal;
+                let vn = relative(bodies, c.a, c.b, row.ra, row.rb).dot(n);
+                let total = (c.normal_impulse + (row.target_vn - vn) / row.k_n).max(0.0);
+                let delta = total - c.normal_impulse;
+                c.normal_impulse = total;
+                apply_pair(bodies, c.a, c.b, row.ra, row.rb, n * delta);
             }
-            let vn = relative(bodies, c, row).dot(n);
-            let total = (c.normal_impulse + (row.target_vn - vn) / row.k_n).max(0.0);
-            let delta = total - c.normal_impulse;
-            c.normal_impulse = total;
-            apply_pair(bodies, c, row, n * delta);
         }
     }
     for _ in 0..settings.push_iterations {
@@ -281,6 +315,178 @@ pub fn solve(
             row.push_impulse = total;
             bodies[c.a].apply_push(row.ra, -n * delta);
             bodies[c.b].apply_push(row.rb, n * delta);
+        }
+    }
+    // Each point keeps its share of its patch's friction, for the next warm start.
+    for patch in &patches {
+        let total: f64 = patch
+            .points
+            .iter()
+            .map(|&i| contacts[i].normal_impulse)
+            .sum();
+        for &i in &patch.points {
+            let w = if total > 0.0 {
+                contacts[i].normal_impulse / total
+            } else {
+                1.0 / patch.points.len() as f64
+            };
+            contacts[i].tangent_impulse = patch.tangent_impulse * w;
+            contacts[i].twist_impulse = patch.twist_impulse * w;
+        }
+    }
+    patches.shrink_to_fit();
+    patches
+}
+
+/// Groups `contacts` into friction patches (module docs) and builds each one's constants.
+fn patches(bodies: &[SolverBody], contacts: &[ContactPoint]) -> Vec<FrictionPatch> {
+    // Points of a pair come one after another; a pair with several normals gets several patches.
+    let mut groups: Vec<(usize, usize, DVec3, Vec<usize>)> = Vec::new();
+    let mut pair_start = 0;
+    for (i, c) in contacts.iter().enumerate() {
+        if groups
+            .last()
+            .is_none_or(|g: &(usize, usize, DVec3, Vec<usize>)| (g.0, g.1) != (c.a, c.b))
+        {
+            pair_start = groups.len();
+        }
+        match groups[pair_start..]
+            .iter_mut()
+            .find(|g| g.2.dot(c.normal) >= PATCH_COS)
+        {
+            Some(g) => g.3.push(i),
+            None => groups.push((c.a, c.b, c.normal, vec![i])),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(a, b, _, points)| FrictionPatch::new(bodies, contacts, a, b, points))
+        .collect()
+}
+
+impl FrictionPatch {
+    fn new(
+        bodies: &[SolverBody],
+        contacts: &[ContactPoint],
+        a: usize,
+        b: usize,
+        points: Vec<usize>,
+    ) -> Self {
+        let normal = points
+            .iter()
+            .map(|&i| contacts[i].normal)
+            .sum::<DVec3>()
+            .normalize_or(contacts[points[0]].normal);
+        // Centre of pressure of the last substep (its warm-start impulses); the points' centre
+        // when there were none.
+        let load: f64 = points.iter().map(|&i| contacts[i].normal_impulse).sum();
+        let weight = |i: usize| {
+            if load > 0.0 {
+                contacts[i].normal_impulse / load
+            } else {
+                1.0 / points.len() as f64
+            }
+        };
+        let anchor_m: DVec3 = points
+            .iter()
+            .map(|&i| contacts[i].point_m * weight(i))
+            .sum();
+        let arms_m = points
+            .iter()
+            .map(|&i| {
+                let d = contacts[i].point_m - anchor_m;
+                (d - normal * d.dot(normal)).length()
+            })
+            .collect();
+        let ra = anchor_m - bodies[a].com_m;
+        let rb = anchor_m - bodies[b].com_m;
+        let (t0, t1) = normal.any_orthonormal_pair();
+        let k00 = effective(bodies, a, b, ra, rb, t0, t0);
+        let k01 = effective(bodies, a, b, ra, rb, t0, t1);
+        let k11 = effective(bodies, a, b, ra, rb, t1, t1);
+        let det = k00 * k11 - k01 * k01;
+        let k_t_inv = if det > 1e-12 * (k00 * k11).max(f64::MIN_POSITIVE) && det.is_finite() {
+            [k11 / det, -k01 / det, -k01 / det, k00 / det]
+        } else {
+            [0.0; 4]
+        };
+        let k_twist = normal.dot(bodies[a].inverse_inertia * normal)
+            + normal.dot(bodies[b].inverse_inertia * normal);
+        let k_twist_inv = if k_twist > 0.0 && k_twist.is_finite() {
+            1.0 / k_twist
+        } else {
+            0.0
+        };
+        // Warm start: the points' stored shares, the tangential part projected on the plane.
+        let mut tangent_impulse: DVec3 = points.iter().map(|&i| contacts[i].tangent_impulse).sum();
+        tangent_impulse -= normal * tangent_impulse.dot(normal);
+        let mut twist_impulse: f64 = points.iter().map(|&i| contacts[i].twist_impulse).sum();
+        if k_t_inv == [0.0; 4] {
+            tangent_impulse = DVec3::ZERO;
+        }
+        if k_twist_inv == 0.0 {
+            twist_impulse = 0.0;
+        }
+        Self {
+            a,
+            b,
+            friction: contacts[points[0]].friction,
+            points,
+            normal,
+            anchor_m,
+            tangent_impulse,
+            twist_impulse,
+            ra,
+            rb,
+            tangents: [t0, t1],
+            k_t_inv,
+            k_twist_inv,
+            arms_m,
+        }
+    }
+
+    /// One iteration of the patch's tangential and torsional friction.
+    fn solve_friction(&mut self, bodies: &mut [SolverBody], contacts: &[ContactPoint]) {
+        let (a, b) = (self.a, self.b);
+        // An infinite μ (a sticky surface) grips whatever the load.
+        let limit = |arm: &dyn Fn(usize) -> f64| {
+            if self.friction.is_infinite() {
+                f64::INFINITY
+            } else {
+                self.points
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &i)| self.friction * contacts[i].normal_impulse * arm(k))
+                    .sum::<f64>()
+            }
+        };
+        if self.k_t_inv != [0.0; 4] {
+            let vt = relative(bodies, a, b, self.ra, self.rb);
+            let (x, y) = (vt.dot(self.tangents[0]), vt.dot(self.tangents[1]));
+            let k = self.k_t_inv;
+            let d = -(self.tangents[0] * (k[0] * x + k[1] * y)
+                + self.tangents[1] * (k[2] * x + k[3] * y));
+            let mut total = self.tangent_impulse + d;
+            let max = limit(&|_| 1.0);
+            let len = total.length();
+            if len > max {
+                total = if max > 0.0 {
+                    total * (max / len)
+                } else {
+                    DVec3::ZERO
+                };
+            }
+            let delta = total - self.tangent_impulse;
+            self.tangent_impulse = total;
+            apply_pair(bodies, a, b, self.ra, self.rb, delta);
+        }
+        if self.k_twist_inv > 0.0 {
+            let spin = (bodies[b].omega_rad_s - bodies[a].omega_rad_s).dot(self.normal);
+            let max = limit(&|k| self.arms_m[k]);
+            let total = (self.twist_impulse - spin * self.k_twist_inv).clamp(-max, max);
+            let delta = total - self.twist_impulse;
+            self.twist_impulse = total;
+            apply_twist(bodies, a, b, self.normal * delta);
         }
     }
 }
@@ -310,6 +516,7 @@ mod tests {
             friction: 0.5,
             normal_impulse: 0.0,
             tangent_impulse: DVec3::ZERO,
+            twist_impulse: 0.0,
         }
     }
 
@@ -377,5 +584,82 @@ mod tests {
         };
         solve(&mut bodies, &mut c, 1e-3, &s);
         assert!(bodies[1].velocity_m_s.z.abs() < 1e-12);
+    }
+
+    /// Contacts of `body` (index 1) on the ground plane z = 0 (index 0) at `points` (x, y).
+    fn on_ground(points: &[(f64, f64)], mu: f64) -> Vec<ContactPoint> {
+        points
+            .iter()
+            .map(|&(x, y)| ContactPoint {
+                point_m: DVec3::new(x, y, 0.0),
+                friction: mu,
+                ..ground_contact(0.0, 0.0)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn an_uneven_manifold_slides_without_spin() {
+        // A box face on the ground sampled at five points that are not symmetric about its COM:
+        // the split of the normal impulse between them is indeterminate, but the friction is
+        // the Coulomb law μ Σ P_n against the sliding direction and makes no spin about z.
+        let (mu, dt, g) = (0.3, 1e-3, 9.81);
+        let mut b = ball(0.05, -g * dt);
+        b.velocity_m_s.x = 1.0;
+        let mut bodies = [SolverBody::immovable(DVec3::ZERO), b];
+        let pts = [
+            (-0.05, -0.05),
+            (0.05, -0.044),
+            (0.0, -0.001),
+            (0.02, 0.019),
+            (-0.04, 0.049),
+        ];
+        let mut c = on_ground(&pts, mu);
+        let patches = solve(&mut bodies, &mut c, dt, &SolverSettings::default());
+        assert_eq!(patches.len(), 1);
+        let load: f64 = c.iter().map(|p| p.normal_impulse).sum();
+        let v = bodies[1].velocity_m_s;
+        let w = bodies[1].omega_rad_s;
+        // Friction tips the box, so the normal impulses converge over the iterations (to 0.1 %
+        // in 60); the friction is clamped to μ times their sum at each iteration.
+        assert!((load - g * dt).abs() < 1e-3 * g * dt, "load {load}");
+        assert!((1.0 - v.x - mu * load).abs() < 1e-3 * mu * load, "{v}");
+        assert!(v.y.abs() < 1e-6 && w.z.abs() < 1e-6, "{v} {w}");
+        // The points' shares sum to the patch's friction.
+        let shares: DVec3 = c.iter().map(|p| p.tangent_impulse).sum();
+        assert!((shares - patches[0].tangent_impulse).length() < 1e-15);
+    }
+
+    #[test]
+    fn torsional_friction_is_limited_by_the_patch_radius() {
+        // A body spinning at 10 rad/s about z, pressed on the ground by 1 N s at four points
+        // 0.1 m from its axis, μ = 0.5: the twist impulse is at most μ P_n r = 0.05 N m s,
+        // and I_zz = 0.1 kg m² loses 0.5 rad/s; a slow spin stops.
+        for (spin, expected) in [(10.0, 9.5), (0.2, 0.0)] {
+            let mut b = ball(0.05, -1.0);
+            b.omega_rad_s.z = spin;
+            let mut bodies = [SolverBody::immovable(DVec3::ZERO), b];
+            let mut c = on_ground(&[(0.1, 0.0), (0.0, 0.1), (-0.1, 0.0), (0.0, -0.1)], 0.5);
+            solve(&mut bodies, &mut c, 1e-3, &SolverSettings::default());
+            let w = bodies[1].omega_rad_s;
+            // The normal impulses (and so the limit) converge over the iterations: to 1e-6 here.
+            assert!((w.z - expected).abs() < 1e-5, "{spin}: {w}");
+            assert!(bodies[1].velocity_m_s.length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn a_pair_with_two_normals_gets_two_patches() {
+        // A peg against a floor and a wall at once: each face its own friction patch.
+        let mut bodies = [SolverBody::immovable(DVec3::ZERO), ball(0.05, -1.0)];
+        let mut c = on_ground(&[(0.1, 0.0), (-0.1, 0.0)], 0.5);
+        c.push(ContactPoint {
+            normal: DVec3::X,
+            point_m: DVec3::new(-0.05, 0.0, 0.05),
+            ..c[0]
+        });
+        let patches = solve(&mut bodies, &mut c, 1e-3, &SolverSettings::default());
+        let sizes: Vec<usize> = patches.iter().map(|p| p.points.len()).collect();
+        assert_eq!(sizes, [2, 1]);
     }
 }

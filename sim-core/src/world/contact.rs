@@ -44,9 +44,13 @@ pub type PairKey = (u32, Other);
 /// starting survives a manifold that picks different surface points as the bodies move.
 #[derive(Debug, Clone, Default)]
 pub struct ContactCache {
-    pairs: HashMap<PairKey, Vec<(Vec3A, f64, DVec3)>>,
+    pairs: HashMap<PairKey, Vec<(Vec3A, Warm)>>,
     dt_s: f64,
 }
+
+/// A point's accumulated impulses: normal (N s), its share of the patch's tangential (N s) and
+/// torsional (N m s) friction.
+type Warm = (f64, DVec3, f64);
 
 /// How near, in grid cells, an old point must be to warm-start a new one.
 pub const WARM_RADIUS_CELLS: f32 = 0.5;
@@ -54,18 +58,17 @@ pub const WARM_RADIUS_CELLS: f32 = 0.5;
 impl ContactCache {
     /// Takes the impulses of the nearest unclaimed old point of `pair` within `radius_m` of
     /// `local` (A's rest frame).
-    fn take(&mut self, pair: PairKey, local: Vec3A, radius_m: f32) -> Option<(f64, DVec3)> {
+    fn take(&mut self, pair: PairKey, local: Vec3A, radius_m: f32) -> Option<Warm> {
         let old = self.pairs.get_mut(&pair)?;
         let (i, d2) = old
             .iter()
             .enumerate()
-            .map(|(i, (x, _, _))| (i, (*x - local).length_squared()))
+            .map(|(i, (x, _))| (i, (*x - local).length_squared()))
             .min_by(|a, b| a.1.total_cmp(&b.1))?;
         if d2 > radius_m * radius_m {
             return None;
         }
-        let (_, p_n, p_t) = old.swap_remove(i);
-        Some((p_n, p_t))
+        Some(old.swap_remove(i).1)
     }
 }
 
@@ -249,7 +252,7 @@ impl World {
                     local(*a, c.point_m),
                     WARM_RADIUS_CELLS * dx,
                 );
-                let (p_n, p_t) = warm.unwrap_or((0.0, DVec3::ZERO));
+                let (p_n, p_t, twist) = warm.unwrap_or((0.0, DVec3::ZERO, 0.0));
                 ContactPoint {
                     a: *a,
                     b,
@@ -260,6 +263,7 @@ impl World {
                     friction,
                     normal_impulse: p_n * ratio,
                     tangent_impulse: p_t * ratio,
+                    twist_impulse: twist * ratio,
                 }
             })
             .collect();
@@ -267,15 +271,14 @@ impl World {
             resting_speed_m_s: 2.0 * self.gravity_m_s2.length() as f64 * dt_s,
             ..SolverSettings::default()
         };
-        solver::solve(&mut bodies, &mut points, dt_s, &settings);
+        let patches = solver::solve(&mut bodies, &mut points, dt_s, &settings);
         self.stats.contact_impulses +=
             points.iter().filter(|p| p.normal_impulse > 0.0).count() as u64;
-        let mut pairs: HashMap<PairKey, Vec<(Vec3A, f64, DVec3)>> = HashMap::new();
+        let mut pairs: HashMap<PairKey, Vec<(Vec3A, Warm)>> = HashMap::new();
         for ((a, other, c), p) in raw.iter().zip(&points) {
             pairs.entry((*a as u32, *other)).or_default().push((
                 local(*a, c.point_m),
-                p.normal_impulse,
-                p.tangent_impulse,
+                (p.normal_impulse, p.tangent_impulse, p.twist_impulse),
             ));
         }
         self.contact_cache = ContactCache { pairs, dt_s };
@@ -297,13 +300,23 @@ impl World {
                 self.bodies[*j as usize].contacts += 1;
             }
         }
-        // Write back: impulses received, then the rigid objects' new velocities and push-out.
+        // Write back: impulses received (normal at each point, friction at its patch's anchor),
+        // then the rigid objects' new velocities and push-out.
         for p in &points {
             let on_b = p.normal * p.normal_impulse + p.tangent_impulse;
-            for (k, j) in [(p.a, -on_b), (p.b, on_b)] {
+            for (k, sign) in [(p.a, -1.0), (p.b, 1.0)] {
                 if k < n {
-                    self.bodies[k].impulse_total_n_s += j.length();
-                    self.bodies[k].record_contact(j, p.point_m);
+                    self.bodies[k].impulse_total_n_s += on_b.length();
+                    self.bodies[k].record_contact(p.normal * p.normal_impulse * sign, p.point_m);
+                }
+            }
+        }
+        for patch in &patches {
+            for (k, sign) in [(patch.a, -1.0), (patch.b, 1.0)] {
+                if k < n {
+                    let b = &mut self.bodies[k];
+                    b.record_contact(patch.tangent_impulse * sign, patch.anchor_m);
+                    b.frame_angular_impulse_n_m_s += patch.normal * patch.twist_impulse * sign;
                 }
             }
         }
