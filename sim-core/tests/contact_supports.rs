@@ -120,7 +120,8 @@ fn a_rigid_box_on_a_ramp_sticks_or_slides_at_the_coulomb_acceleration() {
     let a = slide(rigid(), 0.3);
     let expected = g * (s - 0.3 * c);
     println!("rigid, mu = 0.3: a = {a:.4} m/s², law {expected:.4}");
-    assert!((a - expected).abs() < 0.02 * expected);
+    // Exact for a rigid box; the solver meets it to 0.01 % (see the turned slab below).
+    assert!((a - expected).abs() < 0.01 * expected);
     let a = slide(rigid(), 0.8);
     println!("rigid, mu = 0.8: a = {a:.5} m/s²");
     assert!(a.abs() < 1e-2, "sticks");
@@ -195,9 +196,11 @@ fn boxes_on_a_turned_static_slab_slide_at_the_coulomb_acceleration() {
     // The ramp test again with the geometry turned instead of gravity.
     let (s, c) = 30f64.to_radians().sin_cos();
     let law = 9.81 * (s - 0.3 * c);
-    // The law is exact for a rigid box. With friction per patch the rigid box runs 0.6 % fast
-    // (0.9 % under tilted gravity); per-point friction gave it a spin about the normal and 3 %.
-    for (kind, tol) in [(ObjectKind::Rigid, 0.02), (ObjectKind::Deformable, 0.02)] {
+    // The law is exact for a rigid box, and the solver meets it to 0.03 % (friction per patch
+    // with a stable manifold; per-point friction gave the box a spin about the normal and
+    // +3 %). 1 % leaves room for the solver's 60 iterations on other lattices. The jelly's
+    // grid contact meets it to 0.0 % here; 2 % leaves room on other lattices.
+    for (kind, tol) in [(ObjectKind::Rigid, 0.01), (ObjectKind::Deformable, 0.02)] {
         let a = slide_on_turned_slab(kind, 0.3);
         println!("{kind} box on a slab turned 30°, mu = 0.3: a = {a:.4} m/s², law {law:.4}");
         assert!((a - law).abs() < tol * law, "{kind}: {a} against {law}");

@@ -41,6 +41,9 @@ pub struct RawContact {
     pub separation_m: f32,
     /// Which surface point made it (bit 31: one of B's), for warm starting.
     pub feature: u32,
+    /// The point lies near an edge of both surfaces (coincident edges, corners on corners):
+    /// its normal is ill-defined there.
+    pub edge_on_edge: bool,
 }
 
 /// A surface point counts when its own outward normal and the other surface's meet at more than
@@ -79,30 +82,34 @@ fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<R
         }
         // A face point of `from` against an edge of `into`: the normal is the face's (the
         // edge's own normal turns from face to face across it and would push sideways).
-        let normal =
-            if into.geometry.near_edge(into.pose.to_rest(p)) && !from.geometry.near_edge(*p0) {
-                -own
-            } else {
-                normal
-            };
-        {
-            out.push(RawContact {
-                point_m: p,
-                normal,
-                separation_m: phi,
-                feature: i as u32 | flag,
-            });
-        }
+        let into_edge = into.geometry.near_edge(into.pose.to_rest(p));
+        let from_edge = from.geometry.near_edge(*p0);
+        let normal = if into_edge && !from_edge {
+            -own
+        } else {
+            normal
+        };
+        out.push(RawContact {
+            point_m: p,
+            normal,
+            separation_m: phi,
+            feature: i as u32 | flag,
+            edge_on_edge: into_edge && from_edge,
+        });
     }
 }
 
 /// The manifold a pair keeps: at most [`MAX_POINTS`] points, four spanning the largest area as
-/// in Bullet's and Box2D's manifold reduction (the deepest point, the point farthest from it, the
-/// point farthest from their line, the point farthest beyond the triangle's edges), then, up to
-/// the limit, the points farthest from those kept. Sequential impulses on a
-/// hundred coplanar points converge slowly in rotation and rock a stack; a few points at the
-/// corners of the support hold it. Ties go to the lowest feature, and the result is in feature
-/// order.
+/// in Bullet's and Box2D's manifold reduction (the point farthest from the points' centre, the
+/// point farthest from it, the point farthest from their line, the point farthest beyond the
+/// triangle's edges), then the deepest point, then, up to the limit, the points farthest from
+/// those kept. Sequential impulses on a hundred coplanar points converge slowly in rotation and
+/// rock a stack; a few points at the corners of the support hold it.
+///
+/// The choice must not flicker from substep to substep, or warm starting (which matches points
+/// by position) starts from nothing and a tall stack does not converge: scores within
+/// [`TIE`] of each other count as equal and go to the lowest feature, and the first point does
+/// not depend on depths that a slight rocking reorders. The result is in feature order.
 fn reduce(out: Vec<RawContact>, margin_m: f32) -> Vec<RawContact> {
     // Only points near the closest can support this substep; the rest are gaps.
     let closest = out
@@ -118,44 +125,61 @@ fn reduce(out: Vec<RawContact>, margin_m: f32) -> Vec<RawContact> {
         out.sort_unstable_by_key(|c| c.feature);
         return out;
     }
-    let better = |a: &RawContact, b: &RawContact, ka: f32, kb: f32| {
-        ka > kb || (ka == kb && a.feature < b.feature)
-    };
-    let pick = |out: &[RawContact], score: &dyn Fn(&RawContact) -> f32| -> usize {
+    // Scores are squared lengths and areas: compare them with a tolerance on their scale.
+    let pick = |out: &[RawContact], score: &dyn Fn(&RawContact) -> f32, scale: f32| -> usize {
+        let tie = TIE * scale;
         let mut best = 0;
-        for i in 1..out.len() {
-            if better(&out[i], &out[best], score(&out[i]), score(&out[best])) {
+        let mut best_score = score(&out[0]);
+        for (i, c) in out.iter().enumerate().skip(1) {
+            let k = score(c);
+            if k > best_score + tie || (k >= best_score - tie && c.feature < out[best].feature) {
                 best = i;
+                best_score = k;
             }
         }
         best
     };
+    let (lo, hi) = out.iter().fold(
+        (Vec3A::splat(f32::MAX), Vec3A::splat(f32::MIN)),
+        |(lo, hi), c| (lo.min(c.point_m), hi.max(c.point_m)),
+    );
+    let size2 = (hi - lo).length_squared().max(f32::MIN_POSITIVE);
+    let centre = out.iter().map(|c| c.point_m).sum::<Vec3A>() / out.len() as f32;
     let mut kept: Vec<RawContact> = Vec::with_capacity(MAX_POINTS);
     let mut rest = out;
     let take = |rest: &mut Vec<RawContact>, kept: &mut Vec<RawContact>, i: usize| {
         kept.push(rest.swap_remove(i));
     };
-    let i = pick(&rest, &|c| -c.separation_m);
+    let i = pick(&rest, &|c| (c.point_m - centre).length_squared(), size2);
     take(&mut rest, &mut kept, i);
     let p1 = kept[0].point_m;
-    let i = pick(&rest, &|c| (c.point_m - p1).length_squared());
+    let i = pick(&rest, &|c| (c.point_m - p1).length_squared(), size2);
     take(&mut rest, &mut kept, i);
     let p2 = kept[1].point_m;
-    let i = pick(&rest, &|c| {
-        (c.point_m - p1).cross(c.point_m - p2).length_squared()
-    });
+    let area = |c: &RawContact| (c.point_m - p1).cross(c.point_m - p2).length_squared();
+    let i = pick(&rest, &area, size2 * size2);
     take(&mut rest, &mut kept, i);
     let p3 = kept[2].point_m;
     let side = (p2 - p1).cross(p3 - p1);
     // The fourth: largest area added on the far side of the triangle's edges.
-    let i = pick(&rest, &|c| {
+    let beyond = |c: &RawContact| {
         let q = c.point_m;
         [(p1, p2), (p2, p3), (p3, p1)]
             .iter()
             .map(|(a, b)| (*b - *a).cross(q - *a).dot(-side).max(0.0))
             .fold(0.0, f32::max)
-    });
+    };
+    let i = pick(&rest, &beyond, size2 * side.length());
     take(&mut rest, &mut kept, i);
+    // The deepest, when it lies inside the four (a bump under a face).
+    let deepest = |c: &RawContact| -c.separation_m;
+    let i = pick(&rest, &deepest, margin_m);
+    if kept
+        .iter()
+        .all(|k| k.separation_m > rest[i].separation_m + TIE * margin_m)
+    {
+        take(&mut rest, &mut kept, i);
+    }
     // Then the points farthest from those kept.
     while kept.len() < MAX_POINTS && !rest.is_empty() {
         let far = |c: &RawContact| {
@@ -163,11 +187,35 @@ fn reduce(out: Vec<RawContact>, margin_m: f32) -> Vec<RawContact> {
                 .map(|k| (k.point_m - c.point_m).length_squared())
                 .fold(f32::INFINITY, f32::min)
         };
-        let i = pick(&rest, &far);
+        let i = pick(&rest, &far, size2);
         take(&mut rest, &mut kept, i);
     }
     kept.sort_unstable_by_key(|c| c.feature);
     kept
+}
+
+/// Relative tolerance of the manifold's scores: within it, the lowest feature wins.
+const TIE: f32 = 1e-3;
+
+/// Where two faces meet with their edges on each other (two equal boxes stacked), the points on
+/// both edges see a normal that turns round the edge: slightly outside it, the distance's
+/// gradient points sideways, and a stack pushed by such normals walks apart. Those points take
+/// the mean normal of the face points of the same pair when it lies within 45°; with no face
+/// point (two edges crossing), the edge normal stands.
+fn face_normals_on_edges(out: &mut [RawContact]) {
+    let face: Vec3A = out
+        .iter()
+        .filter(|c| !c.edge_on_edge)
+        .map(|c| c.normal)
+        .sum();
+    let Some(face) = face.try_normalize() else {
+        return;
+    };
+    for c in out.iter_mut().filter(|c| c.edge_on_edge) {
+        if c.normal.dot(face) > std::f32::consts::FRAC_1_SQRT_2 {
+            c.normal = face;
+        }
+    }
 }
 
 /// Contact points of `a` and `b` (normals from A to B) closer than `margin_m`.
@@ -181,6 +229,7 @@ pub fn between(a: &Placed, b: &Placed, margin_m: f32) -> Vec<RawContact> {
     probe(b, a, margin_m, FEATURE_OF_B, &mut out);
     // B's points in A: A's outward normal already runs from A to B.
     debug_assert!(out[from_a..].iter().all(|c| c.feature & FEATURE_OF_B != 0));
+    face_normals_on_edges(&mut out);
     reduce(out, margin_m)
 }
 
@@ -204,6 +253,7 @@ pub fn against_collider(
                 normal: -n,
                 separation_m: phi,
                 feature: i as u32,
+                edge_on_edge: false,
             });
         }
     }
