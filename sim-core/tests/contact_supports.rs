@@ -198,7 +198,7 @@ fn boxes_on_a_turned_static_slab_slide_at_the_coulomb_acceleration() {
     let law = 9.81 * (s - 0.3 * c);
     // The law is exact for a rigid box, and the solver meets it to 0.03 % (friction per patch
     // with a stable manifold; per-point friction gave the box a spin about the normal and
-    // +3 %). 1 % leaves room for the solver's 60 iterations on other lattices. The jelly's
+    // +3 %). 1 % leaves room for the solver's convergence on other lattices. The jelly's
     // grid contact meets it to 0.0 % here; 2 % leaves room on other lattices.
     for (kind, tol) in [(ObjectKind::Rigid, 0.01), (ObjectKind::Deformable, 0.02)] {
         let a = slide_on_turned_slab(kind, 0.3);
