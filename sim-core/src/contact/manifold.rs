@@ -41,9 +41,6 @@ pub struct RawContact {
     pub separation_m: f32,
     /// Which surface point made it (bit 31: one of B's), for warm starting.
     pub feature: u32,
-    /// The point lies near an edge of both surfaces (coincident edges, corners on corners):
-    /// its normal is ill-defined there.
-    pub edge_on_edge: bool,
 }
 
 /// A surface point counts when its own outward normal and the other surface's meet at more than
@@ -82,19 +79,17 @@ fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<R
         }
         // A face point of `from` against an edge of `into`: the normal is the face's (the
         // edge's own normal turns from face to face across it and would push sideways).
-        let into_edge = into.geometry.near_edge(into.pose.to_rest(p));
-        let from_edge = from.geometry.near_edge(*p0);
-        let normal = if into_edge && !from_edge {
-            -own
-        } else {
-            normal
-        };
+        let normal =
+            if into.geometry.near_edge(into.pose.to_rest(p)) && !from.geometry.near_edge(*p0) {
+                -own
+            } else {
+                normal
+            };
         out.push(RawContact {
             point_m: p,
             normal,
             separation_m: phi,
             feature: i as u32 | flag,
-            edge_on_edge: into_edge && from_edge,
         });
     }
 }
@@ -197,27 +192,6 @@ fn reduce(out: Vec<RawContact>, margin_m: f32) -> Vec<RawContact> {
 /// Relative tolerance of the manifold's scores: within it, the lowest feature wins.
 const TIE: f32 = 1e-3;
 
-/// Where two faces meet with their edges on each other (two equal boxes stacked), the points on
-/// both edges see a normal that turns round the edge: slightly outside it, the distance's
-/// gradient points sideways, and a stack pushed by such normals walks apart. Those points take
-/// the mean normal of the face points of the same pair when it lies within 45°; with no face
-/// point (two edges crossing), the edge normal stands.
-fn face_normals_on_edges(out: &mut [RawContact]) {
-    let face: Vec3A = out
-        .iter()
-        .filter(|c| !c.edge_on_edge)
-        .map(|c| c.normal)
-        .sum();
-    let Some(face) = face.try_normalize() else {
-        return;
-    };
-    for c in out.iter_mut().filter(|c| c.edge_on_edge) {
-        if c.normal.dot(face) > std::f32::consts::FRAC_1_SQRT_2 {
-            c.normal = face;
-        }
-    }
-}
-
 /// Contact points of `a` and `b` (normals from A to B) closer than `margin_m`.
 pub fn between(a: &Placed, b: &Placed, margin_m: f32) -> Vec<RawContact> {
     let mut out = Vec::new();
@@ -229,7 +203,6 @@ pub fn between(a: &Placed, b: &Placed, margin_m: f32) -> Vec<RawContact> {
     probe(b, a, margin_m, FEATURE_OF_B, &mut out);
     // B's points in A: A's outward normal already runs from A to B.
     debug_assert!(out[from_a..].iter().all(|c| c.feature & FEATURE_OF_B != 0));
-    face_normals_on_edges(&mut out);
     reduce(out, margin_m)
 }
 
@@ -253,7 +226,6 @@ pub fn against_collider(
                 normal: -n,
                 separation_m: phi,
                 feature: i as u32,
-                edge_on_edge: false,
             });
         }
     }
