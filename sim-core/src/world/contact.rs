@@ -39,7 +39,8 @@ pub enum Other {
 pub type PairKey = (u32, Other);
 
 /// Accumulated impulses of the last substep's points, for warm starting: per pair, each point in
-/// A's rest frame with its normal and tangential impulse. A new point takes the impulses of the
+/// A's rest frame with its normal impulse and its share of its patch's friction. A new point
+/// takes the impulses of the
 /// nearest old point of its pair within [`WARM_RADIUS_CELLS`] (each old point once), so warm
 /// starting survives a manifold that picks different surface points as the bodies move.
 #[derive(Debug, Clone, Default)]
