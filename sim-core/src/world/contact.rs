@@ -40,9 +40,9 @@ pub type PairKey = (u32, Other);
 
 /// Accumulated impulses of the last substep's points, for warm starting: per pair, each point in
 /// A's rest frame with its normal impulse and its share of its patch's friction. A new point
-/// takes the impulses of the
-/// nearest old point of its pair within [`WARM_RADIUS_CELLS`] (each old point once), so warm
-/// starting survives a manifold that picks different surface points as the bodies move.
+/// takes the impulses of the nearest old point of its pair within [`WARM_RADIUS_CELLS`] (each
+/// old point once), so warm starting survives a manifold that picks different surface points as
+/// the bodies move.
 #[derive(Debug, Clone, Default)]
 pub struct ContactCache {
     pairs: HashMap<PairKey, Vec<(Vec3A, Warm)>>,
