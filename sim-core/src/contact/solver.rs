@@ -157,8 +157,6 @@ pub struct FrictionPatch {
     k_t_inv: [f64; 4],
     /// Inverse of the torsional effective inertia (kg m²).
     k_twist_inv: f64,
-    /// Each point's distance from the anchor in the tangent plane (m).
-    arms_m: Vec<f64>,
 }
 
 /// Solver settings.
@@ -196,6 +194,8 @@ struct Row {
     ra: DVec3,
     rb: DVec3,
     k_n: f64,
+    /// Distance from its patch's anchor in the tangent plane (m): its arm in torsional friction.
+    arm_m: f64,
     target_vn: f64,
     push_target: f64,
     push_impulse: f64,
@@ -248,6 +248,7 @@ pub fn solve(
             ra,
             rb,
             k_n,
+            arm_m: 0.0,
             target_vn: 0.0,
             push_target: 0.0,
             push_impulse: 0.0,
@@ -273,7 +274,7 @@ pub fn solve(
         apply_pair(bodies, c.a, c.b, ra, rb, n * c.normal_impulse);
         rows.push(row);
     }
-    let mut patches = patches(bodies, contacts);
+    let mut patches = patches(bodies, contacts, &mut rows);
     for patch in &patches {
         apply_pair(
             bodies,
@@ -288,7 +289,7 @@ pub fn solve(
     for _ in 0..settings.iterations {
         for patch in patches.iter_mut() {
             // Friction first (Box2D order), within the cone of the current normal impulses.
-            patch.solve_friction(bodies, contacts);
+            patch.solve_friction(bodies, contacts, &rows);
             for &i in &patch.points {
                 let (c, row) = (&mut contacts[i], &rows[i]);
                 if row.k_n <= 0.0 || !row.k_n.is_finite() {
@@ -338,7 +339,11 @@ pub fn solve(
 }
 
 /// Groups `contacts` into friction patches (module docs) and builds each one's constants.
-fn patches(bodies: &[SolverBody], contacts: &[ContactPoint]) -> Vec<FrictionPatch> {
+fn patches(
+    bodies: &[SolverBody],
+    contacts: &[ContactPoint],
+    rows: &mut [Row],
+) -> Vec<FrictionPatch> {
     // Points of a pair come one after another; a pair with several normals gets several patches.
     let mut groups: Vec<(usize, usize, DVec3, Vec<usize>)> = Vec::new();
     let mut pair_start = 0;
@@ -359,7 +364,7 @@ fn patches(bodies: &[SolverBody], contacts: &[ContactPoint]) -> Vec<FrictionPatc
     }
     groups
         .into_iter()
-        .map(|(a, b, _, points)| FrictionPatch::new(bodies, contacts, a, b, points))
+        .map(|(a, b, _, points)| FrictionPatch::new(bodies, contacts, rows, a, b, points))
         .collect()
 }
 
@@ -367,6 +372,7 @@ impl FrictionPatch {
     fn new(
         bodies: &[SolverBody],
         contacts: &[ContactPoint],
+        rows: &mut [Row],
         a: usize,
         b: usize,
         points: Vec<usize>,
@@ -390,13 +396,10 @@ impl FrictionPatch {
             .iter()
             .map(|&i| contacts[i].point_m * weight(i))
             .sum();
-        let arms_m = points
-            .iter()
-            .map(|&i| {
-                let d = contacts[i].point_m - anchor_m;
-                (d - normal * d.dot(normal)).length()
-            })
-            .collect();
+        for &i in &points {
+            let d = contacts[i].point_m - anchor_m;
+            rows[i].arm_m = (d - normal * d.dot(normal)).length();
+        }
         let ra = anchor_m - bodies[a].com_m;
         let rb = anchor_m - bodies[b].com_m;
         let (t0, t1) = normal.any_orthonormal_pair();
@@ -440,12 +443,16 @@ impl FrictionPatch {
             tangents: [t0, t1],
             k_t_inv,
             k_twist_inv,
-            arms_m,
         }
     }
 
     /// One iteration of the patch's tangential and torsional friction.
-    fn solve_friction(&mut self, bodies: &mut [SolverBody], contacts: &[ContactPoint]) {
+    fn solve_friction(
+        &mut self,
+        bodies: &mut [SolverBody],
+        contacts: &[ContactPoint],
+        rows: &[Row],
+    ) {
         let (a, b) = (self.a, self.b);
         // An infinite μ (a sticky surface) grips whatever the load.
         let limit = |arm: &dyn Fn(usize) -> f64| {
@@ -454,8 +461,7 @@ impl FrictionPatch {
             } else {
                 self.points
                     .iter()
-                    .enumerate()
-                    .map(|(k, &i)| self.friction * contacts[i].normal_impulse * arm(k))
+                    .map(|&i| self.friction * contacts[i].normal_impulse * arm(i))
                     .sum::<f64>()
             }
         };
@@ -481,7 +487,7 @@ impl FrictionPatch {
         }
         if self.k_twist_inv > 0.0 {
             let spin = (bodies[b].omega_rad_s - bodies[a].omega_rad_s).dot(self.normal);
-            let max = limit(&|k| self.arms_m[k]);
+            let max = limit(&|i| rows[i].arm_m);
             let total = (self.twist_impulse - spin * self.k_twist_inv).clamp(-max, max);
             let delta = total - self.twist_impulse;
             self.twist_impulse = total;
