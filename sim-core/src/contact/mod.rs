@@ -16,6 +16,7 @@
 //! friction coefficient and no restitution of their own (e = the object's); a sticky collider
 //! acts on a rigid object as infinite friction.
 
+pub mod block;
 pub mod boundary;
 pub mod geometry;
 pub mod level_set;

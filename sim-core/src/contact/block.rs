@@ -1,0 +1,155 @@
+//! The normal impulses of one contact patch solved as a block: one exact step on the patch's
+//! k×k effective-mass matrix K instead of k one-point steps.
+//!
+//! Sequential impulses on a patch (one point after another) never reach a state where every
+//! point of a resting face is satisfied at once: each point's impulse tilts the body a little,
+//! the next point answers, and the face keeps a small spin that friction below the COM turns
+//! into a lean. A column of boxes then rocks slowly however many iterations it gets. Box2D solves
+//! its two-point manifolds as a block for this reason (Catto, `b2SolveVelocityConstraints`, the
+//! 2×2 LCP by enumeration); a patch here has up to 8 points, so enumeration is out.
+//!
+//! Instead: with the residual r = v_target − v_n over the patch's points, the step
+//! Δλ = K⁺ r (K⁺ the pseudo-inverse) makes every point's normal velocity reach its target in one
+//! move, with the smallest change of impulses (the load split among more than three points on a
+//! face is indeterminate: K has rank 3 for a flat face between rigid bodies, and the part of λ
+//! in K's null space is left as it was). The caller takes the step only when every accumulated
+//! impulse stays ≥ 0, that is, when all the points stay in contact: then the patch is at a
+//! solution of its own complementarity problem. Otherwise it falls back to point-by-point steps
+//! with clamping, which find the points that lift off.
+//!
+//! K_ij is the normal velocity at point i from a unit normal impulse at point j, summed over
+//! both bodies: 1/m n_i·n_j + (r_i × n_i)·I⁻¹(r_j × n_j).
+
+use nalgebra::{SMatrix, SymmetricEigen};
+
+/// Most points a block holds: the manifold's largest size.
+pub const MAX_BLOCK: usize = super::manifold::MAX_POINTS;
+
+/// Eigenvalues of K below this fraction of its largest count as its null space. A flat face's
+/// K has exactly 3 non-zero eigenvalues of one order (translation along n and the two tilts;
+/// measured 1 : 0.97 : 0.71 for a box on a box) and the rest at round-off (1e-16). Points that
+/// lie close together on a large body make an eigenvalue small but not zero; inverting it would
+/// trade large impulses between them for a tiny change of velocity, so the block leaves such
+/// directions alone.
+const RANK_TOLERANCE: f64 = 1e-3;
+
+type Square = SMatrix<f64, MAX_BLOCK, MAX_BLOCK>;
+
+/// The pseudo-inverse of one patch's effective-mass matrix.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NormalBlock {
+    len: usize,
+    k_pinv: Square,
+}
+
+impl NormalBlock {
+    /// From the effective-mass matrix `k` of `len` points (row-major, `len × len`, symmetric
+    /// positive semi-definite, 1/kg). `None` for fewer than 2 or more than [`MAX_BLOCK`]
+    /// points, or a matrix that is zero or not finite.
+    pub fn new(k: &[f64], len: usize) -> Option<Self> {
+        if !(2..=MAX_BLOCK).contains(&len) || k.len() != len * len {
+            return None;
+        }
+        if k.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        // Padded with zeros: the extra rows add zero eigenvalues, which the pseudo-inverse drops.
+        let mut m = Square::zeros();
+        for i in 0..len {
+            for j in 0..len {
+                m[(i, j)] = 0.5 * (k[i * len + j] + k[j * len + i]);
+            }
+        }
+        let eigen = SymmetricEigen::new(m);
+        let largest = eigen.eigenvalues.amax();
+        if !(largest > 0.0 && largest.is_finite()) {
+            return None;
+        }
+        let mut inverse = eigen.eigenvalues;
+        for e in inverse.iter_mut() {
+            *e = if *e > RANK_TOLERANCE * largest {
+                1.0 / *e
+            } else {
+                0.0
+            };
+        }
+        let v = &eigen.eigenvectors;
+        let k_pinv = v * Square::from_diagonal(&inverse) * v.transpose();
+        Some(Self { len, k_pinv })
+    }
+
+    /// Points in the block.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the block holds no point (never: [`Self::new`] refuses fewer than 2).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The impulse step Δλ = K⁺ `residual` (N s), one entry per point: the smallest step that
+    /// meets the targets when a motion of the bodies can meet them all, and the least-squares
+    /// step when it cannot (speculative targets at gaps that differ a little).
+    pub fn step(&self, residual: &[f64]) -> [f64; MAX_BLOCK] {
+        let n = self.len;
+        let mut out = [0.0; MAX_BLOCK];
+        for (i, o) in out.iter_mut().enumerate().take(n) {
+            *o = (0..n).map(|j| self.k_pinv[(i, j)] * residual[j]).sum();
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// K = J Jᵀ for a rank-deficient J (4 points, rank 3: a flat face's normal rows).
+    fn flat_face() -> (Vec<f64>, usize) {
+        let rows = [
+            [1.0, 0.05, 0.05],
+            [1.0, -0.05, 0.05],
+            [1.0, -0.05, -0.05],
+            [1.0, 0.05, -0.05],
+        ];
+        let mut k = vec![0.0; 16];
+        for i in 0..4 {
+            for j in 0..4 {
+                k[i * 4 + j] = (0..3).map(|c| rows[i][c] * rows[j][c]).sum();
+            }
+        }
+        (k, 4)
+    }
+
+    #[test]
+    fn a_step_meets_every_target_reachable_and_changes_nothing_else() {
+        let (k, n) = flat_face();
+        let block = NormalBlock::new(&k, n).expect("block");
+        // A residual in K's range (an affine field over the face) is met exactly.
+        let residual = [0.3, 0.1, -0.2, 0.0];
+        let step = block.step(&residual);
+        for i in 0..n {
+            let reached: f64 = (0..n).map(|j| k[i * n + j] * step[j]).sum();
+            assert!((reached - residual[i]).abs() < 1e-9, "point {i}: {reached}");
+        }
+        // The step has no part in K's null space (1, -1, 1, -1): the smallest change.
+        let null: f64 = step[..n]
+            .iter()
+            .zip([1.0, -1.0, 1.0, -1.0])
+            .map(|(s, v)| s * v)
+            .sum();
+        assert!(null.abs() < 1e-9, "{null}");
+        // A residual in the null space alone (no rigid motion of the face meets it) is no step.
+        let step = block.step(&[1.0, -1.0, 1.0, -1.0]);
+        assert!(step.iter().all(|s| s.abs() < 1e-9), "{step:?}");
+    }
+
+    #[test]
+    fn too_few_or_too_many_points_or_bad_numbers_make_no_block() {
+        assert!(NormalBlock::new(&[1.0], 1).is_none());
+        assert!(NormalBlock::new(&vec![1.0; 81], 9).is_none());
+        assert!(NormalBlock::new(&[0.0; 4], 2).is_none());
+        assert!(NormalBlock::new(&[1.0, f64::NAN, f64::NAN, 1.0], 2).is_none());
+    }
+}
