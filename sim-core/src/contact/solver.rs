@@ -3,8 +3,9 @@
 //! the scheme of Box2D and rapier).
 //!
 //! Per point: the normal impulse P_n ≥ 0 drives the relative normal velocity v_n (B relative to
-//! A along n, A to B) to its target. Bodies' velocities are updated after every point, so a body
-//! with several contacts is never over-pushed.
+//! A along n, A to B) to its target. Bodies' velocities are updated after every step, so a body
+//! with several contacts is never over-pushed. A flat patch (normals within [`BLOCK_COS`]) steps
+//! all its points' normal impulses at once ([`super::block`]) while they all stay in contact.
 //!
 //! Friction is solved per patch, not per point: the points of one pair whose normals agree
 //! within [`PATCH_COS`] share one isotropic Coulomb cone |P_t| ≤ μ Σ P_n in the tangent plane,
