@@ -381,6 +381,60 @@ fn a_jelly_dropped_on_a_collider_table_follows_e_and_still_jumps_when_pushed() {
     assert!((v - 0.5).abs() < 0.02, "{v}");
 }
 
+#[test]
+fn an_oblique_jelly_rebounds_at_e_along_the_normal_whatever_the_friction() {
+    // No gravity: a jelly cube at 45°, (1, 0, −1) m/s, onto a plane with friction (a grid
+    // collider, and a static slab). Friction takes tangential momentum during the impact, and the
+    // grid's impulse then leans away from the normal; the restitution law must still act along
+    // the surface normal: the rebound is e times the 1 m/s approach, whatever μ and the surface.
+    // (The slab's own e is 0, so the pair's e = max(e_A, e_B) is the jelly's.)
+    let collider = |surface: Surface, mu: f32| {
+        ColliderSpec::plane("table", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+            .surface(surface)
+            .friction(mu)
+    };
+    let slab = |surface: Surface, mu: f32| {
+        SceneObject::cuboid("slab", [-0.3, -0.3, -0.1], [0.3, 0.3, 0.0])
+            .kind(ObjectKind::Static)
+            .surface(surface)
+            .friction(mu)
+            .restitution(0.0)
+    };
+    for (surface, mu) in [
+        (Surface::Separate, 0.3),
+        (Surface::Separate, 0.6),
+        (Surface::Sticky, 1.0),
+    ] {
+        for e in [0.0f32, 0.5] {
+            let jelly = thrown_jelly(e).friction(mu).velocity([1.0, 0.0, -1.0]);
+            for on_slab in [false, true] {
+                let scene = if on_slab {
+                    weightless().object(jelly.clone()).object(slab(surface, mu))
+                } else {
+                    weightless()
+                        .object(jelly.clone())
+                        .collider(collider(surface, mu))
+                };
+                let mut w = World::from_scene(&scene.build().expect("scene")).expect("world");
+                while !w.is_finished() {
+                    w.advance_frame().expect("step");
+                }
+                let v = com(&w, 0).1;
+                let on = if on_slab { "static slab" } else { "collider" };
+                println!(
+                    "{on}, {surface:?}, mu = {mu}, e = {e}: rebound {:.4} m/s, v_x {:.4}",
+                    v[2], v[0]
+                );
+                // The same 1 % as the head-on drops above.
+                assert!(
+                    (v[2] - f64::from(e)).abs() < 0.01,
+                    "{on}, {surface:?}, mu = {mu}, e = {e}: {v:?}"
+                );
+            }
+        }
+    }
+}
+
 /// A sand column collapsing next to a static box stops at the box's face: the box is a boundary
 /// on the sand's grid. Without the box the same sand runs out past where the face would be, so
 /// the check can fail.

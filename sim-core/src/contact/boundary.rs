@@ -42,6 +42,9 @@ pub struct Reaction {
     pub impulse_n_s: DVec3,
     /// Angular impulse on the solid about its COM (N m s).
     pub angular_impulse_n_m_s: DVec3,
+    /// The normal part of `impulse_n_s`: Σ n (n·Δp) over the nodes, each with the solid's
+    /// surface normal there (N s; what the restitution law takes its normal from).
+    pub normal_impulse_n_s: DVec3,
     /// Grid nodes the solid touched.
     pub nodes: u64,
 }
@@ -50,6 +53,7 @@ impl Reaction {
     fn add(&mut self, o: &Reaction) {
         self.impulse_n_s += o.impulse_n_s;
         self.angular_impulse_n_m_s += o.angular_impulse_n_m_s;
+        self.normal_impulse_n_s += o.normal_impulse_n_s;
         self.nodes += o.nodes;
     }
 }
@@ -118,6 +122,8 @@ pub fn apply(
                     let reaction = &mut out[k];
                     reaction.impulse_n_s -= dp;
                     reaction.angular_impulse_n_m_s -= r.as_dvec3().cross(dp);
+                    let n = normal.as_dvec3();
+                    reaction.normal_impulse_n_s -= n * n.dot(dp);
                     reaction.nodes += 1;
                 }
             }

@@ -11,8 +11,9 @@ use super::grid::{CORNERS, NONE, SparseGrid};
 use super::p2g::{Region, region_index};
 use crate::collider::Collider;
 
-/// The impulse each grid collider gave a grid in its last update, Σ m Δv over the nodes it
-/// touched (N s). Kept by the solver between updates, so that no substep allocates for it.
+/// The normal impulse each grid collider gave a grid in its last update, Σ m n (n·Δv) over the
+/// nodes it touched, n the collider's normal at each (N s). Kept by the solver between updates,
+/// so that no substep allocates for it.
 #[derive(Debug, Clone, Default)]
 pub struct ColliderImpulses {
     /// `[blocks × colliders]` per grid block (one slot when there is no collider).
@@ -23,7 +24,7 @@ pub struct ColliderImpulses {
 }
 
 /// Reduces `scratch` into `grid`, then updates node velocities; `impulses` gets each collider's
-/// impulse on the grid. Returns the first non-finite node velocity's block index if any.
+/// normal impulse on the grid. Returns the first non-finite node velocity's block index if any.
 #[allow(clippy::too_many_arguments)]
 pub fn update(
     grid: &mut SparseGrid,
@@ -97,10 +98,10 @@ pub fn update(
                             // v is relative to v_ref; colliders see absolute velocity, and only the
                             // nodes they touch take the round trip through it.
                             for (ci, collider) in colliders.iter().enumerate() {
-                                if collider.contact_normal(node, time_s).is_some() {
+                                if let Some(n) = collider.contact_normal(node, time_s) {
                                     let before = v;
                                     v = collider.apply(node, v + v_ref, time_s) - v_ref;
-                                    pushed[ci] += ((v - before) * sum.w).as_dvec3();
+                                    pushed[ci] += (n * n.dot(v - before) * sum.w).as_dvec3();
                                 }
                             }
                             finite &= v.is_finite();

@@ -227,8 +227,8 @@ impl MpmSolver {
         self.v_ref
     }
 
-    /// The impulse each grid collider gave this grid in the last grid update (N s, one entry
-    /// per collider; empty before the first update).
+    /// The normal impulse each grid collider gave this grid in the last grid update (N s, one
+    /// entry per collider; empty before the first update; see [`grid_update::ColliderImpulses`]).
     pub fn collider_impulses_n_s(&self) -> &[glam::DVec3] {
         &self.collider_impulses.total_n_s
     }

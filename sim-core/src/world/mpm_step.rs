@@ -75,8 +75,8 @@ impl<'a> Step<'a> {
     }
 }
 
-/// Deformable `k`'s touches of grid colliders in its last grid update: (k, collider, impulse the
-/// collider gave it in N s), for the restitution law (`impact.rs`).
+/// Deformable `k`'s touches of grid colliders in its last grid update: (k, collider, normal
+/// impulse the collider gave it in N s), for the restitution law (`impact.rs`).
 fn collider_touches(
     k: usize,
     solver: &MpmSolver,
@@ -173,8 +173,8 @@ impl World {
         let mut touched = Vec::new();
         for (r, k) in r.iter().zip(of) {
             if r.nodes > 0 {
-                // The grid's impulse on the deformable is the solid's reaction reversed.
-                touched.push((k, -r.impulse_n_s));
+                // The grid's normal impulse on the deformable is the solid's reversed.
+                touched.push((k, -r.normal_impulse_n_s));
             }
             if let ObstacleOf::Object(k) = k {
                 reactions[k].impulse_n_s += r.impulse_n_s;
