@@ -1,6 +1,7 @@
 //! Substep size: the CFL bound dt <= C dx / (c_p + |v|max) with c_p the dilational wave speed of
 //! the stiffest material present (explicit MPM is stable only while information crosses less than
-//! a cell per substep; Fang et al. 2018 discuss the constant). C defaults to 0.5.
+//! a cell per substep; Fang et al. 2018 discuss the constant). C defaults to 0.5. The rest of a
+//! frame is cut into equal substeps within the bound, so a frame never ends on a sliver.
 
 /// Largest substep ever taken (s), whatever the bound says (a motionless, soft scene).
 pub const MAX_DT_S: f32 = 1e-2;
@@ -8,7 +9,8 @@ pub const MAX_DT_S: f32 = 1e-2;
 /// How substeps are sized.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TimeStepPolicy {
-    /// dt = number · dx / (c_p + |v|max), recomputed every substep.
+    /// dt = number · dx / (c_p + |v|max), recomputed every substep; the rest of the frame is
+    /// cut into equal substeps no longer than that.
     Cfl {
         /// The CFL number C, in (0, 1] for stability (default 0.5).
         number: f32,
@@ -120,12 +122,59 @@ impl TimeStepPolicy {
                 dt_s
             }
         };
-        // Land exactly on the frame boundary; avoid a sliver substep right before it.
+        // Land exactly on the frame boundary. Under the CFL policy the rest of the frame is cut
+        // into equal substeps no longer than the bound (as many as whole bounds would take), not
+        // whole bounds and a sliver: a 10-box stack on 10 ms substeps with a 3.3 ms sliver per
+        // frame at 30 frames/s rocked at 6 cm/s for 10 s (and fell with 0.3 ms slivers at 33);
+        // on 4 × 8.3 ms it stands still.
         let remaining = remaining_s as f32;
-        Ok(if remaining <= dt * 1.0001 {
+        let slack = 1.0001;
+        Ok(if remaining <= dt * slack {
             remaining.max(f32::MIN_POSITIVE)
+        } else if matches!(self, Self::Cfl { .. }) {
+            remaining / (remaining / (dt * slack)).ceil()
         } else {
             dt
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Steps `policy` through a frame of `frame_s` with a bound of 10 ms (dx 0.01 m, speed
+    /// 0.5 m/s at C = 0.5); returns the substeps taken (s).
+    fn frame(policy: TimeStepPolicy, frame_s: f64) -> Vec<f32> {
+        let mut left = frame_s;
+        let mut steps = Vec::new();
+        while left > 1e-9 {
+            let dt = policy.next_dt_s(0.01, 0.5, 0.0, left).expect("dt");
+            steps.push(dt);
+            left -= f64::from(dt);
+        }
+        steps
+    }
+
+    #[test]
+    fn a_frame_is_cut_into_equal_substeps_within_the_bound() {
+        // 33.3 ms at a 10 ms bound: four substeps of 8.33 ms, not 10, 10, 10 and 3.3.
+        let steps = frame(TimeStepPolicy::default(), 1.0 / 30.0);
+        assert_eq!(steps.len(), 4, "{steps:?}");
+        for dt in &steps {
+            assert!((dt - 1.0 / 120.0).abs() < 1e-6, "{steps:?}");
+        }
+        // A frame of whole bounds keeps them.
+        let steps = frame(TimeStepPolicy::default(), 0.04);
+        assert_eq!(steps.len(), 4, "{steps:?}");
+        assert!(steps.iter().all(|dt| (dt - 0.01).abs() < 1e-6), "{steps:?}");
+        // A fixed dt is what was asked, with the rest of the frame last.
+        let fixed = TimeStepPolicy::Fixed {
+            dt_s: 0.01,
+            force: false,
+        };
+        let steps = frame(fixed, 1.0 / 30.0);
+        assert_eq!(steps.len(), 4, "{steps:?}");
+        assert!((steps[3] - (1.0 / 30.0 - 0.03)).abs() < 1e-6, "{steps:?}");
     }
 }
