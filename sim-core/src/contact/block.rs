@@ -13,9 +13,10 @@
 //! move, with the smallest change of impulses (the load split among more than three points on a
 //! face is indeterminate: K has rank 3 for a flat face between rigid bodies, and the part of λ
 //! in K's null space is left as it was). The caller takes the step only when every accumulated
-//! impulse stays ≥ 0, that is, when all the points stay in contact: then the patch is at a
-//! solution of its own complementarity problem. Otherwise it falls back to point-by-point steps
-//! with clamping, which find the points that lift off.
+//! impulse stays ≥ 0, that is, when all the points stay in contact: then, when a motion of the
+//! bodies meets all the targets, the patch is at a solution of its own complementarity problem.
+//! Otherwise it falls back to point-by-point steps with clamping, which find the points that
+//! lift off.
 //!
 //! K_ij is the normal velocity at point i from a unit normal impulse at point j, summed over
 //! both bodies: 1/m n_i·n_j + (r_i × n_i)·I⁻¹(r_j × n_j).
@@ -28,7 +29,7 @@ pub const MAX_BLOCK: usize = super::manifold::MAX_POINTS;
 /// Eigenvalues of K below this fraction of its largest are its null space: a flat face's K has
 /// exactly 3 non-zero eigenvalues (translation along n and the two tilts) and the rest at
 /// round-off (1e-16 of the largest).
-const NULL_TOLERANCE: f64 = 1e-9;
+pub const NULL_TOLERANCE: f64 = 1e-9;
 
 /// A block needs every other eigenvalue of K within this fraction of its largest. A box on a box
 /// measures 1 : 0.97 : 0.71. Points that lie close together on a large body (a few points of a
@@ -37,7 +38,7 @@ const NULL_TOLERANCE: f64 = 1e-9;
 /// leaves that direction unsolved while the block stands in for the point steps. Such patches
 /// keep the point-by-point steps; with them, the captured robot of `scenes/playbot_drop.toml`
 /// comes to rest, and with a block it rocked on its rock.
-const CONDITION: f64 = 1e-2;
+pub const CONDITION: f64 = 1e-2;
 
 type Square = SMatrix<f64, MAX_BLOCK, MAX_BLOCK>;
 
