@@ -88,16 +88,6 @@ impl NormalBlock {
         Some(Self { len, k_pinv })
     }
 
-    /// Points in the block.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// Whether the block holds no point (never: [`Self::new`] refuses fewer than 2).
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
     /// The impulse step Δλ = K⁺ `residual` (N s), one entry per point: the smallest step that
     /// meets the targets when a motion of the bodies can meet them all, and the least-squares
     /// step when it cannot (speculative targets at gaps that differ a little).

@@ -21,6 +21,7 @@ pub mod boundary;
 pub mod geometry;
 pub mod level_set;
 pub mod manifold;
+pub mod patch;
 pub mod solver;
 
 pub use geometry::{Collision, Geometry, Pose};

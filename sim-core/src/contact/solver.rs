@@ -30,7 +30,8 @@
 
 use glam::{DMat3, DVec3};
 
-use super::block::{MAX_BLOCK, NormalBlock};
+use super::patch::patches;
+pub use super::patch::{BLOCK_COS, ContactPatch, PATCH_COS};
 
 /// A body as the solver sees it. Immovable bodies (static objects, colliders) have zero inverse
 /// mass and inertia.
@@ -131,47 +132,6 @@ pub struct ContactPoint {
     pub twist_impulse: f64,
 }
 
-/// Points of one pair whose normals meet within this cosine (about 18°) share a friction patch.
-pub const PATCH_COS: f64 = 0.95;
-
-/// A patch's normal impulses are solved as a block when all its points' normals lie within
-/// this cosine (about 2.6°) of the patch normal: a flat face on a flat face. Points of a curved
-/// or rough contact (a level set on captured ground) that lie close together with different
-/// normals make K ill-conditioned, and an exact step then trades large impulses between them.
-pub const BLOCK_COS: f64 = 0.999;
-
-/// The points of one pair that share a normal: their friction as solved, and their normal
-/// impulses' block ([`NormalBlock`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ContactPatch {
-    /// Body A.
-    pub a: usize,
-    /// Body B.
-    pub b: usize,
-    /// Indices of its points in the contact slice.
-    pub points: Vec<usize>,
-    /// Unit normal from A to B: the mean of its points' normals.
-    pub normal: DVec3,
-    /// Where the tangential impulse acts (m): the centre of pressure.
-    pub anchor_m: DVec3,
-    /// Tangential impulse on B (N s).
-    pub tangent_impulse: DVec3,
-    /// Torsional impulse on B about `normal` (N m s).
-    pub twist_impulse: f64,
-    /// Coulomb friction μ of the pair.
-    friction: f64,
-    ra: DVec3,
-    rb: DVec3,
-    tangents: [DVec3; 2],
-    /// Inverse of the 2×2 tangent effective mass, row-major.
-    k_t_inv: [f64; 4],
-    /// Inverse of the torsional effective inertia (kg m²).
-    k_twist_inv: f64,
-    /// The points' normal impulses as one block; `None` for a single point, normals that
-    /// disagree or a degenerate K.
-    block: Option<NormalBlock>,
-}
-
 /// Solver settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolverSettings {
@@ -203,33 +163,40 @@ impl Default for SolverSettings {
 }
 
 /// Per-point constants of one solve.
-struct Row {
-    ra: DVec3,
-    rb: DVec3,
-    k_n: f64,
+pub(super) struct Row {
+    pub(super) ra: DVec3,
+    pub(super) rb: DVec3,
+    pub(super) k_n: f64,
     /// Distance from its patch's anchor in the tangent plane (m): its arm in torsional friction.
-    arm_m: f64,
-    target_vn: f64,
+    pub(super) arm_m: f64,
+    pub(super) target_vn: f64,
     push_target: f64,
     push_impulse: f64,
 }
 
-fn relative(bodies: &[SolverBody], a: usize, b: usize, ra: DVec3, rb: DVec3) -> DVec3 {
+pub(super) fn relative(bodies: &[SolverBody], a: usize, b: usize, ra: DVec3, rb: DVec3) -> DVec3 {
     bodies[b].velocity_at(rb) - bodies[a].velocity_at(ra)
 }
 
-fn apply_pair(bodies: &mut [SolverBody], a: usize, b: usize, ra: DVec3, rb: DVec3, p: DVec3) {
+pub(super) fn apply_pair(
+    bodies: &mut [SolverBody],
+    a: usize,
+    b: usize,
+    ra: DVec3,
+    rb: DVec3,
+    p: DVec3,
+) {
     bodies[a].apply(ra, -p);
     bodies[b].apply(rb, p);
 }
 
 /// An angular impulse `l` on B about its COM, and −`l` on A.
-fn apply_twist(bodies: &mut [SolverBody], a: usize, b: usize, l: DVec3) {
+pub(super) fn apply_twist(bodies: &mut [SolverBody], a: usize, b: usize, l: DVec3) {
     bodies[a].omega_rad_s -= bodies[a].inverse_inertia * l;
     bodies[b].omega_rad_s += bodies[b].inverse_inertia * l;
 }
 
-fn effective(
+pub(super) fn effective(
     bodies: &[SolverBody],
     a: usize,
     b: usize,
@@ -289,15 +256,7 @@ pub fn solve(
     }
     let mut patches = patches(bodies, contacts, &mut rows);
     for patch in &patches {
-        apply_pair(
-            bodies,
-            patch.a,
-            patch.b,
-            patch.ra,
-            patch.rb,
-            patch.tangent_impulse,
-        );
-        apply_twist(bodies, patch.a, patch.b, patch.normal * patch.twist_impulse);
+        patch.warm_start_friction(bodies);
     }
     for _ in 0..settings.iterations {
         for patch in patches.iter_mut() {
@@ -344,46 +303,6 @@ pub fn solve(
     patches
 }
 
-/// The normal velocity at a point (arm `ri`, normal `ni`) of `body` from a unit impulse along
-/// `nj` at arm `rj`: 1/m ni·nj + (ri × ni)·I⁻¹(rj × nj).
-fn coupling(body: &SolverBody, ri: DVec3, ni: DVec3, rj: DVec3, nj: DVec3) -> f64 {
-    if body.inverse_mass == 0.0 {
-        return 0.0;
-    }
-    body.inverse_mass * ni.dot(nj) + ri.cross(ni).dot(body.inverse_inertia * rj.cross(nj))
-}
-
-/// The block of `points`' normal impulses, when there are at least two, each has a valid
-/// effective mass and a normal within [`BLOCK_COS`] of `normal`.
-fn normal_block(
-    bodies: &[SolverBody],
-    contacts: &[ContactPoint],
-    rows: &[Row],
-    points: &[usize],
-    normal: DVec3,
-) -> Option<NormalBlock> {
-    if points.iter().any(|&i| {
-        !(rows[i].k_n > 0.0 && rows[i].k_n.is_finite())
-            || contacts[i].normal.dot(normal) < BLOCK_COS
-    }) {
-        return None;
-    }
-    let len = points.len();
-    if !(2..=MAX_BLOCK).contains(&len) {
-        return None;
-    }
-    let mut k = [0.0; MAX_BLOCK * MAX_BLOCK];
-    for (r, &i) in points.iter().enumerate() {
-        for (col, &j) in points.iter().enumerate() {
-            let (ci, cj) = (&contacts[i], &contacts[j]);
-            k[r * len + col] =
-                coupling(&bodies[ci.a], rows[i].ra, ci.normal, rows[j].ra, cj.normal)
-                    + coupling(&bodies[ci.b], rows[i].rb, ci.normal, rows[j].rb, cj.normal);
-        }
-    }
-    NormalBlock::new(&k[..len * len], len)
-}
-
 /// One sequential-impulse step of one point's normal impulse, with accumulated clamping.
 fn solve_normal_point(bodies: &mut [SolverBody], c: &mut ContactPoint, row: &Row) {
     if row.k_n <= 0.0 || !row.k_n.is_finite() {
@@ -395,200 +314,6 @@ fn solve_normal_point(bodies: &mut [SolverBody], c: &mut ContactPoint, row: &Row
     let delta = total - c.normal_impulse;
     c.normal_impulse = total;
     apply_pair(bodies, c.a, c.b, row.ra, row.rb, n * delta);
-}
-
-/// Groups `contacts` into friction patches (module docs) and builds each one's constants.
-fn patches(
-    bodies: &[SolverBody],
-    contacts: &[ContactPoint],
-    rows: &mut [Row],
-) -> Vec<ContactPatch> {
-    // Points of a pair come one after another; a pair with several normals gets several patches.
-    let mut groups: Vec<(usize, usize, DVec3, Vec<usize>)> = Vec::new();
-    let mut pair_start = 0;
-    for (i, c) in contacts.iter().enumerate() {
-        if groups
-            .last()
-            .is_none_or(|g: &(usize, usize, DVec3, Vec<usize>)| (g.0, g.1) != (c.a, c.b))
-        {
-            pair_start = groups.len();
-        }
-        match groups[pair_start..]
-            .iter_mut()
-            .find(|g| g.2.dot(c.normal) >= PATCH_COS)
-        {
-            Some(g) => g.3.push(i),
-            None => groups.push((c.a, c.b, c.normal, vec![i])),
-        }
-    }
-    groups
-        .into_iter()
-        .map(|(a, b, _, points)| ContactPatch::new(bodies, contacts, rows, a, b, points))
-        .collect()
-}
-
-impl ContactPatch {
-    fn new(
-        bodies: &[SolverBody],
-        contacts: &[ContactPoint],
-        rows: &mut [Row],
-        a: usize,
-        b: usize,
-        points: Vec<usize>,
-    ) -> Self {
-        let normal = points
-            .iter()
-            .map(|&i| contacts[i].normal)
-            .sum::<DVec3>()
-            .normalize_or(contacts[points[0]].normal);
-        // Centre of pressure of the last substep (its warm-start impulses); the points' centre
-        // when there were none.
-        let load: f64 = points.iter().map(|&i| contacts[i].normal_impulse).sum();
-        let weight = |i: usize| {
-            if load > 0.0 {
-                contacts[i].normal_impulse / load
-            } else {
-                1.0 / points.len() as f64
-            }
-        };
-        let anchor_m: DVec3 = points
-            .iter()
-            .map(|&i| contacts[i].point_m * weight(i))
-            .sum();
-        for &i in &points {
-            let d = contacts[i].point_m - anchor_m;
-            rows[i].arm_m = (d - normal * d.dot(normal)).length();
-        }
-        let ra = anchor_m - bodies[a].com_m;
-        let rb = anchor_m - bodies[b].com_m;
-        let (t0, t1) = normal.any_orthonormal_pair();
-        let k00 = effective(bodies, a, b, ra, rb, t0, t0);
-        let k01 = effective(bodies, a, b, ra, rb, t0, t1);
-        let k11 = effective(bodies, a, b, ra, rb, t1, t1);
-        let det = k00 * k11 - k01 * k01;
-        let k_t_inv = if det > 1e-12 * (k00 * k11).max(f64::MIN_POSITIVE) && det.is_finite() {
-            [k11 / det, -k01 / det, -k01 / det, k00 / det]
-        } else {
-            [0.0; 4]
-        };
-        let k_twist = normal.dot(bodies[a].inverse_inertia * normal)
-            + normal.dot(bodies[b].inverse_inertia * normal);
-        let k_twist_inv = if k_twist > 0.0 && k_twist.is_finite() {
-            1.0 / k_twist
-        } else {
-            0.0
-        };
-        // Warm start: the points' stored shares, the tangential part projected on the plane.
-        let mut tangent_impulse: DVec3 = points.iter().map(|&i| contacts[i].tangent_impulse).sum();
-        tangent_impulse -= normal * tangent_impulse.dot(normal);
-        let mut twist_impulse: f64 = points.iter().map(|&i| contacts[i].twist_impulse).sum();
-        if k_t_inv == [0.0; 4] {
-            tangent_impulse = DVec3::ZERO;
-        }
-        if k_twist_inv == 0.0 {
-            twist_impulse = 0.0;
-        }
-        let block = normal_block(bodies, contacts, rows, &points, normal);
-        Self {
-            a,
-            b,
-            friction: contacts[points[0]].friction,
-            points,
-            normal,
-            anchor_m,
-            tangent_impulse,
-            twist_impulse,
-            ra,
-            rb,
-            tangents: [t0, t1],
-            k_t_inv,
-            k_twist_inv,
-            block,
-        }
-    }
-
-    /// One block step of the patch's normal impulses ([`NormalBlock`]); `false`, with nothing
-    /// changed, when the patch has no block or the step would make an impulse negative.
-    fn solve_normal_block(
-        &self,
-        bodies: &mut [SolverBody],
-        contacts: &mut [ContactPoint],
-        rows: &[Row],
-    ) -> bool {
-        let Some(block) = &self.block else {
-            return false;
-        };
-        let points = &self.points;
-        let mut residual = [0.0; MAX_BLOCK];
-        for (r, &i) in residual.iter_mut().zip(points) {
-            let (c, row) = (&contacts[i], &rows[i]);
-            let vn = relative(bodies, c.a, c.b, row.ra, row.rb).dot(c.normal);
-            *r = row.target_vn - vn;
-        }
-        let step = block.step(&residual);
-        if points
-            .iter()
-            .zip(step)
-            .any(|(&i, d)| contacts[i].normal_impulse + d < 0.0)
-        {
-            return false;
-        }
-        for (&i, d) in points.iter().zip(step) {
-            let (c, row) = (&mut contacts[i], &rows[i]);
-            c.normal_impulse += d;
-            apply_pair(bodies, c.a, c.b, row.ra, row.rb, c.normal * d);
-        }
-        true
-    }
-
-    /// One iteration of the patch's tangential and torsional friction.
-    fn solve_friction(
-        &mut self,
-        bodies: &mut [SolverBody],
-        contacts: &[ContactPoint],
-        rows: &[Row],
-    ) {
-        let (a, b) = (self.a, self.b);
-        // An infinite μ (a sticky surface) grips whatever the load.
-        let limit = |arm: &dyn Fn(usize) -> f64| {
-            if self.friction.is_infinite() {
-                f64::INFINITY
-            } else {
-                self.points
-                    .iter()
-                    .map(|&i| self.friction * contacts[i].normal_impulse * arm(i))
-                    .sum::<f64>()
-            }
-        };
-        if self.k_t_inv != [0.0; 4] {
-            let vt = relative(bodies, a, b, self.ra, self.rb);
-            let (x, y) = (vt.dot(self.tangents[0]), vt.dot(self.tangents[1]));
-            let k = self.k_t_inv;
-            let d = -(self.tangents[0] * (k[0] * x + k[1] * y)
-                + self.tangents[1] * (k[2] * x + k[3] * y));
-            let mut total = self.tangent_impulse + d;
-            let max = limit(&|_| 1.0);
-            let len = total.length();
-            if len > max {
-                total = if max > 0.0 {
-                    total * (max / len)
-                } else {
-                    DVec3::ZERO
-                };
-            }
-            let delta = total - self.tangent_impulse;
-            self.tangent_impulse = total;
-            apply_pair(bodies, a, b, self.ra, self.rb, delta);
-        }
-        if self.k_twist_inv > 0.0 {
-            let spin = (bodies[b].omega_rad_s - bodies[a].omega_rad_s).dot(self.normal);
-            let max = limit(&|i| rows[i].arm_m);
-            let total = (self.twist_impulse - spin * self.k_twist_inv).clamp(-max, max);
-            let delta = total - self.twist_impulse;
-            self.twist_impulse = total;
-            apply_twist(bodies, a, b, self.normal * delta);
-        }
-    }
 }
 
 #[cfg(test)]
@@ -763,22 +488,20 @@ mod tests {
         assert_eq!(sizes, [2, 1]);
     }
 
-    #[test]
-    fn a_column_solved_cold_does_not_lean() {
-        // Ten boxes of 1 kg, 10 cm, each on the one below by its four corners, μ = 0.5, one
-        // substep from cold. Point by point, each corner's impulse tilts its box for a moment,
-        // friction at the face (below the COM) answers the tilt, and the column leaves the
-        // solve leaning: about 2e-4 m/s sideways whatever the iteration count. Solved as a block
-        // per face, nothing moves sideways or turns (to round-off).
-        let (n, dt, g) = (10, 1e-3, 9.81);
+    /// The corners of a 10 cm face about its centre (m).
+    const CORNERS: [(f64, f64); 4] = [(-0.05, -0.05), (0.05, -0.05), (0.05, 0.05), (-0.05, 0.05)];
+
+    /// The ground (body 0) and `n` 1 kg, 10 cm cubes (I⁻¹ = 600) stacked on it, falling at
+    /// `vz_m_s`, each on the one below by its four corners (μ = 0.5, e = 0).
+    fn column(n: usize, vz_m_s: f64) -> (Vec<SolverBody>, Vec<ContactPoint>) {
         let mut bodies = vec![SolverBody::immovable(DVec3::ZERO)];
         let mut c = Vec::new();
         for k in 0..n {
             let z = 0.05 + 0.1 * k as f64;
-            let mut b = ball(z, -g * dt);
+            let mut b = ball(z, vz_m_s);
             b.inverse_inertia = DMat3::IDENTITY * 600.0;
             bodies.push(b);
-            for (x, y) in [(-0.05, -0.05), (0.05, -0.05), (0.05, 0.05), (-0.05, 0.05)] {
+            for (x, y) in CORNERS {
                 c.push(ContactPoint {
                     a: k,
                     b: k + 1,
@@ -787,6 +510,18 @@ mod tests {
                 });
             }
         }
+        (bodies, c)
+    }
+
+    #[test]
+    fn a_column_solved_cold_does_not_lean() {
+        // Ten boxes of 1 kg, 10 cm, each on the one below by its four corners, μ = 0.5, one
+        // substep from cold. Point by point, each corner's impulse tilts its box for a moment,
+        // friction at the face (below the COM) answers the tilt, and the column leaves the
+        // solve leaning: about 2e-4 m/s sideways whatever the iteration count. Solved as a block
+        // per face, nothing moves sideways or turns (to round-off).
+        let (n, dt, g) = (10, 1e-3, 9.81);
+        let (mut bodies, mut c) = column(n, -g * dt);
         solve(&mut bodies, &mut c, dt, &SolverSettings::default());
         for (k, b) in bodies.iter().enumerate().skip(1) {
             let sideways = b.velocity_m_s.truncate().length();
@@ -806,10 +541,7 @@ mod tests {
         b.inverse_inertia = DMat3::IDENTITY * 600.0;
         b.omega_rad_s = DVec3::Y;
         let mut bodies = [SolverBody::immovable(DVec3::ZERO), b];
-        let mut c = on_ground(
-            &[(-0.05, -0.05), (0.05, -0.05), (0.05, 0.05), (-0.05, 0.05)],
-            0.0,
-        );
+        let mut c = on_ground(&CORNERS, 0.0);
         solve(&mut bodies, &mut c, 1e-3, &SolverSettings::default());
         let (v, w) = (bodies[1].velocity_m_s, bodies[1].omega_rad_s);
         assert!(
@@ -828,22 +560,7 @@ mod tests {
         // substep gravity gives them −g dt, and the contact under box k must carry the 10 − k
         // boxes from it up, (10 − k) g dt, however the four corners share it.
         let (n, dt, g) = (10, 1e-3, 9.81);
-        let mut bodies = vec![SolverBody::immovable(DVec3::ZERO)];
-        let mut c = Vec::new();
-        for k in 0..n {
-            let z = 0.05 + 0.1 * k as f64;
-            let mut b = ball(z, -g * dt);
-            b.inverse_inertia = DMat3::IDENTITY * 600.0;
-            bodies.push(b);
-            for (x, y) in [(-0.05, -0.05), (0.05, -0.05), (0.05, 0.05), (-0.05, 0.05)] {
-                c.push(ContactPoint {
-                    a: k,
-                    b: k + 1,
-                    point_m: DVec3::new(x, y, z - 0.05),
-                    ..ground_contact(0.0, 0.0)
-                });
-            }
-        }
+        let (mut bodies, mut c) = column(n, -g * dt);
         // Cold, the iterations leave the bottom contact short; warm starting carries the rest
         // over the next substeps, as in the world.
         for _ in 0..10 {
