@@ -188,16 +188,21 @@ fn a_step_that_never_ends_is_reported_as_stalled_not_gone() {
         ..ServerConfig::default()
     };
     let hang = STALL_THRESHOLD + Duration::from_secs(2);
+    let (step_started_tx, step_started) = std::sync::mpsc::channel();
     let server = std::thread::spawn(move || {
         // One substep that takes longer than the stall threshold, without a progress call.
         let mut sim = Scripted::new(FreeFall::new("stall", 1, 10, 0.01, None));
         sim.substeps = 1;
         sim.substep_sleep = hang;
         sim.silent = true;
+        sim.started = Some(step_started_tx);
         serve(&mut sim, &cfg).expect("server")
     });
     let mut conn = connect("t/stall", false);
     accepted(&mut conn, Command::Step { count: 1 });
+    // A pause that reaches the server in the same drain as the step would cancel it before it
+    // begins: send it only once the step is under way.
+    step_started.recv().expect("the step started");
     let err = conn
         .command(
             &Command::Pause,
