@@ -15,15 +15,16 @@ use super::body::{Body, inverse_or_zero, measure};
 /// Share of a contact impulse given to the contact zone (the rest spreads over the object).
 pub const ZONE_SHARE: f64 = 0.5;
 
-/// Applies impulse `j` (N s) at `point` (m) to deformable `body`, zone particles `zone`.
-pub fn apply_impulse(body: &mut Body, j: DVec3, point: DVec3, zone: &[u32]) {
+/// Applies impulse `j` (N s) at `point` (m) and angular impulse `h` (N m s, a couple) to
+/// deformable `body`, zone particles `zone`.
+pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[u32]) {
     let dx = body.solver.dx_m;
     let before = measure(&body.particles, dx);
     if before.mass_kg <= 0.0 {
         return;
     }
     let target_p = before.velocity_m_s * before.mass_kg + j;
-    let target_l = before.angular_momentum + (point - before.com_m).cross(j);
+    let target_l = before.angular_momentum + (point - before.com_m).cross(j) + h;
     let zone_mass: f64 = zone
         .iter()
         .map(|&i| body.particles.mass_kg[i as usize] as f64)

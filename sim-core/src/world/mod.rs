@@ -224,6 +224,9 @@ pub struct World {
     contact_cache: contact::ContactCache,
     /// This substep's deformable–solid grid contacts: (deformable, solid, impulse on it in N s).
     boundary_touches: Vec<(usize, impact::SolidOf, glam::DVec3)>,
+    /// Resting deformable pairs of the last substep, warm-started into the next
+    /// (`deformable_pair.rs`).
+    resting_pairs: Vec<deformable_pair::RestingPair>,
     /// Open deformable–solid impacts (`impact.rs`).
     impacts: std::collections::HashMap<(usize, impact::SolidOf), impact::Impact>,
     /// The contact points of the last substep.
@@ -389,6 +392,7 @@ impl World {
             boundary_touches: Vec::new(),
             max_particle_substeps_per_frame: limits::DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME,
             impacts: Default::default(),
+            resting_pairs: Vec::new(),
             last_contacts: Vec::new(),
         })
     }
@@ -533,6 +537,9 @@ impl World {
                 source,
             })?;
         let t0 = Instant::now();
+        if self.settings.method == Method::Com {
+            self.warm_start_deformable_pairs(dt as f64);
+        }
         let reactions = match self.settings.method {
             Method::Mpm => self.mpm_shared_substep(dt)?,
             Method::MultiField => self.multi_field_substep(dt)?,
@@ -602,5 +609,6 @@ impl World {
         self.contact_cache = Default::default();
         self.last_contacts.clear();
         self.impacts.clear();
+        self.resting_pairs.clear();
     }
 }
