@@ -53,11 +53,17 @@ fn an_offset_column_of_jelly_cubes_stands_without_sinking_or_sliding() {
         // The middle cube is held by a couple (the pressure centre under its COM, inside the
         // contact); a single contact point 1 cm off its COM spins it off the column.
         let side = ((end[k][0] - start[k][0]).powi(2) + (end[k][1] - start[k][1]).powi(2)).sqrt();
+        println!(
+            "cube {k}: down {:.2} mm from t = 1 s to 4 s, {:.2} mm sideways from the start",
+            sink * 1e3,
+            side * 1e3
+        );
         assert!(side < 5e-3, "cube {k} moved {:.1} mm sideways", side * 1e3);
     }
     for k in 1..3 {
         // Contact begins once particles share a grid cell: at most a cell (10 mm) of overlap.
         let apart = end[k][2] - end[k - 1][2];
+        println!("cubes {} and {k}: COMs {:.2} mm apart", k - 1, apart * 1e3);
         assert!(
             apart > 0.1 - 0.01,
             "cubes {} and {k} overlap by {:.1} mm",

@@ -44,6 +44,11 @@ pub struct Contact {
     pub zone_a: Vec<u32>,
     /// B's particles in cells A occupies.
     pub zone_b: Vec<u32>,
+    /// A's and B's particles within a cell of a cell the other occupies: where the two touch
+    /// or are about to (the footprint of a resting contact; the zones are only where they
+    /// already overlap).
+    pub touch_a: Vec<u32>,
+    pub touch_b: Vec<u32>,
 }
 
 #[inline]
@@ -130,6 +135,29 @@ pub fn narrow_phase(
     if zone_b.is_empty() {
         return None;
     }
+    let touching = |body: &Body, near: &[u32], other: &[[i32; 3]]| -> Vec<u32> {
+        near.iter()
+            .copied()
+            .filter(|&i| {
+                let x = body.particles.x[i as usize];
+                if !inside(x) {
+                    return false;
+                }
+                let c = cell(x, inv_h);
+                (-1..=1).any(|dz| {
+                    (-1..=1).any(|dy| {
+                        (-1..=1).any(|dx| {
+                            other
+                                .binary_search(&(c + IVec3::new(dx, dy, dz)).to_array())
+                                .is_ok()
+                        })
+                    })
+                })
+            })
+            .collect()
+    };
+    let touch_a = touching(a, &near_a, &cells_b);
+    let touch_b = touching(b, &near_b, &cells_a);
     let centroid = |body: &Body, z: &[u32]| {
         let mut m = 0.0;
         let mut mx = DVec3::ZERO;
@@ -181,6 +209,8 @@ pub fn narrow_phase(
         point_m: point,
         zone_a,
         zone_b,
+        touch_a,
+        touch_b,
     })
 }
 
@@ -248,7 +278,7 @@ pub fn impulse(
 }
 
 /// Where a resting contact may press: the in-plane offsets (m) from the contact point of the
-/// two zones' particles. The centre of pressure must lie inside it, which bounds the couple a
+/// particles where the two objects touch ([`Contact::touch_a`], [`Contact::touch_b`]). The centre of pressure must lie inside it, which bounds the couple a
 /// flat contact can carry (a box standing off-centre on another is held; one hanging past the
 /// edge tips).
 #[derive(Debug, Clone, Default)]
@@ -257,8 +287,16 @@ pub struct Footprint {
 }
 
 impl Footprint {
-    /// The zones `zone_a` of `a` and `zone_b` of `b` around `point` in the plane normal to `n`.
-    pub fn new(a: &Body, zone_a: &[u32], b: &Body, zone_b: &[u32], point: DVec3, n: DVec3) -> Self {
+    /// The particles `touch_a` of `a` and `touch_b` of `b` around `point` in the plane normal
+    /// to `n`.
+    pub fn new(
+        a: &Body,
+        touch_a: &[u32],
+        b: &Body,
+        touch_b: &[u32],
+        point: DVec3,
+        n: DVec3,
+    ) -> Self {
         let offsets = |body: &Body, zone: &[u32]| -> Vec<DVec3> {
             zone.iter()
                 .map(|&i| {
@@ -267,8 +305,8 @@ impl Footprint {
                 })
                 .collect()
         };
-        let mut offsets_m = offsets(a, zone_a);
-        offsets_m.extend(offsets(b, zone_b));
+        let mut offsets_m = offsets(a, touch_a);
+        offsets_m.extend(offsets(b, touch_b));
         Self { offsets_m }
     }
 
@@ -507,7 +545,7 @@ impl World {
                         .find(|w| (w.a, w.b) == (i, j))
                         .map_or(Accumulated::default(), |w| w.impulse.scaled(dt / w.dt_s));
                     let n = c.normal;
-                    let footprint = Footprint::new(bi, &c.zone_a, bj, &c.zone_b, c.point_m, n);
+                    let footprint = Footprint::new(bi, &c.touch_a, bj, &c.touch_b, c.point_m, n);
                     let change = resting_impulse(&da, &db, c.point_m, n, mu, &footprint, acc);
                     let total = change.map_or(acc, |d| Accumulated {
                         linear_n_s: acc.linear_n_s + d.linear_n_s,
