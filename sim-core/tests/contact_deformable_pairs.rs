@@ -43,6 +43,12 @@ fn an_offset_column_of_jelly_cubes_stands_without_sinking_or_sliding() {
         println!("t = {t} s: COMs {coms:.5?} m");
         at.push(coms);
     }
+    let st = &w.stats;
+    println!(
+        "COM layer {:.1} % of the step ({} substeps)",
+        100.0 * st.com_layer_wall_s / (st.com_layer_wall_s + st.mpm_wall_s),
+        st.substeps
+    );
     let (early, end) = (&at[0], &at[1]);
     for k in 0..3 {
         // Sinking at g dt² per substep, as when the load arrives after the positions moved,

@@ -44,11 +44,44 @@ pub struct Contact {
     pub zone_a: Vec<u32>,
     /// B's particles in cells A occupies.
     pub zone_b: Vec<u32>,
-    /// A's and B's particles within a cell of a cell the other occupies: where the two touch
-    /// or are about to (the footprint of a resting contact; the zones are only where they
-    /// already overlap).
-    pub touch_a: Vec<u32>,
-    pub touch_b: Vec<u32>,
+    /// What [`Contact::touching`] needs: each body's particles near the overlap, and the cells
+    /// each occupies inside it (sorted).
+    near: [Vec<u32>; 2],
+    cells: [Vec<[i32; 3]>; 2],
+    /// The overlap of the two boxes grown by a cell (m), and 1 / cell size (1/m).
+    overlap_m: (DVec3, DVec3),
+    inv_cell: f32,
+}
+
+impl Contact {
+    /// A's and B's particles within a cell of a cell the other occupies: where the two touch or
+    /// are about to (the footprint of a resting contact; the zones are only where they already
+    /// overlap). Computed on demand: impacts do not need it.
+    pub fn touching(&self, a: &Body, b: &Body) -> [Vec<u32>; 2] {
+        let (lo, hi) = self.overlap_m;
+        let inv_h = self.inv_cell;
+        let side = |body: &Body, near: &[u32], other: &[[i32; 3]]| -> Vec<u32> {
+            near.iter()
+                .copied()
+                .filter(|&i| {
+                    let x = body.particles.x[i as usize];
+                    let xd = x.as_dvec3();
+                    if !(xd.cmpge(lo).all() && xd.cmple(hi).all()) {
+                        return false;
+                    }
+                    let c = cell(x, inv_h);
+                    (0..27).any(|k| {
+                        let d = IVec3::new(k % 3 - 1, (k / 3) % 3 - 1, k / 9 - 1);
+                        other.binary_search(&(c + d).to_array()).is_ok()
+                    })
+                })
+                .collect()
+        };
+        [
+            side(a, &self.near[0], &self.cells[1]),
+            side(b, &self.near[1], &self.cells[0]),
+        ]
+    }
 }
 
 #[inline]
@@ -135,29 +168,6 @@ pub fn narrow_phase(
     if zone_b.is_empty() {
         return None;
     }
-    let touching = |body: &Body, near: &[u32], other: &[[i32; 3]]| -> Vec<u32> {
-        near.iter()
-            .copied()
-            .filter(|&i| {
-                let x = body.particles.x[i as usize];
-                if !inside(x) {
-                    return false;
-                }
-                let c = cell(x, inv_h);
-                (-1..=1).any(|dz| {
-                    (-1..=1).any(|dy| {
-                        (-1..=1).any(|dx| {
-                            other
-                                .binary_search(&(c + IVec3::new(dx, dy, dz)).to_array())
-                                .is_ok()
-                        })
-                    })
-                })
-            })
-            .collect()
-    };
-    let touch_a = touching(a, &near_a, &cells_b);
-    let touch_b = touching(b, &near_b, &cells_a);
     let centroid = |body: &Body, z: &[u32]| {
         let mut m = 0.0;
         let mut mx = DVec3::ZERO;
@@ -209,8 +219,10 @@ pub fn narrow_phase(
         point_m: point,
         zone_a,
         zone_b,
-        touch_a,
-        touch_b,
+        near: [near_a, near_b],
+        cells: [cells_a, cells_b],
+        overlap_m: (lo, hi),
+        inv_cell: inv_h,
     })
 }
 
@@ -278,7 +290,7 @@ pub fn impulse(
 }
 
 /// Where a resting contact may press: the in-plane offsets (m) from the contact point of the
-/// particles where the two objects touch ([`Contact::touch_a`], [`Contact::touch_b`]). The centre of pressure must lie inside it, which bounds the couple a
+/// particles where the two objects touch ([`Contact::touching`]). The centre of pressure must lie inside it, which bounds the couple a
 /// flat contact can carry (a box standing off-centre on another is held; one hanging past the
 /// edge tips).
 #[derive(Debug, Clone, Default)]
@@ -545,7 +557,8 @@ impl World {
                         .find(|w| (w.a, w.b) == (i, j))
                         .map_or(Accumulated::default(), |w| w.impulse.scaled(dt / w.dt_s));
                     let n = c.normal;
-                    let footprint = Footprint::new(bi, &c.touch_a, bj, &c.touch_b, c.point_m, n);
+                    let [touch_a, touch_b] = c.touching(bi, bj);
+                    let footprint = Footprint::new(bi, &touch_a, bj, &touch_b, c.point_m, n);
                     let change = resting_impulse(&da, &db, c.point_m, n, mu, &footprint, acc);
                     let total = change.map_or(acc, |d| Accumulated {
                         linear_n_s: acc.linear_n_s + d.linear_n_s,
