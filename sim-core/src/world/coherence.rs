@@ -25,6 +25,10 @@ pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[
     }
     let target_p = before.velocity_m_s * before.mass_kg + j;
     let target_l = before.angular_momentum + (point - before.com_m).cross(j) + h;
+    // The zone kick's own momentum and angular momentum (about the COM), so the rigid field
+    // that follows needs no second pass over the object to measure them.
+    let mut kicked_p = DVec3::ZERO;
+    let mut kicked_l = DVec3::ZERO;
     let zone_mass: f64 = zone
         .iter()
         .map(|&i| body.particles.mass_kg[i as usize] as f64)
@@ -35,12 +39,22 @@ pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[
         if dv.length() > cap {
             dv = dv.normalize_or_zero() * cap;
         }
-        let dv = dv.as_vec3a();
+        let dv32 = dv.as_vec3a();
+        let dv = dv32.as_dvec3();
+        let p = &mut body.particles;
+        let mut first_moment = DVec3::ZERO;
         for &i in zone {
-            body.particles.v[i as usize] += dv;
+            let i = i as usize;
+            p.v[i] += dv32;
+            first_moment += (p.x[i].as_dvec3() - before.com_m) * p.mass_kg[i] as f64;
         }
+        kicked_p = dv * zone_mass;
+        kicked_l = first_moment.cross(dv);
     }
-    enforce(body, target_p, target_l, before.com_m);
+    let s = &before;
+    let dv = (target_p - s.velocity_m_s * s.mass_kg - kicked_p) / s.mass_kg;
+    let dw = inverse_or_zero(s.inertia) * (target_l - s.angular_momentum - kicked_l);
+    rigid_field(body, dv, dw, s.com_m);
 }
 
 /// Makes the particles' total momentum `target_p` (kg m/s) and angular momentum about `com`
@@ -55,6 +69,13 @@ pub fn enforce(body: &mut Body, target_p: DVec3, target_l: DVec3, com: DVec3) {
     // moved by at most rounding here).
     let l_now = s.angular_momentum + (s.com_m - com).cross(s.velocity_m_s * s.mass_kg);
     let dw = inverse_or_zero(s.inertia) * (target_l - l_now);
+    rigid_field(body, dv, dw, s.com_m);
+}
+
+/// Adds the uniform velocity `dv` (m/s) and the rigid rotation field of `dw` (rad/s) about `com`
+/// (m) to every particle: v += dv + dw × (x − com), C += `[dw]×`. Nothing when either is not
+/// finite.
+fn rigid_field(body: &mut Body, dv: DVec3, dw: DVec3, com: DVec3) {
     if !(dv.is_finite() && dw.is_finite()) {
         return;
     }
@@ -64,7 +85,7 @@ pub fn enforce(body: &mut Body, target_p: DVec3, target_l: DVec3, com: DVec3) {
         Vec3A::new(-dw.z, 0.0, dw.x),
         Vec3A::new(dw.y, -dw.x, 0.0),
     );
-    let c = s.com_m.as_vec3a();
+    let c = com.as_vec3a();
     let p = &mut body.particles;
     for i in 0..p.len() {
         p.v[i] += dv + dw.cross(p.x[i] - c);
