@@ -290,9 +290,9 @@ pub fn impulse(
 }
 
 /// Where a resting contact may press: the in-plane offsets (m) from the contact point of the
-/// particles where the two objects touch ([`Contact::touching`]). The centre of pressure must lie inside it, which bounds the couple a
-/// flat contact can carry (a box standing off-centre on another is held; one hanging past the
-/// edge tips).
+/// particles where the two objects touch ([`Contact::touching`]). The centre of pressure must
+/// lie inside it, which bounds the couple a flat contact can carry (a box standing off-centre on
+/// another is held; one hanging past the edge tips).
 #[derive(Debug, Clone, Default)]
 pub struct Footprint {
     offsets_m: Vec<DVec3>,
@@ -340,7 +340,9 @@ impl Footprint {
 /// at the contact point and the couple `angular_n_m_s` (N m s) of a pressure centre away from it.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Accumulated {
+    /// Impulse at the contact point (N s).
     pub linear_n_s: DVec3,
+    /// Couple (N m s).
     pub angular_n_m_s: DVec3,
 }
 
@@ -433,16 +435,19 @@ pub fn resting_impulse(
 /// next (warm starting; module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct RestingPair {
-    /// The pair (body indices, a < b).
+    /// Body index of A.
     pub a: usize,
+    /// Body index of B (> a).
     pub b: usize,
     /// Accumulated impulse on B (−it on A) over a substep of `dt_s`.
     pub impulse: Accumulated,
     /// The substep it was accumulated over (s); a substep of another length scales it.
     pub dt_s: f64,
-    /// Where it acts (m) and the particles of each zone.
+    /// Where it acts (m).
     pub point_m: DVec3,
+    /// A's particles in cells B occupied.
     pub zone_a: Vec<u32>,
+    /// B's particles in cells A occupied.
     pub zone_b: Vec<u32>,
 }
 
@@ -556,10 +561,10 @@ impl World {
                         .iter()
                         .find(|w| (w.a, w.b) == (i, j))
                         .map_or(Accumulated::default(), |w| w.impulse.scaled(dt / w.dt_s));
-                    let n = c.normal;
+                    let (p, n) = (c.point_m, c.normal);
                     let [touch_a, touch_b] = c.touching(bi, bj);
-                    let footprint = Footprint::new(bi, &touch_a, bj, &touch_b, c.point_m, n);
-                    let change = resting_impulse(&da, &db, c.point_m, n, mu, &footprint, acc);
+                    let footprint = Footprint::new(bi, &touch_a, bj, &touch_b, p, n);
+                    let change = resting_impulse(&da, &db, p, n, mu, &footprint, acc);
                     let total = change.map_or(acc, |d| Accumulated {
                         linear_n_s: acc.linear_n_s + d.linear_n_s,
                         angular_n_m_s: acc.angular_n_m_s + d.angular_n_m_s,
