@@ -44,7 +44,7 @@ pub struct Contact {
     pub zone_a: Vec<u32>,
     /// B's particles in cells A occupies.
     pub zone_b: Vec<u32>,
-    /// What [`Contact::touching`] needs: each body's particles near the overlap, and the cells
+    /// What [`Contact::footprint`] needs: each body's particles near the overlap, and the cells
     /// each occupies inside it (sorted).
     near: [Vec<u32>; 2],
     cells: [Vec<[i32; 3]>; 2],
@@ -54,33 +54,34 @@ pub struct Contact {
 }
 
 impl Contact {
-    /// A's and B's particles within a cell of a cell the other occupies: where the two touch or
-    /// are about to (the footprint of a resting contact; the zones are only where they already
-    /// overlap). Computed on demand: impacts do not need it.
-    pub fn touching(&self, a: &Body, b: &Body) -> [Vec<u32>; 2] {
+    /// Where this contact may press when it rests: A's and B's particles within a cell of a
+    /// cell the other occupies (where the two touch or are about to; the zones are only where
+    /// they already overlap), as offsets in the contact plane. Computed on demand: impacts do
+    /// not need it.
+    pub fn footprint(&self, a: &Body, b: &Body) -> Footprint {
         let (lo, hi) = self.overlap_m;
-        let inv_h = self.inv_cell;
-        let side = |body: &Body, near: &[u32], other: &[[i32; 3]]| -> Vec<u32> {
-            near.iter()
-                .copied()
-                .filter(|&i| {
-                    let x = body.particles.x[i as usize];
-                    let xd = x.as_dvec3();
-                    if !(xd.cmpge(lo).all() && xd.cmple(hi).all()) {
-                        return false;
-                    }
-                    let c = cell(x, inv_h);
-                    (0..27).any(|k| {
-                        let d = IVec3::new(k % 3 - 1, (k / 3) % 3 - 1, k / 9 - 1);
-                        other.binary_search(&(c + d).to_array()).is_ok()
-                    })
-                })
-                .collect()
-        };
-        [
-            side(a, &self.near[0], &self.cells[1]),
-            side(b, &self.near[1], &self.cells[0]),
-        ]
+        let (inv_h, point, n) = (self.inv_cell, self.point_m, self.normal);
+        let mut offsets_m = Vec::new();
+        for (body, near, other) in [
+            (a, &self.near[0], &self.cells[1]),
+            (b, &self.near[1], &self.cells[0]),
+        ] {
+            offsets_m.extend(near.iter().filter_map(|&i| {
+                let x = body.particles.x[i as usize];
+                let xd = x.as_dvec3();
+                if !(xd.cmpge(lo).all() && xd.cmple(hi).all()) {
+                    return None;
+                }
+                let c = cell(x, inv_h);
+                let touches = (0..27).any(|k| {
+                    let d = IVec3::new(k % 3 - 1, (k / 3) % 3 - 1, k / 9 - 1);
+                    other.binary_search(&(c + d).to_array()).is_ok()
+                });
+                let d = xd - point;
+                touches.then(|| d - n * d.dot(n))
+            }));
+        }
+        Footprint { offsets_m }
     }
 }
 
@@ -252,10 +253,10 @@ impl Dynamics {
     }
 }
 
-/// The impulse on B (−it on A) for a contact at `point` with normal `n` (A to B), restitution
-/// `e` and friction `mu`; `None` when the bodies are not approaching there. Approach speeds
-/// below `resting_speed_m_s` are treated as resting contact (e = 0), so gravity's per-substep
-/// velocity does not make resting objects bounce.
+/// The impulse on B (−it on A) for an impact at `point` with normal `n` (A to B), restitution
+/// `e` and friction `mu`; `None` when the bodies are not approaching there. Slow approaches are
+/// resting contact ([`resting_impulse`]), so gravity's per-substep velocity does not make
+/// resting objects bounce.
 pub fn impulse(
     a: &Dynamics,
     b: &Dynamics,
@@ -263,7 +264,6 @@ pub fn impulse(
     n: DVec3,
     e: f64,
     mu: f64,
-    resting_speed_m_s: f64,
 ) -> Option<DVec3> {
     let v_rel = b.point_velocity(point) - a.point_velocity(point);
     let vn = v_rel.dot(n);
@@ -274,7 +274,6 @@ pub fn impulse(
     if k_n <= 0.0 || !k_n.is_finite() {
         return None;
     }
-    let e = if -vn < resting_speed_m_s { 0.0 } else { e };
     let jn = -(1.0 + e) * vn / k_n;
     let vt = v_rel - n * vn;
     let mut j = n * jn;
@@ -290,7 +289,7 @@ pub fn impulse(
 }
 
 /// Where a resting contact may press: the in-plane offsets (m) from the contact point of the
-/// particles where the two objects touch ([`Contact::touching`]). The centre of pressure must
+/// particles where the two objects touch ([`Contact::footprint`]). The centre of pressure must
 /// lie inside it, which bounds the couple a flat contact can carry (a box standing off-centre on
 /// another is held; one hanging past the edge tips).
 #[derive(Debug, Clone, Default)]
@@ -299,29 +298,6 @@ pub struct Footprint {
 }
 
 impl Footprint {
-    /// The particles `touch_a` of `a` and `touch_b` of `b` around `point` in the plane normal
-    /// to `n`.
-    pub fn new(
-        a: &Body,
-        touch_a: &[u32],
-        b: &Body,
-        touch_b: &[u32],
-        point: DVec3,
-        n: DVec3,
-    ) -> Self {
-        let offsets = |body: &Body, zone: &[u32]| -> Vec<DVec3> {
-            zone.iter()
-                .map(|&i| {
-                    let d = body.particles.x[i as usize].as_dvec3() - point;
-                    d - n * d.dot(n)
-                })
-                .collect()
-        };
-        let mut offsets_m = offsets(a, touch_a);
-        offsets_m.extend(offsets(b, touch_b));
-        Self { offsets_m }
-    }
-
     /// How far the footprint reaches from the point along unit `u` (m, >= 0).
     fn reach_m(&self, u: DVec3) -> f64 {
         self.offsets_m.iter().map(|d| d.dot(u)).fold(0.0, f64::max)
@@ -458,21 +434,36 @@ impl World {
         let pairs = std::mem::take(&mut self.resting_pairs);
         for p in &pairs {
             let acc = p.impulse.scaled(dt / p.dt_s);
-            let (j, h) = (acc.linear_n_s, acc.angular_n_m_s);
-            for (k, sign, zone) in [(p.a, -1.0, &p.zone_a), (p.b, 1.0, &p.zone_b)] {
-                let Some(b) = self.bodies.get_mut(k) else {
-                    continue;
-                };
-                if b.sleeping || !(j.is_finite() && h.is_finite()) {
-                    continue;
-                }
-                let n = b.particles.len() as u32;
-                let zone: Vec<u32> = zone.iter().copied().filter(|&i| i < n).collect();
-                b.impulse_total_n_s += j.length();
-                coherence::apply_impulse(b, j * sign, h * sign, p.point_m, &zone);
-            }
+            self.apply_to_pair([p.a, p.b], acc, p.point_m, [&p.zone_a, &p.zone_b]);
         }
         self.resting_pairs = pairs;
+    }
+
+    /// Applies `acc` to B and its opposite to A at `point`, to whichever of `bodies` [A, B] is
+    /// awake, `zones` being their particles near the point. A zone naming particles its body no
+    /// longer has (a command changed them since) gets nothing.
+    fn apply_to_pair(
+        &mut self,
+        bodies: [usize; 2],
+        acc: Accumulated,
+        point: DVec3,
+        zones: [&[u32]; 2],
+    ) {
+        let (j, h) = (acc.linear_n_s, acc.angular_n_m_s);
+        if !(j.is_finite() && h.is_finite()) {
+            return;
+        }
+        for ((k, sign), zone) in bodies.into_iter().zip([-1.0, 1.0]).zip(zones) {
+            let Some(b) = self.bodies.get_mut(k) else {
+                continue;
+            };
+            let n = b.particles.len() as u32;
+            if b.sleeping || zone.iter().any(|&i| i >= n) {
+                continue;
+            }
+            b.impulse_total_n_s += j.length();
+            coherence::apply_impulse(b, j * sign, h * sign, point, zone);
+        }
     }
 
     /// Every pair of deformable objects, one of them awake, through the broad and narrow phase;
@@ -550,58 +541,55 @@ impl World {
                 let e = mix_restitution(bi.restitution, bj.restitution) as f64;
                 let mu = mix_friction(bi.friction, bj.friction) as f64;
                 let v_rel = db.point_velocity(c.point_m) - da.point_velocity(c.point_m);
-                let change = if v_rel.dot(c.normal) < -resting {
-                    impulse(&da, &db, c.point_m, c.normal, e, mu, resting).map(|j| Accumulated {
+                let (change, carry) = if v_rel.dot(c.normal) < -resting {
+                    let j = impulse(&da, &db, c.point_m, c.normal, e, mu);
+                    let change = j.map(|j| Accumulated {
                         linear_n_s: j,
                         angular_n_m_s: DVec3::ZERO,
-                    })
+                    });
+                    (change, None)
                 } else {
                     // Resting: correct the impulse this substep already carries.
                     let acc = warm
                         .iter()
                         .find(|w| (w.a, w.b) == (i, j))
                         .map_or(Accumulated::default(), |w| w.impulse.scaled(dt / w.dt_s));
-                    let (p, n) = (c.point_m, c.normal);
-                    let [touch_a, touch_b] = c.touching(bi, bj);
-                    let footprint = Footprint::new(bi, &touch_a, bj, &touch_b, p, n);
-                    let change = resting_impulse(&da, &db, p, n, mu, &footprint, acc);
+                    let footprint = c.footprint(bi, bj);
+                    let change =
+                        resting_impulse(&da, &db, c.point_m, c.normal, mu, &footprint, acc);
                     let total = change.map_or(acc, |d| Accumulated {
                         linear_n_s: acc.linear_n_s + d.linear_n_s,
                         angular_n_m_s: acc.angular_n_m_s + d.angular_n_m_s,
                     });
-                    if total.linear_n_s.dot(n) > 0.0 && !(bi.sleeping && bj.sleeping) {
-                        self.resting_pairs.push(RestingPair {
-                            a: i,
-                            b: j,
-                            impulse: total,
-                            dt_s: dt,
-                            point_m: c.point_m,
-                            zone_a: c.zone_a.clone(),
-                            zone_b: c.zone_b.clone(),
-                        });
-                    }
-                    change
+                    let carried =
+                        total.linear_n_s.dot(c.normal) > 0.0 && !(bi.sleeping && bj.sleeping);
+                    (change, carried.then_some(total))
                 };
-                let Some(Accumulated {
-                    linear_n_s: jv,
-                    angular_n_m_s: hv,
-                }) = change
-                else {
-                    continue;
-                };
-                self.stats.contact_impulses += 1;
-                for (k, sign, zone) in [(i, -1.0, &c.zone_a), (j, 1.0, &c.zone_b)] {
-                    let b = &mut self.bodies[k];
-                    if b.sleeping {
-                        continue;
+                if let Some(change) = change {
+                    self.stats.contact_impulses += 1;
+                    self.apply_to_pair([i, j], change, c.point_m, [&c.zone_a, &c.zone_b]);
+                    for k in [i, j] {
+                        let b = &mut self.bodies[k];
+                        if !b.sleeping {
+                            b.max_speed_m_s =
+                                b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+                        }
                     }
-                    b.impulse_total_n_s += jv.length();
-                    coherence::apply_impulse(b, jv * sign, hv * sign, c.point_m, zone);
-                    b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+                    // Their velocities changed: a later pair re-measures them.
+                    full[x] = None;
+                    full[y] = None;
                 }
-                // Their velocities changed: a later pair re-measures them.
-                full[x] = None;
-                full[y] = None;
+                if let Some(total) = carry {
+                    self.resting_pairs.push(RestingPair {
+                        a: i,
+                        b: j,
+                        impulse: total,
+                        dt_s: dt,
+                        point_m: c.point_m,
+                        zone_a: c.zone_a,
+                        zone_b: c.zone_b,
+                    });
+                }
             }
         }
     }
