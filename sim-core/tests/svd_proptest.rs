@@ -2,7 +2,7 @@
 
 use glam::{Mat3A, Vec3};
 use proptest::prelude::*;
-use splatphys_core::math::{polar, polar_rotation, svd3};
+use splatphys_core::math::{Mat3x4, polar, polar_rotation, polar_rotation_x4, svd3};
 
 fn mat() -> impl Strategy<Value = Mat3A> {
     prop::array::uniform9(-2.0f32..2.0).prop_map(|a| Mat3A::from_cols_array(&a))
@@ -98,6 +98,23 @@ proptest! {
         // F = R (I + E): the deformation gradients of an elastic body, where Newton is used.
         let r = Mat3A::from_euler(glam::EulerRot::XYZ, angles[0], angles[1], angles[2]);
         check_rotation(r * (Mat3A::IDENTITY + Mat3A::from_cols_array(&strain)))?;
+    }
+
+    #[test]
+    fn four_lane_polar_rotation_equals_the_scalar_bit_for_bit(
+        easy in prop::array::uniform2(mat()),
+        hard in prop::array::uniform2(hard_mat()),
+        order in 0usize..4,
+    ) {
+        // Lanes that converge at different steps, and lanes that fall back to the SVD, side by
+        // side; `order` rotates which lane gets which.
+        let mut lanes = [easy[0], hard[0], easy[1], hard[1]];
+        lanes.rotate_left(order);
+        let r = polar_rotation_x4(&Mat3x4::from_lanes(&lanes));
+        for (l, a) in lanes.iter().enumerate() {
+            let scalar = polar_rotation(*a).to_cols_array().map(f32::to_bits);
+            prop_assert_eq!(r.lane(l).to_cols_array().map(f32::to_bits), scalar, "lane {}", l);
+        }
     }
 }
 

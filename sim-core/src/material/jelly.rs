@@ -8,7 +8,7 @@
 use glam::Mat3A;
 
 use super::{ConstitutiveModel, ElasticParams};
-use crate::math::polar_rotation;
+use crate::math::{Mat3x4, polar_rotation, polar_rotation_x4};
 
 /// Fixed-corotated elastic material.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,6 +33,19 @@ pub(crate) fn corotated_stress(f: Mat3A, mu: f32, lambda: f32) -> Mat3A {
         + Mat3A::from_diagonal(glam::Vec3::splat(lambda * (j - 1.0) * j))
 }
 
+/// [`corotated_stress`] of four deformation gradients at once (one per lane, with per-lane Lamé
+/// parameters in Pa): lane l equals `corotated_stress(f.lane(l), mu[l], lambda[l])` bit for bit.
+#[inline]
+pub(crate) fn corotated_stress_x4(f: &Mat3x4, mu: wide::f32x4, lambda: wide::f32x4) -> Mat3x4 {
+    let r = polar_rotation_x4(f);
+    let j = f.determinant();
+    let one = wide::f32x4::ONE;
+    f.sub(&r)
+        .mul_transpose(f)
+        .scale(wide::f32x4::splat(2.0) * mu)
+        .add_diagonal(lambda * (j - one) * j)
+}
+
 /// Fixed-corotated energy density with explicit Lamé parameters (shared by snow).
 pub(crate) fn corotated_energy(f: Mat3A, mu: f32, lambda: f32) -> f32 {
     let s = crate::math::svd3(f).sigma;
@@ -50,6 +63,15 @@ impl ConstitutiveModel for Jelly {
     #[inline]
     fn kirchhoff_stress(&self, f: Mat3A, _plastic: f32) -> Mat3A {
         corotated_stress(f, self.params.mu_pa, self.params.lambda_pa)
+    }
+    #[inline]
+    fn kirchhoff_stress_x4(&self, f: &[Mat3A; 4], _plastic: &[f32; 4]) -> [Mat3A; 4] {
+        let tau = corotated_stress_x4(
+            &Mat3x4::from_lanes(f),
+            wide::f32x4::splat(self.params.mu_pa),
+            wide::f32x4::splat(self.params.lambda_pa),
+        );
+        std::array::from_fn(|l| tau.lane(l))
     }
     fn energy_density(&self, f: Mat3A, _plastic: f32) -> f32 {
         corotated_energy(f, self.params.mu_pa, self.params.lambda_pa)

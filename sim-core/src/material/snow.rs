@@ -18,7 +18,7 @@
 
 use glam::{Mat3A, Vec3A};
 
-use super::jelly::{corotated_energy, corotated_stress};
+use super::jelly::{corotated_energy, corotated_stress, corotated_stress_x4};
 use super::{ConstitutiveModel, ElasticParams, MaterialError, check_range};
 use crate::math::{Svd3, svd3};
 
@@ -103,6 +103,16 @@ impl ConstitutiveModel for Snow {
     fn kirchhoff_stress(&self, f: Mat3A, jp: f32) -> Mat3A {
         let h = self.hardening_factor(jp);
         corotated_stress(f, self.params.mu_pa * h, self.params.lambda_pa * h)
+    }
+    #[inline]
+    fn kirchhoff_stress_x4(&self, f: &[Mat3A; 4], jp: &[f32; 4]) -> [Mat3A; 4] {
+        let h = jp.map(|jp| self.hardening_factor(jp));
+        let tau = corotated_stress_x4(
+            &crate::math::Mat3x4::from_lanes(f),
+            wide::f32x4::new(h.map(|h| self.params.mu_pa * h)),
+            wide::f32x4::new(h.map(|h| self.params.lambda_pa * h)),
+        );
+        std::array::from_fn(|l| tau.lane(l))
     }
     fn energy_density(&self, f: Mat3A, jp: f32) -> f32 {
         let h = self.hardening_factor(jp);

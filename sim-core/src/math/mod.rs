@@ -1,7 +1,9 @@
 //! Small dense linear algebra the solver needs: 3×3 SVD and polar decomposition.
 
+pub mod mat3x4;
 pub mod newton_polar;
 pub mod svd;
 
-pub use newton_polar::polar_rotation;
+pub use mat3x4::Mat3x4;
+pub use newton_polar::{polar_rotation, polar_rotation_x4};
 pub use svd::{Polar, Svd3, polar, svd3};

@@ -10,6 +10,9 @@
 //! [`super::polar()`], whose sign-fixed SVD gives a proper rotation for any A.
 
 use glam::Mat3A;
+use wide::f32x4;
+
+use super::mat3x4::{Mat3x4, cross, dot};
 
 /// Newton steps tried before falling back to the SVD: enough for singular values within about
 /// [0.25, 4], where elastic deformation gradients live.
@@ -47,4 +50,66 @@ pub fn polar_rotation(a: Mat3A) -> Mat3A {
         }
     }
     super::polar(a).r
+}
+
+/// [`polar_rotation`] of four matrices at once, one per lane: each lane performs exactly the
+/// scalar iteration (same operations, same order, same stopping rule), so lane l equals
+/// `polar_rotation(a.lane(l))` bit for bit. A lane stops when its own step is small enough;
+/// lanes that are inverted, singular or not converged after [`MAX_STEPS`] take the scalar SVD
+/// fallback.
+pub fn polar_rotation_x4(a: &Mat3x4) -> Mat3x4 {
+    let mut x = *a;
+    // Per-lane state as bit masks (bit l = lane l): converged, and sent to the SVD.
+    let (mut done, mut failed) = (0u32, 0u32);
+    let half = f32x4::splat(0.5);
+    for _ in 0..MAX_STEPS {
+        let [c0, c1, c2] = x.cols;
+        let (k0, k1, k2) = (cross(c1, c2), cross(c2, c0), cross(c0, c1));
+        let det = dot(c0, k0);
+        let good = det.is_finite().to_bitmask()
+            & !det.simd_le(f32x4::splat(f32::MIN_POSITIVE)).to_bitmask();
+        let bad = !good;
+        failed |= bad & !done & 0xF;
+        let active = !(done | failed) & 0xF;
+        if active == 0 {
+            break;
+        }
+        let h = half / det;
+        let (c, k) = ([c0, c1, c2], [k0, k1, k2]);
+        let next = Mat3x4 {
+            cols: std::array::from_fn(|j| std::array::from_fn(|i| c[j][i] * half + k[j][i] * h)),
+        };
+        let mut step = f32x4::ZERO;
+        for (n, c) in next.cols.iter().zip([c0, c1, c2]) {
+            for i in 0..3 {
+                step = step.fast_max((n[i] - c[i]).abs());
+            }
+        }
+        let keep = lane_mask(active);
+        x.cols = std::array::from_fn(|j| {
+            std::array::from_fn(|i| keep.bitselect(next.cols[j][i], x.cols[j][i]))
+        });
+        done |= active & step.simd_le(f32x4::splat(STEP_TOL)).to_bitmask();
+    }
+    for l in 0..4 {
+        if done & (1 << l) == 0 {
+            let r = super::polar(a.lane(l)).r;
+            for (j, col) in x.cols.iter_mut().enumerate() {
+                for (i, v) in col.iter_mut().enumerate() {
+                    let mut lanes = v.to_array();
+                    lanes[l] = r.col(j)[i];
+                    *v = f32x4::new(lanes);
+                }
+            }
+        }
+    }
+    x
+}
+
+/// All bits set in the lanes whose bit is set in `bits`, zero in the others.
+#[inline]
+fn lane_mask(bits: u32) -> f32x4 {
+    f32x4::new(std::array::from_fn(|l| {
+        f32::from_bits(if bits & (1 << l) != 0 { u32::MAX } else { 0 })
+    }))
 }

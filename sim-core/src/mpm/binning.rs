@@ -82,7 +82,14 @@ impl Binning {
         let mut keyed = std::mem::take(&mut self.scratch);
         keyed.clear();
         if reuse {
-            keyed.par_extend(self.order.par_iter().map(|&i| key_of(i)));
+            let order = &self.order;
+            keyed.par_extend(order.par_iter().enumerate().map(|(k, &i)| {
+                // Positions are read in the previous block order, at scattered addresses.
+                if let Some(&ahead) = order.get(k + 16) {
+                    super::prefetch::prefetch(&x[ahead as usize]);
+                }
+                key_of(i)
+            }));
         } else {
             keyed.par_extend((0..n as u32).into_par_iter().map(key_of));
         }

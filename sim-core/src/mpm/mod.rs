@@ -17,6 +17,7 @@ pub mod grid_update;
 pub mod multi_field;
 pub mod p2g;
 pub mod particles;
+mod prefetch;
 pub mod solver;
 pub mod system;
 pub mod timestep;

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use super::binning::{BLOCK, Binning, REGION, REGION_NODES, STENCIL_SPAN};
 use super::bspline::Stencil;
 use super::particles::Particles;
+use super::prefetch::prefetch;
 use crate::material::{ConstitutiveModel, Material};
 
 /// One particle block's scattered contributions: xyz = momentum (kg m/s), w = mass (kg).
@@ -58,41 +59,86 @@ pub fn scatter(
         .for_each(|(region, pb)| {
             region.fill(Vec4::ZERO);
             let origin = pb.key * BLOCK;
-            for &p in &bins.order[pb.start as usize..pb.end as usize] {
-                let p = p as usize;
-                let m = mass_kg[p];
-                let tau = materials[material[p] as usize].kirchhoff_stress(f[p], plastic[p]);
-                let affine: Mat3A = tau * (-dt_s * volume0_m3[p] * d_inv) + c[p] * m;
-                // Momentum at offset o: w (m v + affine (o - fx) dx) = w (q + A o) with A = affine dx.
-                // Carried as Vec4 with the mass in w (the A columns have w = 0), so one product
-                // per node gives (momentum, mass) · weight.
-                let s = Stencil::new(x[p], inv_dx);
-                let a = affine * dx_m;
-                let q = (v[p] - v_ref) * m - a * s.fx;
-                let q4 = Vec4::from((q, m));
-                let (ax, ay, az) = (
-                    Vec4::from((a.x_axis, 0.0)),
-                    Vec4::from((a.y_axis, 0.0)),
-                    Vec4::from((a.z_axis, 0.0)),
-                );
-                let local = (s.base - origin).as_uvec3();
-                let first = region_index(local.x as usize, local.y as usize, local.z as usize);
-                // The particle's 3³ nodes as one fixed-size window: one bounds check, not 27.
-                let nodes: &mut [Vec4; STENCIL_SPAN] = (&mut region[first..first + STENCIL_SPAN])
-                    .try_into()
-                    .expect("window length is STENCIL_SPAN");
-                for k in 0..3 {
-                    for j in 0..3 {
-                        let wjk = s.w[j].y * s.w[k].z;
-                        let qjk = q4 + ay * j as f32 + az * k as f32;
-                        let row = region_index(0, j, k);
-                        nodes[row] += qjk * (s.w[0].x * wjk);
-                        nodes[row + 1] += (qjk + ax) * (s.w[1].x * wjk);
-                        nodes[row + 2] += (qjk + ax * 2.0) * (s.w[2].x * wjk);
-                    }
+            // Stresses four particles at a time (one SIMD lane each) where the four share a
+            // material; a lane's stress is bit-identical to the one-particle call either way.
+            let ids = &bins.order[pb.start as usize..pb.end as usize];
+            for (gi, group) in ids.chunks(4).enumerate() {
+                // The order is by block, so particle data is read at scattered addresses: ask
+                // for the group two ahead while this one computes.
+                for &p in ids.iter().skip(gi * 4 + 8).take(4) {
+                    let p = p as usize;
+                    prefetch(&f[p]);
+                    prefetch(&c[p]);
+                    prefetch(&x[p]);
+                    prefetch(&v[p]);
+                }
+                let lane = |l: usize| group[l] as usize;
+                let m0 = material[lane(0)];
+                let tau = if group.len() == 4 && group.iter().all(|&p| material[p as usize] == m0) {
+                    materials[m0 as usize].kirchhoff_stress_x4(
+                        &std::array::from_fn(|l| f[lane(l)]),
+                        &std::array::from_fn(|l| plastic[lane(l)]),
+                    )
+                } else {
+                    std::array::from_fn(|l| {
+                        group.get(l).map_or(Mat3A::ZERO, |&p| {
+                            let p = p as usize;
+                            materials[material[p] as usize].kirchhoff_stress(f[p], plastic[p])
+                        })
+                    })
+                };
+                for (l, &p) in group.iter().enumerate() {
+                    let p = p as usize;
+                    let m = mass_kg[p];
+                    let affine: Mat3A = tau[l] * (-dt_s * volume0_m3[p] * d_inv) + c[p] * m;
+                    scatter_particle(region, origin, x[p], v[p] - v_ref, m, affine, dx_m, inv_dx);
                 }
             }
         });
+}
+
+/// Adds one particle's mass and APIC momentum, relative velocity `v_rel` (m/s), mass `m` (kg)
+/// and affine matrix `affine` (kg/s), to its 3³ nodes in `region` (whose first node is `origin`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn scatter_particle(
+    region: &mut Region,
+    origin: glam::IVec3,
+    x_m: glam::Vec3A,
+    v_rel: glam::Vec3A,
+    m: f32,
+    affine: Mat3A,
+    dx_m: f32,
+    inv_dx: f32,
+) {
+    // Momentum at offset o: w (m v + affine (o - fx) dx) = w (q + A o) with A = affine dx.
+    // Carried as Vec4 with the mass in w (the A columns have w = 0), so one product per node
+    // gives (momentum, mass) · weight.
+    let s = Stencil::new(x_m, inv_dx);
+    let a = affine * dx_m;
+    let q = v_rel * m - a * s.fx;
+    let q4 = Vec4::from((q, m));
+    let (ax, ay, az) = (
+        Vec4::from((a.x_axis, 0.0)),
+        Vec4::from((a.y_axis, 0.0)),
+        Vec4::from((a.z_axis, 0.0)),
+    );
+    let local = (s.base - origin).as_uvec3();
+    let first = region_index(local.x as usize, local.y as usize, local.z as usize);
+    // The particle's 3³ nodes as one fixed-size window: one bounds check, not 27.
+    let nodes: &mut [Vec4; STENCIL_SPAN] = (&mut region[first..first + STENCIL_SPAN])
+        .try_into()
+        .expect("window length is STENCIL_SPAN");
+    for k in 0..3 {
+        for j in 0..3 {
+            let wjk = s.w[j].y * s.w[k].z;
+            let qjk = q4 + ay * j as f32 + az * k as f32;
+            let row = region_index(0, j, k);
+            nodes[row] += qjk * (s.w[0].x * wjk);
+            nodes[row + 1] += (qjk + ax) * (s.w[1].x * wjk);
+            nodes[row + 2] += (qjk + ax * 2.0) * (s.w[2].x * wjk);
+        }
+    }
 }
 
 /// Region-local index of node (x, y, z), each in 0..REGION.
