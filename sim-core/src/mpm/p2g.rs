@@ -61,16 +61,24 @@ pub fn scatter(
             let origin = pb.key * BLOCK;
             // Stresses four particles at a time (one SIMD lane each) where the four share a
             // material; a lane's stress is bit-identical to the one-particle call either way.
-            let ids = &bins.order[pb.start as usize..pb.end as usize];
-            for (gi, group) in ids.chunks(4).enumerate() {
-                // The order is by block, so particle data is read at scattered addresses: ask
-                // for the group two ahead while this one computes.
-                for &p in ids.iter().skip(gi * 4 + 8).take(4) {
+            let (start, end) = (pb.start as usize, pb.end as usize);
+            for (gi, group) in bins.order[start..end].chunks(4).enumerate() {
+                // The order is by block, so particle data is read at scattered addresses (F and
+                // C span two cache lines): ask for the group two ahead, in this block or the
+                // next, while this one computes.
+                let ahead = (start + gi * 4 + 8).min(bins.order.len());
+                for &p in bins.order[ahead..].iter().take(4) {
                     let p = p as usize;
                     prefetch(&f[p]);
+                    prefetch(&f[p].z_axis);
                     prefetch(&c[p]);
+                    prefetch(&c[p].z_axis);
                     prefetch(&x[p]);
                     prefetch(&v[p]);
+                    prefetch(&mass_kg[p]);
+                    prefetch(&volume0_m3[p]);
+                    prefetch(&plastic[p]);
+                    prefetch(&material[p]);
                 }
                 let lane = |l: usize| group[l] as usize;
                 let m0 = material[lane(0)];
