@@ -1,4 +1,5 @@
-//! Small dense linear algebra the solver needs: 3×3 SVD and polar decomposition.
+//! Small dense linear algebra the solver needs: 3×3 SVD and polar decomposition, and four 3×3
+//! matrices per SIMD lane for the four-lane stress.
 
 pub mod mat3x4;
 pub mod newton_polar;

@@ -55,8 +55,8 @@ pub fn polar_rotation(a: Mat3A) -> Mat3A {
 /// [`polar_rotation`] of four matrices at once, one per lane: each lane performs exactly the
 /// scalar iteration (same operations, same order, same stopping rule), so lane l equals
 /// `polar_rotation(a.lane(l))` bit for bit. A lane stops when its own step is small enough;
-/// lanes that are inverted, singular or not converged after [`MAX_STEPS`] take the scalar SVD
-/// fallback.
+/// lanes that are inverted, singular or not converged after the scalar form's step limit take
+/// its SVD fallback.
 pub fn polar_rotation_x4(a: &Mat3x4) -> Mat3x4 {
     let mut x = *a;
     // Per-lane state as bit masks (bit l = lane l): converged, and sent to the SVD.
