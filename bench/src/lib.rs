@@ -19,6 +19,7 @@ pub mod ipc;
 pub mod mpm;
 pub mod peer;
 pub mod realtime;
+pub mod sag;
 pub mod soak;
 pub mod stability;
 pub mod subsets;
@@ -72,6 +73,12 @@ pub enum BenchCommand {
         after_help = "Examples:\n  splatphys bench realtime\n  splatphys bench realtime --scenes scenes/donut_snow_push.toml --duration-s 0.6 --dx-m 0.005,0.01,0.02 --out-dir out/rt"
     )]
     Realtime(crate::realtime::RealtimeBenchArgs),
+    /// The static sag of a deformable object resting under gravity at several grid cells and
+    /// physics spacings, against the finest (JSON lines, `sag.csv` in --out-dir).
+    #[command(
+        after_help = "Examples:\n  splatphys bench sag\n  splatphys bench sag --levels 0.005,0.01:0.005,0.02:0.01 --youngs-modulus-pa 2e5 --out-dir out/sag"
+    )]
+    Sag(crate::sag::SagBenchArgs),
     /// Rigid-body contact against rapier3d in the same process: a stack of 10 boxes, a pyramid
     /// of 15 and a pile of 100 boxes and balls in an open box; COM drift, overlap, kinetic
     /// energy and time per step (table, chart and CSV in --out-dir).
@@ -108,6 +115,7 @@ pub fn run(cmd: &BenchCommand, world: WorldSimFactory) -> Result<()> {
         BenchCommand::Stability(a) => crate::stability::run(a),
         BenchCommand::Subsets(a) => crate::subsets::run(a),
         BenchCommand::Realtime(a) => crate::realtime::run(a),
+        BenchCommand::Sag(a) => crate::sag::run(a),
         BenchCommand::Contact(a) => crate::contact::run(a),
         BenchCommand::Soak(a) => crate::soak::run(a),
         BenchCommand::IpcPeer(a) => crate::peer::run(a),
