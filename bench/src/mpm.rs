@@ -99,24 +99,14 @@ pub fn elastic_cube(particles_per_axis: u32, dx_m: f32, domain_m: f32) -> Result
     Ok(sys)
 }
 
-/// Puts the particles in a fixed pseudo-random order (ChaCha8, seed 0).
-fn shuffle(p: &mut Particles) {
+/// The particles in a fixed pseudo-random order (ChaCha8, seed 0).
+fn shuffled(p: &Particles) -> Particles {
     use rand::SeedableRng;
     use rand::seq::SliceRandom;
     let mut order: Vec<usize> = (0..p.len()).collect();
     order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(0));
-    let q = p.clone();
-    for (to, &from) in order.iter().enumerate() {
-        p.x[to] = q.x[from];
-        p.v[to] = q.v[from];
-        p.c[to] = q.c[from];
-        p.f[to] = q.f[from];
-        p.plastic[to] = q.plastic[from];
-        p.mass_kg[to] = q.mass_kg[from];
-        p.volume0_m3[to] = q.volume0_m3[from];
-        p.material[to] = q.material[from];
-        p.object[to] = q.object[from];
-    }
+    p.permuted(&order)
+        .expect("a shuffle of 0..N is a permutation")
 }
 
 /// Runs `bench mpm`.
@@ -138,7 +128,7 @@ pub fn run(a: &MpmBenchArgs) -> Result<()> {
     let mut sys = elastic_cube(a.particles_per_axis, dx, a.domain_scale)
         .context("--domain-scale too small")?;
     if a.shuffle {
-        shuffle(&mut sys.particles);
+        sys.particles = shuffled(&sys.particles);
     }
     let count = sys.particles.len();
     let seconds = pool.install(|| -> Result<f64> {

@@ -72,6 +72,45 @@ impl Particles {
         self.object.extend_from_slice(&other.object);
     }
 
+    /// The particles in the order `order` (`[N]`, a permutation of 0..N): particle k of the
+    /// result is particle `order[k]` of `self`. `None` when `order` is not a permutation.
+    pub fn permuted(&self, order: &[usize]) -> Option<Particles> {
+        let mut seen = vec![false; self.len()];
+        if order.len() != self.len()
+            || !order
+                .iter()
+                .all(|&i| i < seen.len() && !std::mem::replace(&mut seen[i], true))
+        {
+            return None;
+        }
+        // Destructured so that a new field cannot be left out.
+        let Particles {
+            x,
+            v,
+            c,
+            f,
+            plastic,
+            mass_kg,
+            volume0_m3,
+            material,
+            object,
+        } = self;
+        fn pick<T: Copy>(a: &[T], order: &[usize]) -> Vec<T> {
+            order.iter().map(|&i| a[i]).collect()
+        }
+        Some(Particles {
+            x: pick(x, order),
+            v: pick(v, order),
+            c: pick(c, order),
+            f: pick(f, order),
+            plastic: pick(plastic, order),
+            mass_kg: pick(mass_kg, order),
+            volume0_m3: pick(volume0_m3, order),
+            material: pick(material, order),
+            object: pick(object, order),
+        })
+    }
+
     /// The first particle index whose position, velocity, C or F is not finite.
     pub fn first_non_finite(&self) -> Option<usize> {
         (0..self.len()).find(|&i| {
@@ -168,5 +207,36 @@ impl Particles {
                 *p = mat.initial_plastic_state();
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn permuting_and_permuting_back_restores_every_field() {
+        let mut p = Particles::lattice_box(Vec3A::ZERO, Vec3A::splat(0.3), 0.1, 1000.0, 0, 7);
+        for (i, (v, plastic)) in p.v.iter_mut().zip(&mut p.plastic).enumerate() {
+            *v = Vec3A::splat(i as f32);
+            *plastic = i as f32 * 0.5;
+        }
+        let n = p.len();
+        let order: Vec<usize> = (0..n).map(|k| (k * 7 + 3) % n).collect();
+        let q = p.permuted(&order).expect("a permutation");
+        assert_eq!(q.v[0], p.v[order[0]]);
+        assert_eq!(q.plastic[5], p.plastic[order[5]]);
+        let mut inverse = vec![0; n];
+        for (k, &i) in order.iter().enumerate() {
+            inverse[i] = k;
+        }
+        let back = q.permuted(&inverse).expect("a permutation");
+        assert_eq!(back.x, p.x);
+        assert_eq!(back.v, p.v);
+        assert_eq!(back.plastic, p.plastic);
+        assert_eq!(back.mass_kg, p.mass_kg);
+        assert_eq!(back.object, p.object);
+        assert!(p.permuted(&vec![0; n]).is_none(), "a repeated index");
+        assert!(p.permuted(&order[1..]).is_none(), "too short");
     }
 }
