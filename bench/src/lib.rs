@@ -16,6 +16,7 @@ pub mod compare;
 pub mod contact;
 pub mod flood;
 pub mod ipc;
+pub mod islands;
 pub mod mpm;
 pub mod peer;
 pub mod realtime;
@@ -79,6 +80,13 @@ pub enum BenchCommand {
         after_help = "Examples:\n  splatphys bench sag\n  splatphys bench sag --levels 0.005,0.01:0.005,0.02:0.01 --youngs-modulus-pa 2e5 --out-dir out/sag"
     )]
     Sag(crate::sag::SagBenchArgs),
+    /// Objects out of each other's reach stepped apart, each island at its own substep, against
+    /// the scene stepped as one: substeps per object, wall time, how far the outcome moved
+    /// (JSON lines, `islands.csv` in --out-dir).
+    #[command(after_help = "Examples:
+  splatphys bench islands
+  splatphys bench islands --scene scenes/stiff_and_soft.toml --duration-s 0.5 --repeat 3 --out-dir out/islands")]
+    Islands(crate::islands::IslandsBenchArgs),
     /// Rigid-body contact against rapier3d in the same process: a stack of 10 boxes, a pyramid
     /// of 15 and a pile of 100 boxes and balls in an open box; COM drift, overlap, kinetic
     /// energy and time per step (table, chart and CSV in --out-dir).
@@ -116,6 +124,7 @@ pub fn run(cmd: &BenchCommand, world: WorldSimFactory) -> Result<()> {
         BenchCommand::Subsets(a) => crate::subsets::run(a),
         BenchCommand::Realtime(a) => crate::realtime::run(a),
         BenchCommand::Sag(a) => crate::sag::run(a),
+        BenchCommand::Islands(a) => crate::islands::run(a),
         BenchCommand::Contact(a) => crate::contact::run(a),
         BenchCommand::Soak(a) => crate::soak::run(a),
         BenchCommand::IpcPeer(a) => crate::peer::run(a),

@@ -309,6 +309,7 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
             s.simulation.grid_dx_m = dx;
             for k in moving(&s) {
                 s.objects[k].physics_spacing_m = Some(h as f32);
+                s.objects[k].grid_dx_m = Some(dx);
             }
             let setting = format!("dx {:.1} mm / h {:.2} mm", dx * 1e3, h * 1e3);
             scene_rows.push(run(&s, &setting, (dx, Some(h)), Some(&reference))?.1);

@@ -157,6 +157,7 @@ pub fn run(a: &SagBenchArgs) -> Result<()> {
         s.simulation.grid_dx_m = dx;
         for m in moving(&s) {
             s.objects[m].physics_spacing_m = h.map(|h| h as f32);
+            s.objects[m].grid_dx_m = Some(dx);
         }
         eprintln!(
             "dx {:.1} mm, spacing {}: running {duration} s",

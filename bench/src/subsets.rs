@@ -268,7 +268,9 @@ pub fn run(a: &SubsetsBenchArgs) -> Result<()> {
         } else {
             let (h, _) = spacing_for(&objects, total as f64 / r as f64);
             for &k in &ids {
+                // The subset on the scene's grid: what thinning alone costs.
                 s.objects[k].physics_spacing_m = Some(h);
+                s.objects[k].grid_dx_m = Some(s.simulation.grid_dx_m);
             }
             Some(h)
         };

@@ -62,9 +62,16 @@ fn explanation_names_what_was_modelled_and_what_sets_dt() {
         (0, 0)
     );
     assert!(block.gaussians_carried > 0 && shelf.gaussians_carried > 0);
-    assert_eq!(shelf.substeps_slept, e.substeps);
-    assert_eq!(block.substeps_slept, e.substeps);
-    assert_eq!(soft.substeps_computed, e.substeps);
+    // Every object is out of every other's reach: each moving one steps in its own island,
+    // the snowball at the substep of its much higher wave speed, the rigid block at the longest
+    // substep; the static shelf steps in none.
+    assert_eq!(shelf.substeps, 0);
+    assert_eq!(block.substeps_slept, block.substeps);
+    assert_eq!(soft.substeps_computed, soft.substeps);
+    assert!(soft.substeps * 2 < stiff.substeps, "{soft:?} {stiff:?}");
+    assert_eq!(e.substeps, soft.substeps + stiff.substeps + block.substeps);
+    assert!(soft.dt_range_s[0] > stiff.dt_range_s[1]);
+    assert_eq!((soft.dx_m, stiff.dx_m), (0.01, 0.01));
     assert!(soft.grid_blocks > 0 && block.grid_blocks == 0);
 
     // c_p = sqrt((λ + 2μ) / ρ); snow's bound uses its moduli hardened as at its hardest
@@ -82,8 +89,10 @@ fn explanation_names_what_was_modelled_and_what_sets_dt() {
     assert!((soft.dt_limit_s.unwrap() - want).abs() < 1e-6 * want);
     assert_eq!(e.limited_by.as_deref(), Some("stiff (snow)"));
     assert!(block.dt_limit_s.is_none());
-    // No substep exceeded the stiffest material's limit at rest, C dx / c_p.
-    let rest_limit = 0.4 * 0.01 / stiff.wave_speed_m_s.unwrap();
-    assert!(e.dt_range_s[1] <= f64::from(rest_limit) * 1.0001);
+    // No substep of a deformable object exceeded its material's limit at rest, C dx / c_p.
+    for o in [soft, stiff] {
+        let rest_limit = 0.4 * 0.01 / o.wave_speed_m_s.unwrap();
+        assert!(o.dt_range_s[1] <= f64::from(rest_limit) * 1.0001, "{o:?}");
+    }
     assert!(e.to_table().contains("dt set by stiff (snow)"));
 }

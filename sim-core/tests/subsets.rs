@@ -247,7 +247,9 @@ fn rigid_subset_object_carries_its_gaussians_with_the_rigid_pose() {
 #[test]
 fn free_fall_of_a_subset_matches_the_full_run() {
     let mut full = world(sphere_scene(ball(1.0), false, 0.4));
-    let mut sub = world(sphere_scene(ball(1.0).physics_spacing_m(0.01), false, 0.4));
+    // On the scene's grid, so that both take the same substeps.
+    let sub_ball = ball(1.0).physics_spacing_m(0.01).grid_dx_m(0.01);
+    let mut sub = world(sphere_scene(sub_ball, false, 0.4));
     let ratio = full.bodies[0].particles.len() as f64 / sub.bodies[0].particles.len() as f64;
     assert!(ratio > 4.0, "ratio {ratio}");
     let dx = full.dx_m();
@@ -287,6 +289,69 @@ fn free_fall_of_a_subset_matches_the_full_run() {
         .map(|(p, q)| (Vec3A::from(p.position_m) - Vec3A::from(q.position_m)).length())
         .fold(0.0f32, f32::max);
     assert!(worst <= 0.01 * dx, "Gaussians {worst} m apart");
+}
+
+#[test]
+fn a_coarse_subset_gets_a_grid_of_two_spacings_and_still_falls_as_the_closed_form() {
+    let dx_of = |b: ObjectBuilder| world(sphere_scene(b, false, 0.1)).bodies[0].dx_m();
+    // Two particles per cell per axis when that is coarser than the scene's 1 cm cell; never
+    // finer than it by default; an explicit cell wins.
+    assert_eq!(dx_of(ball(1.0).physics_spacing_m(0.02)), 0.04);
+    assert_eq!(dx_of(ball(1.0).physics_spacing_m(0.004)), 0.01);
+    assert_eq!(dx_of(ball(1.0)), 0.01);
+    assert_eq!(
+        dx_of(ball(1.0).physics_spacing_m(0.02).grid_dx_m(0.03)),
+        0.03
+    );
+    // The baselines share one grid: the scene's.
+    let shared = sphere_scene(ball(1.0).physics_spacing_m(0.02), false, 0.1)
+        .method(splatphys_core::scene::Method::Mpm);
+    assert_eq!(world(shared).bodies[0].dx_m(), 0.01);
+
+    let mut w = world(sphere_scene(ball(1.0).physics_spacing_m(0.02), false, 0.4));
+    let m_full = measure(
+        &world(sphere_scene(ball(1.0), false, 0.1)).bodies[0].particles,
+        0.01,
+    );
+    let s0 = measure(&w.bodies[0].particles, w.bodies[0].dx_m());
+    assert!((s0.mass_kg - m_full.mass_kg).abs() <= 1e-6 * m_full.mass_kg);
+    let z0 = s0.com_m.z;
+    finish(&mut w);
+    let t = w.time_s;
+    let z = w.objects()[0].com_m[2];
+    let exact = z0 - 0.5 * 9.81 * t * t;
+    // Symplectic Euler lags the closed form by g t dt / 2 at its own, 4x longer, substep.
+    let lag = 9.81 * t * w.bodies[0].dt_range_s[1];
+    assert!((z - exact).abs() <= lag, "{z} vs {exact} (allowed {lag} m)");
+    // The same subset on the scene's 1 cm grid takes about 4x the substeps (CFL: dx / c_p).
+    let mut fine = world(sphere_scene(
+        ball(1.0).physics_spacing_m(0.02).grid_dx_m(0.01),
+        false,
+        0.4,
+    ));
+    finish(&mut fine);
+    let (coarse_n, fine_n) = (w.bodies[0].substeps_taken, fine.bodies[0].substeps_taken);
+    assert!(coarse_n * 5 < fine_n * 2, "{coarse_n} vs {fine_n} substeps");
+}
+
+#[test]
+fn an_object_grid_under_a_shared_grid_method_is_refused_with_its_key_path() {
+    let scene = sphere_scene(ball(1.0).grid_dx_m(0.02), false, 0.1)
+        .method(splatphys_core::scene::Method::MultiField);
+    match scene.build() {
+        Err(SceneError::Invalid {
+            key_path, message, ..
+        }) => {
+            assert_eq!(key_path, "object[0].grid_dx_m");
+            assert!(message.contains("com"), "{message}");
+        }
+        other => panic!("expected an Invalid error, got {other:?}"),
+    }
+    let bad = sphere_scene(ball(1.0).grid_dx_m(-1.0), false, 0.1).build();
+    assert!(
+        matches!(bad, Err(SceneError::Invalid { ref key_path, .. }) if key_path == "object[0].grid_dx_m"),
+        "{bad:?}"
+    );
 }
 
 fn subset_run_bits(threads: usize) -> (Vec<u32>, Vec<u32>) {

@@ -168,6 +168,7 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
         seed: s.seed,
         physics_spacing_m: s.physics_spacing_m,
         sleep: s.sleep,
+        islands: s.islands,
         background_collision: s.background_collision,
         background_min_opacity: s.background_min_opacity,
         collision_dx_m: s.collision_dx_m,
@@ -453,6 +454,13 @@ fn object(
             "static objects are not simulated (every Gaussian stays a collider particle)",
         )?;
     }
+    if let Some(dx) = o.grid_dx_m {
+        ctx.check(
+            dx.is_finite() && dx > 0.0,
+            format!("{key}.grid_dx_m"),
+            "must be > 0",
+        )?;
+    }
     // Static objects never take the simulation-level default.
     let physics_spacing_m = match o.kind {
         ObjectKind::Static => None,
@@ -563,6 +571,7 @@ fn object(
         gaussians,
         visible,
         physics_spacing_m,
+        grid_dx_m: o.grid_dx_m,
         shape: o.shape,
         shape_rotation: o.rotation_deg.map_or(glam::Quat::IDENTITY, euler_xyz_deg),
         surface: o.surface.unwrap_or(super::model::Surface::Separate),
@@ -699,6 +708,18 @@ pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene,
             seed,
             simulation.physics_spacing_m,
         )?);
+        if let Some(dx) = o.grid_dx_m {
+            ctx.check(
+                simulation.method == super::model::Method::Com || dx == simulation.grid_dx_m,
+                format!("object[{i}].grid_dx_m"),
+                format!(
+                    "method {:?} steps every object on one grid of simulation.grid_dx_m = {}; \
+                     a grid per object needs method \"com\"",
+                    simulation.method.name(),
+                    simulation.grid_dx_m
+                ),
+            )?;
+        }
     }
     let mut background = GaussianCloud::default();
     for p in &sources {

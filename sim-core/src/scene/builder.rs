@@ -158,6 +158,13 @@ impl SceneBuilder {
         self
     }
 
+    /// Whether objects out of each other's reach step apart, each island at its own CFL
+    /// substep. Default true.
+    pub fn islands(mut self, islands: bool) -> Self {
+        self.file.simulation.islands = islands;
+        self
+    }
+
     /// Whether the captured background collides. Default true.
     pub fn background_collision(mut self, collide: bool) -> Self {
         self.file.simulation.background_collision = collide;
@@ -244,6 +251,7 @@ impl ObjectBuilder {
                 velocity_m_s: [0.0; 3],
                 fill: None,
                 physics_spacing_m: None,
+                grid_dx_m: None,
             },
         }
     }
@@ -307,6 +315,13 @@ impl ObjectBuilder {
     /// cube of side h, carrying the Gaussians. Default: the scene's, else every Gaussian.
     pub fn physics_spacing_m(mut self, physics_spacing_m: f32) -> Self {
         self.toml.physics_spacing_m = Some(physics_spacing_m);
+        self
+    }
+
+    /// Its own MPM grid cell, m (> 0; method `com` only). Default: two physics spacings when
+    /// coarser than the scene's cell, else the scene's ([`SceneObject::grid_dx_m`]).
+    pub fn grid_dx_m(mut self, grid_dx_m: f64) -> Self {
+        self.toml.grid_dx_m = Some(grid_dx_m);
         self
     }
 }

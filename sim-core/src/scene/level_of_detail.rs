@@ -53,6 +53,10 @@ pub struct ObjectSpacing {
     pub name: String,
     /// Physics-particle spacing, m; `None`: every Gaussian is a particle.
     pub physics_spacing_m: Option<f32>,
+    /// Its own grid cell, m; `None`: from its spacing and the scene's grid
+    /// ([`SceneObject::grid_dx_m`]).
+    #[serde(default)]
+    pub grid_dx_m: Option<f64>,
 }
 
 /// What a calibration run of one level of detail measured.
@@ -155,6 +159,7 @@ impl LevelOfDetail {
                 .map(|o| ObjectSpacing {
                     name: o.name.clone(),
                     physics_spacing_m: o.physics_spacing_m,
+                    grid_dx_m: o.grid_dx_m,
                 })
                 .collect(),
         }
@@ -167,6 +172,7 @@ impl LevelOfDetail {
         level.grid_dx_m = grid_dx_m;
         for o in &mut level.objects {
             o.physics_spacing_m = Some((grid_dx_m * SPACING_PER_DX) as f32);
+            o.grid_dx_m = None;
         }
         level
     }
@@ -211,6 +217,9 @@ impl LevelOfDetail {
             if let Some(h) = spacing.physics_spacing_m {
                 positive(&format!("{}.physics_spacing_m", o.name), f64::from(h))?;
             }
+            if let Some(dx) = spacing.grid_dx_m {
+                positive(&format!("{}.grid_dx_m", o.name), dx)?;
+            }
             index.push(k);
         }
         if let Some(o) = scene
@@ -225,6 +234,7 @@ impl LevelOfDetail {
         }
         for (spacing, k) in self.objects.iter().zip(index) {
             scene.objects[k].physics_spacing_m = spacing.physics_spacing_m;
+            scene.objects[k].grid_dx_m = spacing.grid_dx_m;
         }
         let s: &mut SimulationSettings = &mut scene.simulation;
         s.grid_dx_m = self.grid_dx_m;
@@ -466,6 +476,7 @@ mod tests {
                     objects: vec![ObjectSpacing {
                         name: "crate".into(),
                         physics_spacing_m: Some(0.01),
+                        grid_dx_m: None,
                     }],
                     ..level.clone()
                 },
@@ -476,6 +487,7 @@ mod tests {
                     objects: vec![ObjectSpacing {
                         name: "ghost".into(),
                         physics_spacing_m: Some(0.01),
+                        grid_dx_m: None,
                     }],
                     ..level.clone()
                 },

@@ -101,6 +101,9 @@ pub struct SimulationSettings {
     pub physics_spacing_m: Option<f32>,
     /// Objects that stay still put to sleep (skip all work until touched). Default true.
     pub sleep: bool,
+    /// Under method `com`, objects that cannot touch before the next frame step apart, each
+    /// island at its own CFL substep ([`crate::world::islands`]). Default true.
+    pub islands: bool,
     /// The captured background (Gaussians no object selects) is a static collision surface.
     /// Default true.
     pub background_collision: bool,
@@ -114,6 +117,24 @@ pub struct SimulationSettings {
     /// Simulated frames per wall second that `splatphys run` chooses deformable objects'
     /// spacing to meet ([`crate::scene::LevelOfDetail`]). `None` (the default): as written.
     pub budget_fps: Option<f64>,
+}
+
+impl SceneObject {
+    /// The cell of this object's MPM grid, m, in a scene of settings `s`: for a deformable
+    /// object under method `com`, its own `grid_dx_m`, else two physics spacings when that is
+    /// coarser than the scene's cell (two particles per cell per axis, the usual MPM choice),
+    /// else the scene's `grid_dx_m`. The baselines share one grid, and objects of other kinds
+    /// run no MPM: always the scene's.
+    pub fn grid_dx_m(&self, s: &SimulationSettings) -> f64 {
+        if s.method != Method::Com || self.kind != ObjectKind::Deformable {
+            return s.grid_dx_m;
+        }
+        match (self.grid_dx_m, self.physics_spacing_m) {
+            (Some(dx), _) => dx,
+            (None, Some(h)) => s.grid_dx_m.max(2.0 * f64::from(h)),
+            (None, None) => s.grid_dx_m,
+        }
+    }
 }
 
 impl SimulationSettings {
@@ -146,6 +167,9 @@ pub struct SceneObject {
     /// of side h and carries its Gaussians along (`crate::world::carry`). `None` (the default,
     /// and always for static objects): every Gaussian is a particle.
     pub physics_spacing_m: Option<f32>,
+    /// Its own MPM grid cell, m (> 0), method `com` only; `None` (the default): see
+    /// [`SceneObject::grid_dx_m`].
+    pub grid_dx_m: Option<f64>,
     /// The procedural shape the object fills, when it is one: contact then uses its exact
     /// surface. `None` for objects selected from a capture (their surface is sampled from
     /// their particles, `crate::contact::LevelSet`).

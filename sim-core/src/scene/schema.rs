@@ -87,6 +87,9 @@ pub struct SimulationToml {
     /// Let still objects sleep.
     #[serde(default = "default_true")]
     pub sleep: bool,
+    /// Objects out of each other's reach step apart, each island at its own substep.
+    #[serde(default = "default_true")]
+    pub islands: bool,
     /// The captured background collides.
     #[serde(default = "default_true")]
     pub background_collision: bool,
@@ -122,6 +125,7 @@ impl Default for SimulationToml {
             seed: 0,
             physics_spacing_m: None,
             sleep: true,
+            islands: true,
             background_collision: true,
             background_min_opacity: default_background_opacity(),
             collision_dx_m: None,
@@ -244,6 +248,8 @@ pub struct ObjectToml {
     pub fill: Option<FillToml>,
     /// Physics-particle spacing, m: one particle per occupied cube of this side.
     pub physics_spacing_m: Option<f32>,
+    /// Its own MPM grid cell, m (method `com`).
+    pub grid_dx_m: Option<f64>,
 }
 
 /// `fill = {...}` on an object.

@@ -205,6 +205,11 @@ pub struct Body {
     pub still_s: f64,
     /// Substeps skipped while asleep or static.
     pub substeps_skipped: u64,
+    /// Substeps of its island it took part in (every substep of the world unless islands step
+    /// separately, `islands.rs`), skipped ones included.
+    pub substeps_taken: u64,
+    /// Smallest and largest of those substeps (s); `[inf, 0]` before the first.
+    pub dt_range_s: [f64; 2],
     /// Contacts with other objects in the last published frame.
     pub contacts: u32,
     /// Largest particle speed after the last substep (m/s).
@@ -299,6 +304,8 @@ impl Body {
             state_cache: None,
             still_s: 0.0,
             substeps_skipped: 0,
+            substeps_taken: 0,
+            dt_range_s: [f64::INFINITY, 0.0],
             contacts: 0,
             max_speed_m_s: v0.length(),
             impulse_total_n_s: 0.0,
@@ -328,6 +335,17 @@ impl Body {
             body.max_speed_m_s = 0.0;
         }
         Ok(body)
+    }
+
+    /// The cell of its own MPM grid (m).
+    pub fn dx_m(&self) -> f32 {
+        self.solver.dx_m
+    }
+
+    /// Counts a substep of `dt_s` (s) it took part in.
+    pub fn count_substep(&mut self, dt_s: f64) {
+        self.substeps_taken += 1;
+        self.dt_range_s = [self.dt_range_s[0].min(dt_s), self.dt_range_s[1].max(dt_s)];
     }
 
     /// Whether the body moves at all this substep.

@@ -110,8 +110,8 @@ impl World {
         self.check_impulse(id, j_n_s.as_dvec3(), point_m.map(|p| p.as_dvec3()))?;
         self.wake(id);
         self.forget_impacts(id);
-        let dx = self.dx_m();
         let b = &mut self.bodies[id];
+        let dx = b.dx_m();
         let s = measure(&b.particles, dx);
         let point = point_m.map(|p| p.as_dvec3()).unwrap_or(s.com_m);
         match b.kind {
@@ -157,8 +157,8 @@ impl World {
         self.check_velocity(id, v_m_s.as_dvec3(), omega)?;
         self.wake(id);
         self.forget_impacts(id);
-        let dx = self.dx_m();
         let b = &mut self.bodies[id];
+        let dx = b.dx_m();
         match b.kind {
             ObjectKind::Rigid | ObjectKind::Kinematic => {
                 b.rigid.velocity_m_s = v_m_s.as_dvec3();

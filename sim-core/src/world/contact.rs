@@ -38,15 +38,15 @@ pub enum Other {
 /// A pair across substeps: object A and the other side.
 pub type PairKey = (u32, Other);
 
-/// Accumulated impulses of the last substep's points, for warm starting: per pair, each point in
-/// A's rest frame with its normal impulse and its share of its patch's friction. A new point
-/// takes the impulses of the nearest old point of its pair within [`WARM_RADIUS_CELLS`] (each
-/// old point once), so warm starting survives a manifold that picks different surface points as
-/// the bodies move.
+/// Accumulated impulses of the last substep's points, for warm starting: per pair, the substep
+/// (s) they were solved over and each point in A's rest frame with its normal impulse and its
+/// share of its patch's friction. A new point takes the impulses of the nearest old point of its
+/// pair within [`WARM_RADIUS_CELLS`] (each old point once), scaled by the ratio of the substeps,
+/// so warm starting survives a manifold that picks different surface points as the bodies move,
+/// and pairs of islands stepped at different rates (`islands.rs`) keep their own substep.
 #[derive(Debug, Clone, Default)]
 pub struct ContactCache {
-    pairs: HashMap<PairKey, Vec<(Vec3A, Warm)>>,
-    dt_s: f64,
+    pairs: HashMap<PairKey, (f64, Vec<(Vec3A, Warm)>)>,
 }
 
 /// A point's accumulated impulses: normal (N s), its share of the patch's tangential (N s) and
@@ -59,8 +59,14 @@ pub const WARM_RADIUS_CELLS: f32 = 0.5;
 impl ContactCache {
     /// Takes the impulses of the nearest unclaimed old point of `pair` within `radius_m` of
     /// `local` (A's rest frame).
-    fn take(&mut self, pair: PairKey, local: Vec3A, radius_m: f32) -> Option<Warm> {
-        let old = self.pairs.get_mut(&pair)?;
+    /// `dt_s`: the new substep (s); the impulses come scaled by it over the old one.
+    fn take(&mut self, pair: PairKey, local: Vec3A, radius_m: f32, dt_s: f64) -> Option<Warm> {
+        let (old_dt_s, old) = self.pairs.get_mut(&pair)?;
+        let ratio = if *old_dt_s > 0.0 {
+            dt_s / *old_dt_s
+        } else {
+            1.0
+        };
         let (i, d2) = old
             .iter()
             .enumerate()
@@ -69,7 +75,23 @@ impl ContactCache {
         if d2 > radius_m * radius_m {
             return None;
         }
-        Some(old.swap_remove(i).1)
+        let (p_n, p_t, twist) = old.swap_remove(i).1;
+        Some((p_n * ratio, p_t * ratio, twist * ratio))
+    }
+
+    /// Moves the pairs for which `keep` is false into a cache of their own (island stepping
+    /// keeps another island's pairs aside while it solves its own).
+    pub(super) fn split_off(&mut self, keep: impl Fn(PairKey) -> bool) -> ContactCache {
+        let (mine, others) = std::mem::take(&mut self.pairs)
+            .into_iter()
+            .partition(|(key, _)| keep(*key));
+        self.pairs = mine;
+        ContactCache { pairs: others }
+    }
+
+    /// Adds `other`'s pairs back (they are disjoint from this cache's).
+    pub(super) fn absorb(&mut self, other: ContactCache) {
+        self.pairs.extend(other.pairs);
     }
 }
 
@@ -106,10 +128,11 @@ fn overlaps(a: (Vec3A, Vec3A), b: (Vec3A, Vec3A), margin: f32) -> bool {
 }
 
 impl World {
-    /// The surface of solid object `k` where it is now; `None` for a deformable object.
+    /// The surface of solid object `k` where it is now; `None` for a deformable object and for
+    /// an object of another island (`islands.rs`).
     pub(super) fn placed(&self, k: usize) -> Option<Placed<'_>> {
         let b = &self.bodies[k];
-        if b.kind == ObjectKind::Deformable {
+        if b.kind == ObjectKind::Deformable || !self.present(k) {
             return None;
         }
         let c = b.collision.as_ref()?;
@@ -214,11 +237,6 @@ impl World {
         }
         let background = bodies.len();
         bodies.push(SolverBody::immovable(DVec3::ZERO));
-        let ratio = if self.contact_cache.dt_s > 0.0 {
-            dt_s / self.contact_cache.dt_s
-        } else {
-            1.0
-        };
         let local = |a: usize, x: Vec3A| poses[a].map_or(x, |p| p.to_rest(x));
         let mut cache = std::mem::take(&mut self.contact_cache);
         let mut points: Vec<ContactPoint> = raw
@@ -252,6 +270,7 @@ impl World {
                     (*a as u32, *other),
                     local(*a, c.point_m),
                     WARM_RADIUS_CELLS * dx,
+                    dt_s,
                 );
                 let (p_n, p_t, twist) = warm.unwrap_or((0.0, DVec3::ZERO, 0.0));
                 ContactPoint {
@@ -262,9 +281,9 @@ impl World {
                     separation_m: c.separation_m as f64,
                     restitution,
                     friction,
-                    normal_impulse: p_n * ratio,
-                    tangent_impulse: p_t * ratio,
-                    twist_impulse: twist * ratio,
+                    normal_impulse: p_n,
+                    tangent_impulse: p_t,
+                    twist_impulse: twist,
                 }
             })
             .collect();
@@ -275,14 +294,17 @@ impl World {
         let patches = solver::solve(&mut bodies, &mut points, dt_s, &settings);
         self.stats.contact_impulses +=
             points.iter().filter(|p| p.normal_impulse > 0.0).count() as u64;
-        let mut pairs: HashMap<PairKey, Vec<(Vec3A, Warm)>> = HashMap::new();
+        let mut pairs: HashMap<PairKey, (f64, Vec<(Vec3A, Warm)>)> = HashMap::new();
         for ((a, other, c), p) in raw.iter().zip(&points) {
-            pairs.entry((*a as u32, *other)).or_default().push((
+            let pair = pairs
+                .entry((*a as u32, *other))
+                .or_insert((dt_s, Vec::new()));
+            pair.1.push((
                 local(*a, c.point_m),
                 (p.normal_impulse, p.tangent_impulse, p.twist_impulse),
             ));
         }
-        self.contact_cache = ContactCache { pairs, dt_s };
+        self.contact_cache = ContactCache { pairs };
         self.last_contacts = raw
             .iter()
             .zip(&points)
@@ -322,6 +344,9 @@ impl World {
             }
         }
         for (k, s) in bodies.iter().enumerate().take(n) {
+            if !self.stepping(k) {
+                continue;
+            }
             let b = &mut self.bodies[k];
             if b.kind == ObjectKind::Rigid && !b.sleeping {
                 b.rigid.velocity_m_s = s.velocity_m_s;

@@ -473,9 +473,8 @@ impl World {
         if self.settings.method != Method::Com {
             return;
         }
-        let dx = self.dx_m();
         let ids: Vec<usize> = (0..self.bodies.len())
-            .filter(|&k| self.bodies[k].kind == ObjectKind::Deformable)
+            .filter(|&k| self.bodies[k].kind == ObjectKind::Deformable && self.stepping(k))
             .collect();
         if ids.len() < 2 {
             return;
@@ -485,7 +484,7 @@ impl World {
         // momentum) only for objects of a pair that passes it, once per substep.
         let bounds: Vec<BodyState> = ids
             .par_iter()
-            .map(|&k| measure_bounds(&self.bodies[k].particles, dx))
+            .map(|&k| measure_bounds(&self.bodies[k].particles, self.bodies[k].dx_m()))
             .collect();
         let warm = std::mem::take(&mut self.resting_pairs);
         let mut full: Vec<Option<BodyState>> = vec![None; ids.len()];
@@ -493,6 +492,8 @@ impl World {
             for y in x + 1..ids.len() {
                 let (i, j) = (ids[x], ids[y]);
                 let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+                // Objects on grids of different cells meet at the coarser one's.
+                let dx = bi.dx_m().max(bj.dx_m());
                 if !(bi.is_active() || bj.is_active())
                     || !broad_phase(&bounds[x], &bounds[y], dx as f64)
                 {
@@ -500,7 +501,8 @@ impl World {
                 }
                 for (z, k) in [(x, i), (y, j)] {
                     if full[z].is_none() {
-                        full[z] = Some(measure(&self.bodies[k].particles, dx));
+                        let b = &self.bodies[k];
+                        full[z] = Some(measure(&b.particles, b.dx_m()));
                     }
                 }
                 let (Some(si), Some(sj)) = (full[x], full[y]) else {

@@ -2,7 +2,8 @@
 //! object moves, how many MPM particles it simulated and how many Gaussians it carried, the
 //! sparse-grid blocks it touched, how many substeps it slept through, and its own CFL limit
 //! dt = C·dx / (c_p + |v|max) (Courant-Friedrichs-Lewy; c_p = sqrt((λ + 2μ)/ρ) of its material),
-//! so a user sees which object and material set the substep.
+//! so a user sees which object and material set the substep. Objects that step in separate
+//! islands ([`super::islands`]) show their own substep counts and ranges.
 
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +30,15 @@ pub struct ObjectExplanation {
     pub gaussians_carried: usize,
     /// Sparse-grid blocks of its own grid in the last substep it computed (0 when it has none).
     pub grid_blocks: usize,
+    /// Its grid cell dx, m.
+    #[serde(default)]
+    pub dx_m: f32,
+    /// Substeps of its island it took part in (computed or slept).
+    #[serde(default)]
+    pub substeps: u64,
+    /// Smallest and largest of those substeps, s (`[0, 0]` before the first).
+    #[serde(default)]
+    pub dt_range_s: [f64; 2],
     /// Substeps it was computed in.
     pub substeps_computed: u64,
     /// Substeps it skipped (asleep, static, or rigid: no MPM).
@@ -50,7 +60,7 @@ pub struct Explanation {
     pub dx_m: f32,
     /// "cfl C" or "fixed dt_s".
     pub time_step: String,
-    /// Substeps taken so far.
+    /// Substeps taken so far, by all islands together.
     pub substeps: u64,
     /// Smallest and largest substep taken, s.
     pub dt_range_s: [f64; 2],
@@ -109,13 +119,20 @@ impl World {
                     } else {
                         0
                     },
-                    substeps_computed: substeps.saturating_sub(b.substeps_skipped),
-                    substeps_slept: b.substeps_skipped.min(substeps),
+                    dx_m: b.solver.dx_m,
+                    substeps: b.substeps_taken,
+                    dt_range_s: if b.substeps_taken > 0 {
+                        b.dt_range_s
+                    } else {
+                        [0.0, 0.0]
+                    },
+                    substeps_computed: b.substeps_taken.saturating_sub(b.substeps_skipped),
+                    substeps_slept: b.substeps_skipped.min(b.substeps_taken),
                     wave_speed_m_s: wave.filter(|_| deformable),
                     max_speed_m_s: b.max_speed_m_s,
                     dt_limit_s: wave
                         .filter(|_| deformable)
-                        .map(|c| cfl_dt_s(cfl, dx, c, b.max_speed_m_s)),
+                        .map(|c| cfl_dt_s(cfl, b.solver.dx_m, c, b.max_speed_m_s)),
                 }
             })
             .collect();
@@ -193,13 +210,15 @@ impl Explanation {
         );
         s.push_str(&format!("background: {}\n", self.background));
         s.push_str(&format!(
-            "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>9} {:>10}  modelled as\n",
+            "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>7} {:>19} {:>9} {:>7} {:>9} {:>10}  modelled as\n",
             "object",
             "kind",
             "material",
             "particles",
             "gaussians",
             "blocks",
+            "dx m",
+            "dt s taken",
             "computed",
             "slept",
             "c_p m/s",
@@ -207,13 +226,15 @@ impl Explanation {
         ));
         for o in &self.objects {
             s.push_str(&format!(
-                "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>9} {:>7} {:>9} {:>10}  {}\n",
+                "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>7} {:>19} {:>9} {:>7} {:>9} {:>10}  {}\n",
                 o.name,
                 o.kind,
                 o.material,
                 o.particles_simulated,
                 o.gaussians_carried,
                 o.grid_blocks,
+                o.dx_m,
+                format!("{:.2e}..{:.2e}", o.dt_range_s[0], o.dt_range_s[1]),
                 o.substeps_computed,
                 o.substeps_slept,
                 o.wave_speed_m_s.map_or("-".into(), |c| format!("{c:.1}")),

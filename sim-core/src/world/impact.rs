@@ -77,8 +77,8 @@ impl World {
     /// Opens and closes impacts from this substep's `touches` (deformable, solid, impulse the
     /// grid gave the deformable in N s) and applies the law to the closed ones (module docs).
     pub(super) fn boundary_restitution(&mut self, touches: &[(usize, SolidOf, DVec3)]) {
-        let dx = self.dx_m();
         for &(k, solid, j) in touches {
+            let dx = self.bodies[k].dx_m();
             if !j.is_finite() {
                 continue;
             }
@@ -99,7 +99,9 @@ impl World {
         let mut ended: Vec<((usize, SolidOf), Impact)> = self
             .impacts
             .iter()
-            .filter(|(key, _)| !touches.iter().any(|(k, s, _)| (*k, *s) == **key))
+            .filter(|(key, _)| {
+                self.stepping(key.0) && !touches.iter().any(|(k, s, _)| (*k, *s) == **key)
+            })
             .map(|(key, imp)| (*key, *imp))
             .collect();
         ended.sort_by_key(|(key, _)| *key);
@@ -123,7 +125,7 @@ impl World {
             };
             let touch = imp.touch_velocity_m_s.dot(normal);
             let approach = (-touch).max(0.0);
-            let s = measure_bounds(&b.particles, dx);
+            let s = measure_bounds(&b.particles, b.dx_m());
             let separation = (s.velocity_m_s - self.solid_velocity(solid)).dot(normal);
             let e_solid = match solid {
                 SolidOf::Object(o) => self.bodies[o].restitution,

@@ -112,8 +112,10 @@ impl World {
     /// chosen, so their speeds enter the CFL bound).
     pub(super) fn drive_kinematic(&mut self) {
         let t = self.time_s;
-        for b in self.bodies.iter_mut() {
-            if b.kind == ObjectKind::Kinematic {
+        for k in 0..self.bodies.len() {
+            let stepping = self.stepping(k);
+            let b = &mut self.bodies[k];
+            if b.kind == ObjectKind::Kinematic && stepping {
                 b.drive_velocity(t);
             }
         }
@@ -122,8 +124,10 @@ impl World {
     /// Moves every kinematic object over the substep of `dt_s` that started at `self.time_s`.
     pub(super) fn kinematic_positions(&mut self, dt_s: f64) {
         let end = self.time_s + dt_s;
-        for b in self.bodies.iter_mut() {
-            if b.kind == ObjectKind::Kinematic {
+        for k in 0..self.bodies.len() {
+            let stepping = self.stepping(k);
+            let b = &mut self.bodies[k];
+            if b.kind == ObjectKind::Kinematic && stepping {
                 b.advance_kinematic(dt_s, end);
             }
         }

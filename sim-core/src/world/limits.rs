@@ -48,7 +48,7 @@ impl World {
         point_m: Option<DVec3>,
     ) -> Result<(), WorldError> {
         let b = &self.bodies[id];
-        let s = measure(&b.particles, self.dx_m());
+        let s = measure(&b.particles, b.dx_m());
         if s.mass_kg <= 0.0 {
             return Ok(());
         }
@@ -88,7 +88,10 @@ impl World {
         omega_rad_s: Option<DVec3>,
     ) -> Result<(), WorldError> {
         let arm = match omega_rad_s {
-            Some(_) => measure(&self.bodies[id].particles, self.dx_m()).radius_m,
+            Some(_) => {
+                let b = &self.bodies[id];
+                measure(&b.particles, b.dx_m()).radius_m
+            }
             None => 0.0,
         };
         let spin = omega_rad_s.map_or(0.0, |w| w.length() * arm);
@@ -143,21 +146,23 @@ impl World {
             crate::mpm::TimeStepPolicy::Cfl { number } => number as f64,
             crate::mpm::TimeStepPolicy::Fixed { .. } => return Ok(()),
         };
-        let mut others = 0.0f64;
+        // As if the whole world stepped at its smallest bound C dx / c_p (islands only save).
+        let bound = |b: &super::Body, m: &Material| {
+            cfl * b.dx_m() as f64 / (m.max_wave_speed_m_s() as f64).max(f64::MIN_POSITIVE)
+        };
+        let mut others = f64::INFINITY;
         for (k, b) in self.bodies.iter().enumerate() {
             if k != id && b.kind == ObjectKind::Deformable {
-                others = others.max(b.materials[0].max_wave_speed_m_s() as f64);
+                others = others.min(bound(b, &b.materials[0]));
             }
         }
         let particles = self.particle_count() as f64;
-        let need = |wave: f64| {
-            let dt = cfl * self.dx_m() as f64 / wave.max(f64::MIN_POSITIVE);
-            (dt, (self.frame_dt_s() / dt).ceil() * particles)
-        };
-        let old_wave = others.max(self.bodies[id].materials[0].max_wave_speed_m_s() as f64);
-        let wave = others.max(material.max_wave_speed_m_s() as f64);
-        let (dt, needed) = need(wave);
-        if needed > self.max_particle_substeps_per_frame && needed > need(old_wave).1 {
+        let need = |dt: f64| (dt, (self.frame_dt_s() / dt).ceil() * particles);
+        let b = &self.bodies[id];
+        let old_dt = others.min(bound(b, &b.materials[0]));
+        let wave = material.max_wave_speed_m_s();
+        let (dt, needed) = need(others.min(bound(b, material)));
+        if needed > self.max_particle_substeps_per_frame && needed > need(old_dt).1 {
             return Err(self.refuse(
                 id,
                 format!(

@@ -14,6 +14,9 @@
 //! 6. rigid objects' position half, kinematic objects' motion ([`kinematic`]: their velocities
 //!    for the substep are set before its dt is chosen), then sleeping (`sleep.rs`).
 //!
+//! Objects that cannot reach each other before the frame's end step apart, each [`islands`]
+//! island at its own CFL substep.
+//!
 //! [`overlap`] measures how deep objects lie inside each other, on occupied cells; [`explain`]
 //! reports per object what the scene needed and what was modelled. An object with a
 //! `physics_spacing_m` simulates a voxel subset of its Gaussians and carries them ([`carry`]).
@@ -34,6 +37,7 @@ pub mod contact;
 mod deformable_pair;
 pub mod explain;
 mod impact;
+pub mod islands;
 pub mod kinematic;
 pub mod limits;
 mod mpm_step;
@@ -154,6 +158,10 @@ pub struct WorldStats {
     pub dt_min_s: f64,
     /// Largest substep (s).
     pub dt_max_s: f64,
+    /// Objects found outside their swept box after an interval of island stepping ([`islands`]):
+    /// zero unless something moved faster than the plan allowed for.
+    #[serde(default)]
+    pub island_escapes: u64,
 }
 
 /// Per-object summary published every frame.
@@ -233,6 +241,8 @@ pub struct World {
     pub last_contacts: Vec<contact::ContactReport>,
     /// Most particle-substeps per frame a material edit may require ([`limits`]).
     pub max_particle_substeps_per_frame: f64,
+    /// While one island steps ([`islands`]): which objects are in it. `None`: every object steps.
+    island: Option<Vec<bool>>,
 }
 
 /// Fastest any particle may move before the world calls its state unstable (m/s): ten times
@@ -351,7 +361,10 @@ impl World {
             .objects
             .iter()
             .enumerate()
-            .map(|(k, o)| Body::from_object(o, k as u32, dx, s.collision_cell_m() as f32))
+            .map(|(k, o)| {
+                let dx_k = o.grid_dx_m(s) as f32;
+                Body::from_object(o, k as u32, dx_k, s.collision_cell_m() as f32)
+            })
             .collect::<Result<Vec<_>, _>>()?;
         let background_state = background_state(&scene.background);
         let events = kinematic::keyframes(scene.events.clone(), s.frame_rate_hz);
@@ -394,10 +407,26 @@ impl World {
             impacts: Default::default(),
             resting_pairs: Vec::new(),
             last_contacts: Vec::new(),
+            island: None,
         })
     }
 
-    /// Grid cell size (m).
+    /// Whether object `k` takes part in the substep being taken: every object does, except
+    /// while another island steps ([`islands`]).
+    fn stepping(&self, k: usize) -> bool {
+        self.island
+            .as_ref()
+            .is_none_or(|m| m.get(k).copied().unwrap_or(true))
+    }
+
+    /// Whether object `k` is seen by the substep being taken: it steps, or it is static (every
+    /// island sees static objects).
+    fn present(&self, k: usize) -> bool {
+        self.stepping(k) || self.bodies[k].kind == ObjectKind::Static
+    }
+
+    /// The scene's grid cell size (m): the baselines' shared grid, the contact margins, and
+    /// every object's grid unless it has its own ([`Body::dx_m`]).
     pub fn dx_m(&self) -> f32 {
         self.shared.dx_m
     }
@@ -456,16 +485,22 @@ impl World {
             b.frame_impulse_n_s = glam::DVec3::ZERO;
             b.frame_angular_impulse_n_m_s = glam::DVec3::ZERO;
         }
+        // Islands are planned at the frame's start and again at every event within it when
+        // there is more than one; one island steps as the whole world.
+        let mut plan: Option<Vec<Vec<usize>>> = None;
         while end - self.time_s > 1e-9 {
             self.apply_due_events()?;
-            let remaining_s = end - self.time_s;
-            // A substep makes many short parallel calls; from outside the thread pool each one
-            // is injected and waits for a worker to wake, so the substep runs on a worker.
-            if rayon::current_thread_index().is_some() {
-                self.substep(remaining_s)?;
-            } else {
-                rayon::scope(|_| self.substep(remaining_s))?;
+            let islands = match &plan {
+                Some(p) => p,
+                None => plan.insert(self.plan_islands(end)),
+            };
+            if islands.len() > 1 {
+                let islands = plan.take().unwrap_or_default();
+                let sync_s = self.next_event_s().filter(|&t| t < end).unwrap_or(end);
+                substeps += self.advance_islands(&islands, sync_s, keep_going)?;
+                continue;
             }
+            self.substep_on_pool(end - self.time_s)?;
             substeps += 1;
             self.check_stable()?;
             if !keep_going() {
@@ -475,6 +510,21 @@ impl World {
         self.time_s = end;
         self.frame += 1;
         Ok(substeps)
+    }
+
+    /// [`World::substep`] on a worker of the thread pool: a substep makes many short parallel
+    /// calls, and from outside the pool each one is injected and waits for a worker to wake.
+    fn substep_on_pool(&mut self, max_dt_s: f64) -> Result<f64, WorldError> {
+        if rayon::current_thread_index().is_some() {
+            self.substep(max_dt_s)
+        } else {
+            rayon::scope(|_| self.substep(max_dt_s))
+        }
+    }
+
+    /// When the next scene event fires (s), if any is left.
+    fn next_event_s(&self) -> Option<f64> {
+        self.events.get(self.next_event).map(|e| e.at_s)
     }
 
     /// [`WorldError::Unstable`] when any object moves faster than [`MAX_STABLE_SPEED_M_S`]: no
@@ -517,20 +567,32 @@ impl World {
     /// [`WorldError::TimeStep`] or [`WorldError::Solver`].
     pub fn substep(&mut self, max_dt_s: f64) -> Result<f64, WorldError> {
         self.drive_kinematic();
-        let mut wave = 0.0f32;
+        // The CFL bound of the stepping objects: the smallest C dx / (c_p + |v|max) of any of
+        // them, with |v|max over all of them and the active colliders.
         let mut vmax = 0.0f32;
-        for b in self.bodies.iter().filter(|b| b.is_active()) {
-            if b.kind == ObjectKind::Deformable {
-                wave = wave.max(b.materials[0].wave_speed_for_m_s(&b.particles.plastic));
+        for (k, b) in self.bodies.iter().enumerate() {
+            if b.is_active() && self.stepping(k) {
+                vmax = vmax.max(b.max_speed_m_s);
             }
-            vmax = vmax.max(b.max_speed_m_s);
         }
         for c in self.colliders.iter().filter(|c| c.is_active(self.time_s)) {
             vmax = vmax.max(c.velocity_m_s.length());
         }
+        let (mut dx, mut wave) = (self.dx_m(), 0.0f32);
+        for (k, b) in self.bodies.iter().enumerate() {
+            if b.is_active() && self.stepping(k) && b.kind == ObjectKind::Deformable {
+                let (dx_b, c_b) = (
+                    b.solver.dx_m,
+                    b.materials[0].wave_speed_for_m_s(&b.particles.plastic),
+                );
+                if dx_b / (c_b + vmax) < dx / (wave + vmax) {
+                    (dx, wave) = (dx_b, c_b);
+                }
+            }
+        }
         let dt = self
             .policy
-            .next_dt_s(self.dx_m(), wave, vmax, max_dt_s)
+            .next_dt_s(dx, wave, vmax, max_dt_s)
             .map_err(|source| WorldError::TimeStep {
                 frame: self.frame,
                 time_s: self.time_s,
@@ -560,6 +622,11 @@ impl World {
         self.stats.substeps += 1;
         self.stats.dt_min_s = self.stats.dt_min_s.min(dt as f64);
         self.stats.dt_max_s = self.stats.dt_max_s.max(dt as f64);
+        for k in 0..self.bodies.len() {
+            if self.stepping(k) {
+                self.bodies[k].count_substep(dt as f64);
+            }
+        }
         self.time_s += dt as f64;
         Ok(dt as f64)
     }
@@ -569,11 +636,12 @@ impl World {
     /// solid adds its reaction to its frame's contact impulses).
     fn rigid_velocities(&mut self, dt: f64, reactions: &[boundary::Reaction]) {
         let g = self.gravity_m_s2.as_dvec3();
+        let stepping: Vec<bool> = (0..self.bodies.len()).map(|k| self.stepping(k)).collect();
         for (k, b) in self.bodies.iter_mut().enumerate() {
             let r = reactions.get(k).copied().unwrap_or_default();
             b.frame_impulse_n_s += r.impulse_n_s;
             b.frame_angular_impulse_n_m_s += r.angular_impulse_n_m_s;
-            if b.kind != ObjectKind::Rigid {
+            if b.kind != ObjectKind::Rigid || !stepping[k] {
                 continue;
             }
             if b.sleeping {
@@ -591,8 +659,10 @@ impl World {
 
     /// Position half of the rigid step, with the contact solver's push-out.
     fn rigid_positions(&mut self, dt: f64) {
-        for b in &mut self.bodies {
-            if b.kind == ObjectKind::Rigid && !b.sleeping {
+        for k in 0..self.bodies.len() {
+            let stepping = self.stepping(k);
+            let b = &mut self.bodies[k];
+            if b.kind == ObjectKind::Rigid && !b.sleeping && stepping {
                 let (pv, pw) = b.push;
                 rigid::integrate_position(b, dt, pv, pw);
             }
@@ -610,5 +680,6 @@ impl World {
         self.last_contacts.clear();
         self.impacts.clear();
         self.resting_pairs.clear();
+        self.island = None;
     }
 }

@@ -93,19 +93,22 @@ fn collider_touches(
 type ObstacleOf = super::impact::SolidOf;
 
 impl World {
-    /// The solids near `bounds` (m) as boundaries for a deformable of friction `friction`.
+    /// The solids near `bounds` (m) as boundaries for a deformable of friction `friction` on a
+    /// grid of cell `dx_m` (m).
     fn obstacles(
         &self,
         bounds: (Vec3A, Vec3A),
         friction: f32,
+        dx_m: f32,
     ) -> (Vec<Obstacle<'_>>, Vec<ObstacleOf>) {
-        let margin = 2.0 * self.dx_m();
+        let margin = 2.0 * self.dx_m().max(dx_m);
         let near = |b: (Vec3A, Vec3A)| {
             (bounds.0 - margin).cmple(b.1).all() && (b.0 - margin).cmple(bounds.1).all()
         };
         let mut out = Vec::new();
         let mut of = Vec::new();
         for (k, b) in self.bodies.iter().enumerate() {
+            // `None` for objects of another island, too.
             let Some(placed) = self.placed(k) else {
                 continue;
             };
@@ -163,7 +166,7 @@ impl World {
             lo = lo.min(*x);
             hi = hi.max(*x);
         }
-        let (obstacles, of) = self.obstacles((lo, hi), friction);
+        let (obstacles, of) = self.obstacles((lo, hi), friction, solver.dx_m);
         if obstacles.is_empty() {
             return Vec::new();
         }
@@ -194,12 +197,15 @@ impl World {
         let mut reactions = vec![Reaction::default(); self.bodies.len()];
         let mut touches = Vec::new();
         for k in 0..self.bodies.len() {
+            if !self.stepping(k) {
+                continue;
+            }
             if !simulated(&self.bodies[k]) {
                 self.bodies[k].substeps_skipped += 1;
                 continue;
             }
-            let dx = self.dx_m();
             let b = &mut self.bodies[k];
+            let dx = b.solver.dx_m;
             let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx));
             let mut particles = std::mem::take(&mut b.particles);
             let friction = b.friction;

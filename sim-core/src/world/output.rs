@@ -54,13 +54,12 @@ impl World {
 
     /// Per-object summaries (COM, velocity, orientation, spin, mass, contacts).
     pub fn objects(&self) -> Vec<ObjectSummary> {
-        let dx = self.dx_m();
         let per_s = 1.0 / self.frame_dt_s();
         self.bodies
             .iter()
             .enumerate()
             .map(|(k, b)| {
-                let s = measure(&b.particles, dx);
+                let s = measure(&b.particles, b.dx_m());
                 let (q, w) = if b.kind != ObjectKind::Deformable {
                     (b.rigid.orientation, b.rigid.omega_rad_s)
                 } else {
@@ -85,10 +84,9 @@ impl World {
 
     /// Conservation diagnostics summed over every object.
     pub fn diagnostics(&self) -> Diagnostics {
-        let dx = self.dx_m();
         self.bodies
             .iter()
-            .map(|b| Diagnostics::measure(&b.particles, &b.materials, self.gravity_m_s2, dx))
+            .map(|b| Diagnostics::measure(&b.particles, &b.materials, self.gravity_m_s2, b.dx_m()))
             .fold(Diagnostics::default(), |a, b| a.combine(&b))
     }
 }

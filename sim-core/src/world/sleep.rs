@@ -44,7 +44,7 @@ impl Body {
 }
 
 /// Union-find root of `k`, with path halving.
-fn root(parent: &mut [usize], mut k: usize) -> usize {
+pub(super) fn root(parent: &mut [usize], mut k: usize) -> usize {
     while parent[k] != k {
         parent[k] = parent[parent[k]];
         k = parent[k];
@@ -68,8 +68,10 @@ impl World {
         }
         let n = self.bodies.len();
         // Kinematic objects move as commanded and never sleep; to islands they are supports.
+        // Objects of another island (`islands.rs`) count their time when they step.
+        let stepping: Vec<bool> = (0..n).map(|k| self.stepping(k)).collect();
         let sleeper = |b: &Body| b.is_active() && b.kind != ObjectKind::Kinematic;
-        for b in &mut self.bodies {
+        for (b, _) in self.bodies.iter_mut().zip(&stepping).filter(|(_, s)| **s) {
             if sleeper(b) {
                 if b.max_speed_m_s < SLEEP_SPEED_M_S {
                     b.still_s += dt;
@@ -91,25 +93,25 @@ impl World {
             }
         }
         let mut ready = vec![true; n];
-        for k in 0..n {
+        for (k, &steps) in stepping.iter().enumerate() {
             let r = root(&mut parent, k);
-            if sleeper(&self.bodies[k]) && self.bodies[k].still_s < SLEEP_AFTER_S {
+            if sleeper(&self.bodies[k]) && (self.bodies[k].still_s < SLEEP_AFTER_S || !steps) {
                 ready[r] = false;
             }
         }
-        for k in 0..n {
+        for (k, &steps) in stepping.iter().enumerate() {
             let r = root(&mut parent, k);
-            if sleeper(&self.bodies[k]) && ready[r] {
+            if sleeper(&self.bodies[k]) && ready[r] && steps {
                 self.bodies[k].fall_asleep();
             }
         }
         // Sleeping objects reached by a moving collider, and sleeping deformable objects reached
         // by a moving solid, wake up (solids touching solids wake through contacts, solids under
         // deformable objects through grid reactions).
-        let dx = self.dx_m();
         for k in 0..n {
             let b = &self.bodies[k];
-            if !b.sleeping {
+            let dx = b.dx_m();
+            if !b.sleeping || !stepping[k] {
                 continue;
             }
             let (lo, hi) = match (self.placed(k), b.state_cache.as_ref()) {
@@ -125,6 +127,7 @@ impl World {
             let by_solid = b.kind == ObjectKind::Deformable
                 && (0..n).any(|j| {
                     j != k
+                        && stepping[j]
                         && self.bodies[j].is_moving()
                         && self.placed(j).is_some_and(|p| reach(p.bounds_m))
                 });
