@@ -146,7 +146,8 @@ impl World {
     /// one island forms (module docs); static objects are then in none.
     pub fn plan_islands(&self, end_s: f64) -> Vec<Vec<usize>> {
         let all = || vec![(0..self.bodies.len()).collect::<Vec<_>>()];
-        if self.settings.method != Method::Com || !self.settings.islands {
+        let movable = self.bodies.iter().filter(|b| b.kind != ObjectKind::Static);
+        if self.settings.method != Method::Com || !self.settings.islands || movable.count() < 2 {
             return all();
         }
         let interval = end_s - self.time_s;
