@@ -9,9 +9,9 @@
 //!
 //!   reach = 2 (s + |g| T) T + 2 dx + the collision cell,
 //!
-//! where s is its fastest speed now (a deformable object's fastest particle, a rigid or kinematic
-//! object's |v| + |ω| r, the object's farthest point from its COM; a kinematic object on its way
-//! to a pose sweeps the whole way there). The factor 2 covers what gravity, elasticity and the
+//! where s is its fastest speed now (a deformable object's fastest particle; a rigid or kinematic
+//! object's |v| + |ω| r, r the distance of its farthest point from its COM; a kinematic object on
+//! its way to a pose sweeps the whole way there). The factor 2 covers what gravity, elasticity and the
 //! contacts inside its island can add to the speed over T; the two cells cover the reach of the
 //! grid boundaries and contact margins. Two objects whose swept boxes overlap share an island,
 //! and so do the objects chained through them (union-find, as Box2D builds its islands; Catto,
