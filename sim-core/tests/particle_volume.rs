@@ -132,7 +132,7 @@ fn repo() -> PathBuf {
 }
 
 /// The donut of scenes/donut_drop.toml (min_opacity 0.1, voxel_m 0.004) with interior fill of
-/// spacing `fill_m` and grid `dx_m`: its particles' volumes (m³).
+/// spacing `fill_m` and grid `dx_m`: its particles' volumes (m³), one per Gaussian in scene order.
 fn donut(fill_m: Option<f32>, dx_m: f32) -> Vec<f32> {
     let base = repo().join("scenes");
     let mut text = std::fs::read_to_string(base.join("donut_drop.toml")).expect("scene");
@@ -150,7 +150,12 @@ fn donut(fill_m: Option<f32>, dx_m: f32) -> Vec<f32> {
     let scene = load_scene_str(&text, &base).expect("donut scene");
     assert_eq!(scene.simulation.grid_dx_m as f32, dx_m);
     let world = splatphys_core::world::World::from_scene(&scene).expect("world");
-    world.bodies[0].particles.volume0_m3.clone()
+    // In the scene's Gaussian order: particles are stored in block order, which depends on dx.
+    let b = &world.bodies[0];
+    b.gaussian_particle
+        .iter()
+        .map(|&j| b.particles.volume0_m3[j as usize])
+        .collect()
 }
 
 #[test]

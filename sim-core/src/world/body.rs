@@ -191,9 +191,12 @@ pub struct Body {
     pub rest_offsets: Vec<Vec3A>,
     /// `[G]` whether each Gaussian is published (false for fill particles).
     pub visible: Vec<bool>,
-    /// How the `[G]` Gaussians follow the `[N]` particles; `None`: G = N and Gaussian i is
-    /// particle i (no `physics_spacing_m`).
+    /// How the `[G]` Gaussians follow the `[N]` particles; `None`: G = N and each Gaussian is a
+    /// particle, [`Self::gaussian_particle`] (no `physics_spacing_m`).
     pub carry: Option<super::carry::Carry>,
+    /// `[G]` the particle that is Gaussian g when there is no carry (particles are stored in
+    /// block order, Gaussians in the scene's, [`super::block_order`]); empty with a carry.
+    pub gaussian_particle: Vec<u32>,
     /// Rigid state (kept for every body; used when `kind` is rigid).
     pub rigid: RigidState,
     /// Asleep: skips all work until woken.
@@ -259,7 +262,8 @@ impl Body {
         })?;
         let g = &o.gaussians;
         let x: Vec<Vec3A> = g.positions.iter().map(|p| Vec3A::from(*p)).collect();
-        let phys = super::carry::physics_particles(&x, dx_m, o.physics_spacing_m);
+        let (phys, gaussian_particle) =
+            super::carry::physics_particles(&x, dx_m, o.physics_spacing_m).into_block_order(dx_m);
         let rho = material.density_kg_m3();
         let mut particles = Particles::default();
         let v0 = Vec3A::from(o.velocity_m_s);
@@ -292,6 +296,7 @@ impl Body {
                 vec![true; g.len()]
             },
             carry: phys.carry,
+            gaussian_particle,
             rigid: RigidState {
                 orientation: Quat::IDENTITY,
                 com_m: DVec3::ZERO,
@@ -404,10 +409,14 @@ impl Body {
                     .for_each(|f| *f = Mat3A::IDENTITY);
             }
             None => {
-                for (f, s0) in self.particles.f.iter_mut().zip(self.sigma0.iter_mut()) {
-                    *s0 = *f * *s0 * f.transpose();
-                    *f = Mat3A::IDENTITY;
+                for (s0, &j) in self.sigma0.iter_mut().zip(&self.gaussian_particle) {
+                    let f = self.particles.f[j as usize];
+                    *s0 = f * *s0 * f.transpose();
                 }
+                self.particles
+                    .f
+                    .iter_mut()
+                    .for_each(|f| *f = Mat3A::IDENTITY);
             }
         }
         self.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);

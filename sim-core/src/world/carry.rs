@@ -18,9 +18,10 @@
 //! the volume-weighted (at one density: mass-weighted) mean of its Gaussians. So the subset has
 //! the object's mass and centre of mass, to rounding, and keeps its first moment per cube; a
 //! Gaussian picked from the cube would not. Particles are ordered by the first Gaussian of their
-//! cube, and a cube holding one Gaussian gives back that Gaussian's own particle bit for bit (one
-//! product and one quotient, both exact in f64), so when every Gaussian has a cube of its own
-//! the object is the one-particle-per-Gaussian object and no carry is built.
+//! cube (the body then stores them in block order, [`super::block_order`]), and a cube holding
+//! one Gaussian gives back that Gaussian's own particle bit for bit (one product and one
+//! quotient, both exact in f64), so when every Gaussian has a cube of its own the object is the
+//! one-particle-per-Gaussian object and no carry is built.
 //!
 //! **Carry** ([`Carry`]): embedded deformation (Sumner, Schmid and Pauly 2007, "Embedded
 //! deformation for shape manipulation", eq. 1 and its weights), with the node's rotation
@@ -134,6 +135,35 @@ pub fn physics_particles(x: &[Vec3A], dx_m: f32, spacing_m: Option<f32>) -> Phys
         x: rest,
         volume_m3,
         carry,
+    }
+}
+
+impl PhysicsParticles {
+    /// The same particles stored in block order for a grid of cell `dx_m` (m)
+    /// ([`super::block_order`]), with the carry's neighbour lists renamed to match; and, when
+    /// there is no carry, `[G]` the particle each Gaussian became (empty with a carry).
+    pub fn into_block_order(self, dx_m: f32) -> (PhysicsParticles, Vec<u32>) {
+        let order = super::block_order::block_order(&self.x, dx_m);
+        let new_index = super::block_order::inverse(&order);
+        let pick = |a: &[Vec3A]| -> Vec<Vec3A> { order.iter().map(|&i| a[i as usize]).collect() };
+        let x = pick(&self.x);
+        let volume_m3 = order.iter().map(|&i| self.volume_m3[i as usize]).collect();
+        let (carry, gaussian_particle) = match self.carry {
+            Some(mut c) => {
+                c.rest_particles = pick(&c.rest_particles);
+                for row in &mut c.neighbours {
+                    row.iter_mut().for_each(|j| *j = new_index[*j as usize]);
+                }
+                (Some(c), Vec::new())
+            }
+            None => (None, new_index),
+        };
+        let sorted = PhysicsParticles {
+            x,
+            volume_m3,
+            carry,
+        };
+        (sorted, gaussian_particle)
     }
 }
 
@@ -287,7 +317,7 @@ impl Body {
         self.gaussians.len()
     }
 
-    /// Gaussian `g`'s centre (m) and deformation gradient: particle `g`'s without a carry, the
+    /// Gaussian `g`'s centre (m) and deformation gradient: its particle's without a carry, the
     /// carried ones with it.
     ///
     /// # Panics
@@ -296,7 +326,10 @@ impl Body {
     pub fn gaussian_pose(&self, g: usize) -> (Vec3A, Mat3A) {
         match &self.carry {
             Some(c) => c.pose(g, &self.particles),
-            None => (self.particles.x[g], self.particles.f[g]),
+            None => {
+                let j = self.gaussian_particle[g] as usize;
+                (self.particles.x[j], self.particles.f[j])
+            }
         }
     }
 }

@@ -29,6 +29,7 @@
 //! commands are checked against [`limits`] before they apply.
 
 pub mod background;
+pub mod block_order;
 pub mod body;
 pub mod carry;
 pub mod coherence;
