@@ -239,7 +239,7 @@ pub fn surface_normal(body: &Body, near: &[u32], point: DVec3, reach_m: f64) -> 
         mx += x * mi;
         count += 1;
     }
-    if !(m > 0.0) {
+    if m <= 0.0 || !m.is_finite() {
         return None;
     }
     let centroid = mx / m;
@@ -254,7 +254,8 @@ pub fn surface_normal(body: &Body, near: &[u32], point: DVec3, reach_m: f64) -> 
     }
     let svd = crate::math::svd3(glam::Mat3A::from(cov.as_mat3()));
     let (s1, s2) = (svd.sigma.y as f64, svd.sigma.z as f64);
-    if !(s2 <= 0.5 * s1) {
+    let thin = s2 <= 0.5 * s1; // false for NaN too
+    if !thin {
         return from_centroid;
     }
     let n = svd.v.z_axis.as_dvec3().try_normalize()?;
