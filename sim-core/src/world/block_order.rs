@@ -1,8 +1,9 @@
 //! Particles stored in block order. P2G and G2P walk an object's particles block by block
-//! ([`crate::mpm::binning::Binning`]: by stencil base block of 4³ cells, then by index), so when index
-//! order is block order they read and write the particle arrays front to back instead of at
-//! scattered addresses. Captured Gaussians arrive in the order training densified them, which is
-//! close to random in space: `splatphys bench mpm --shuffle` measures what that costs.
+//! ([`crate::mpm::binning::Binning`]: by stencil base block of 4³ cells, then by index), so
+//! when index order is block order they read and write the particle arrays front to back
+//! instead of at scattered addresses. Captured Gaussians arrive in the order training densified
+//! them, which is close to random in space: `splatphys bench mpm --shuffle` measures what that
+//! costs.
 //!
 //! An object's particles are therefore sorted once, when it is built, by (stencil base block,
 //! stencil base node inside the block, Gaussian order). Particles move little against their
@@ -18,8 +19,8 @@ use crate::mpm::binning::{BLOCK, block_key, pack};
 
 /// The block order of particles at `x` (m) on a grid of cell `dx_m` (m): `order[k]` is the
 /// index in `x` of the particle stored k-th. Sorted by stencil base block (the order of
-/// [`crate::mpm::binning::Binning`]), then the base node inside that block (x fastest), then index; a
-/// position outside the addressable grid (or not finite) sorts last, by index.
+/// [`crate::mpm::binning::Binning`]), then the base node inside that block (x fastest), then
+/// index; a position outside the addressable grid (or not finite) sorts last, by index.
 pub fn block_order(x: &[Vec3A], dx_m: f32) -> Vec<u32> {
     let inv_dx = 1.0 / dx_m;
     let key = |p: Vec3A| -> (u64, u32) {
