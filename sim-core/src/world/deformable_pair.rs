@@ -215,9 +215,8 @@ pub fn narrow_phase(
 /// surface: the normal is the least-variance direction of their mass-weighted covariance
 /// (principal component analysis, as in Hoppe et al. 1992, "Surface reconstruction from
 /// unorganized points"), turned to point from their centroid towards `point`. Captured objects are
-/// often open shells (a donut scanned on a plate has no underside), so the centroid alone
-/// leans towards wherever the capture has surface: on two captured donuts meeting side by side
-/// it leaned the normal 16° out of the horizontal, the plane fit 4°. Fewer than four particles,
+/// often open shells (a donut scanned on a plate has no underside), so the direction from the
+/// centroid alone leans towards wherever the capture has surface. Fewer than four particles,
 /// or a spread with no clear thin direction (smallest variance above half the middle one: a
 /// point deep inside, a line of particles), fall back to the direction from the centroid.
 pub fn surface_normal(body: &Body, near: &[u32], point: DVec3, reach_m: f64) -> Option<DVec3> {
