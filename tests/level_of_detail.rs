@@ -121,13 +121,17 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
     }
     // The first candidate is the scene as written: its own reference, so no error.
     assert_eq!(candidates[0]["com_error_m"], 0.0);
-    assert!(candidates[0]["physics_spacing_m"].is_null());
+    assert!(candidates[0]["objects"][0]["physics_spacing_m"].is_null());
     for k in &candidates[1..] {
-        let (dx, h) = (
+        let (dx, h, cell) = (
             k["grid_dx_m"].as_f64().unwrap(),
-            k["physics_spacing_m"].as_f64().unwrap(),
+            k["objects"][0]["physics_spacing_m"].as_f64().unwrap(),
+            k["cells_m"][0].as_f64().unwrap(),
         );
         assert!((h - dx / 2.0).abs() < 1e-6, "spacing {h} at dx {dx}");
+        // The ball gets a grid of its own; the scene's grid stays as written.
+        assert_eq!(cell, dx);
+        assert_eq!(k["objects"][0]["grid_dx_m"].as_f64(), Some(dx));
         // The ball reaches the floor at 0.078 s, within the window: coarser grids deform it
         // differently.
         assert!(k["com_error_m"].as_f64().unwrap() > 0.0, "{k}");
@@ -140,7 +144,11 @@ fn a_calibrated_level_of_detail_is_recorded_and_reproduced_exactly() {
         .map(|k| k["frames_per_wall_s"].as_f64().unwrap())
         .fold(0.0, f64::max);
     assert_eq!(chosen[0]["frames_per_wall_s"].as_f64().unwrap(), best);
-    assert_eq!(lod["chosen"]["grid_dx_m"], chosen[0]["grid_dx_m"]);
+    assert_eq!(lod["chosen"]["objects"], chosen[0]["objects"]);
+    assert_eq!(
+        lod["chosen"]["grid_dx_m"], 0.01,
+        "the scene's grid as written"
+    );
     assert_eq!(
         lod["chosen"]["collision_dx_m"], 0.01,
         "collision surfaces keep their cell"

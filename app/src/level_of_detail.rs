@@ -9,15 +9,16 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use splatphys_bench::budget::CalibrationSettings;
-use splatphys_core::scene::level_of_detail::{Choice, candidates};
+use splatphys_core::scene::level_of_detail::{Choice, ObjectSpacing, candidates};
 use splatphys_core::scene::{LevelOfDetail, Scene};
 
 /// Level-of-detail flags.
 #[derive(Args, Debug, Clone)]
 pub struct LodArgs {
-    /// Coarsen deformable objects (grid cell and physics-particle spacing) to run at this many
-    /// simulated frames per wall second on this machine, chosen by short calibration runs first;
-    /// overrides `[simulation] budget_fps`. Rigid, static and kinematic objects are never changed.
+    /// Coarsen deformable objects (each one's grid cell and physics-particle spacing) to run at
+    /// this many simulated frames per wall second on this machine, chosen by short calibration
+    /// runs first; overrides `[simulation] budget_fps`. Rigid, static and kinematic objects are
+    /// never changed.
     #[arg(long)]
     pub budget_fps: Option<f64>,
     /// Simulated seconds each calibration run covers, from the scene's start; default: the whole
@@ -63,8 +64,8 @@ pub struct CalibrationRecord {
     pub errors: bool,
     /// Worker threads of the calibration runs.
     pub threads: usize,
-    /// Every candidate measured, finest first; the errors are against the scene as written over
-    /// the window.
+    /// Every candidate measured: the uniform steps finest first, then the per-object choice when
+    /// one was tried; the errors are against the scene as written over the window.
     pub candidates: Vec<CandidateRecord>,
     /// The chosen level's error against the scene as written (absent when not measured).
     pub expected_error: Option<ExpectedError>,
@@ -84,10 +85,12 @@ pub struct ExpectedError {
 /// One measured candidate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CandidateRecord {
-    /// Grid cell, m.
+    /// The coarsest deformable object's grid cell, m.
     pub grid_dx_m: f64,
-    /// Deformable objects' physics-particle spacing, m (`None`: as written).
-    pub physics_spacing_m: Option<f32>,
+    /// Each deformable object's spacing and grid cell as the level gives them.
+    pub objects: Vec<ObjectSpacing>,
+    /// The grid cell each of them is simulated on, m, in the same order.
+    pub cells_m: Vec<f64>,
     /// Simulated frames per wall second (until it was stopped, for a run stopped as over budget).
     pub frames_per_wall_s: f64,
     /// Largest COM error over the window, m (when errors were measured).
@@ -289,8 +292,13 @@ fn record(c: &Choice, settings: &CalibrationSettings) -> LodRecord {
                 .calibration
                 .iter()
                 .map(|(level, m)| CandidateRecord {
-                    grid_dx_m: level.grid_dx_m,
-                    physics_spacing_m: level.objects.first().and_then(|o| o.physics_spacing_m),
+                    grid_dx_m: level.coarsest_cell_m(),
+                    objects: level.objects.clone(),
+                    cells_m: level
+                        .objects
+                        .iter()
+                        .map(|o| o.cell_m(level.grid_dx_m))
+                        .collect(),
                     frames_per_wall_s: m.frames_per_wall_s(),
                     com_error_m: m.com_error_m,
                     p95_error_m: m.p95_error_m,
@@ -302,23 +310,29 @@ fn record(c: &Choice, settings: &CalibrationSettings) -> LodRecord {
 }
 
 fn describe(level: &LevelOfDetail) -> String {
-    let spacings: Vec<String> = level
+    let objects: Vec<String> = level
         .objects
         .iter()
-        .map(|o| match o.physics_spacing_m {
-            Some(h) => format!("{} at {:.2} mm", o.name, h * 1e3),
-            None => format!("{} as written", o.name),
+        .map(|o| {
+            let cell = o.cell_m(level.grid_dx_m) * 1e3;
+            match o.physics_spacing_m {
+                Some(h) => format!(
+                    "{} on a {cell:.2} mm grid at {:.2} mm spacing",
+                    o.name,
+                    h * 1e3
+                ),
+                None => format!("{} as written ({cell:.2} mm grid)", o.name),
+            }
         })
         .collect();
     format!(
-        "grid dx {:.2} mm (collision surfaces {:.2} mm); {}",
-        level.grid_dx_m * 1e3,
-        level.collision_dx_m * 1e3,
-        if spacings.is_empty() {
+        "{}; collision surfaces {:.2} mm",
+        if objects.is_empty() {
             "no deformable object".to_owned()
         } else {
-            spacings.join(", ")
-        }
+            objects.join(", ")
+        },
+        level.collision_dx_m * 1e3,
     )
 }
 
@@ -332,26 +346,40 @@ fn table(r: &LodRecord, who: &str) -> String {
     } else {
         "--calibrate-errors measures errors"
     };
+    let names: Vec<&str> = r.chosen.objects.iter().map(|o| o.name.as_str()).collect();
     let mut out = format!(
         "{who}: level of detail for {} frames per wall second ({} s calibration runs, {} threads; \
-         {errors}):\n    grid dx    spacing  frames/s  COM error  p95 error\n",
-        c.budget_fps, c.window_s, c.threads
+         {errors}):\n    {:<24} frames/s  COM error  p95 error\n",
+        c.budget_fps,
+        c.window_s,
+        c.threads,
+        format!("grid cell, mm ({})", names.join(" / ")),
     );
     let mm = |e: Option<f64>| e.map_or_else(|| "-".to_owned(), |e| format!("{:.2} mm", e * 1e3));
     for k in &c.candidates {
-        let spacing = k
-            .physics_spacing_m
-            .map_or_else(|| "written".to_owned(), |h| format!("{:.2} mm", h * 1e3));
+        let cells: Vec<String> = k
+            .objects
+            .iter()
+            .zip(&k.cells_m)
+            .map(|(o, cell)| {
+                let cell = format!("{:.1}", cell * 1e3);
+                if o.physics_spacing_m.is_none() {
+                    cell + "*"
+                } else {
+                    cell
+                }
+            })
+            .collect();
         out += &format!(
-            "  {} {:>6.2} mm {:>10} {:>9.2} {:>10} {:>10}\n",
+            "  {} {:<24} {:>8.2} {:>10} {:>10}\n",
             if k.chosen { '>' } else { ' ' },
-            k.grid_dx_m * 1e3,
-            spacing,
+            cells.join(" / "),
             k.frames_per_wall_s,
             mm(k.com_error_m),
             mm(k.p95_error_m),
         );
     }
+    out += "    (* every Gaussian a particle)\n";
     out += &format!("{who}: chose {}", describe(&r.chosen));
     if let Some(e) = c.expected_error {
         out += &format!(

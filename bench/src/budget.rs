@@ -85,7 +85,7 @@ impl<'a> Calibration<'a> {
         let mut s = self.window.clone();
         level.apply(&mut s)?;
         self.pb
-            .set_message(format!("dx {:.1} mm", level.grid_dx_m * 1e3));
+            .set_message(format!("dx {:.1} mm", level.coarsest_cell_m() * 1e3));
         let max_wall_s = if to_end {
             f64::INFINITY
         } else {
@@ -95,7 +95,12 @@ impl<'a> Calibration<'a> {
         let trace = self
             .pool
             .install(|| run_scene_within(&s, self.pb, max_wall_s))
-            .with_context(|| format!("calibration run at dx {} m", level.grid_dx_m))?;
+            .with_context(|| {
+                format!(
+                    "calibration run at dx {} m (the coarsest object's cell)",
+                    level.coarsest_cell_m()
+                )
+            })?;
         self.pb.set_position(position + self.frames());
         Ok(trace)
     }
@@ -107,12 +112,26 @@ impl CostModel for Calibration<'_> {
     fn measure(&mut self, level: &LevelOfDetail) -> Result<Measurement> {
         let errors = self.settings.errors;
         let t = self.run(level, errors)?;
-        let wall_s_per_frame = t.wall_s / t.frames_run.max(1e-9);
+        let frames = t.frames_run.max(1e-9);
+        let wall_s_per_frame = t.wall_s / frames;
+        // Each deformable object's own MPM time, matched by name (the level lists them).
+        let object_wall_s_per_frame = level
+            .objects
+            .iter()
+            .map(|o| {
+                t.explain
+                    .objects
+                    .iter()
+                    .find(|e| e.name == o.name)
+                    .map_or(0.0, |e| e.mpm_wall_s / frames)
+            })
+            .collect();
         if !errors {
             return Ok(Measurement {
                 wall_s_per_frame,
                 com_error_m: None,
                 p95_error_m: None,
+                object_wall_s_per_frame,
             });
         }
         if level.is_as_written(&self.window) {
@@ -121,6 +140,7 @@ impl CostModel for Calibration<'_> {
                 wall_s_per_frame,
                 com_error_m: Some(0.0),
                 p95_error_m: Some(0.0),
+                object_wall_s_per_frame,
             });
         }
         if self.reference.is_none() {
@@ -132,6 +152,7 @@ impl CostModel for Calibration<'_> {
             wall_s_per_frame,
             com_error_m: Some(max_distance(&t.com, &reference.com)),
             p95_error_m: Some(gaussian_errors_cells(&t, reference, 1.0).1),
+            object_wall_s_per_frame,
         })
     }
 }

@@ -73,6 +73,9 @@ fn explanation_names_what_was_modelled_and_what_sets_dt() {
     assert!(soft.dt_range_s[0] > stiff.dt_range_s[1]);
     assert_eq!((soft.dx_m, stiff.dx_m), (0.01, 0.01));
     assert!(soft.grid_blocks > 0 && block.grid_blocks == 0);
+    // Each object's own MPM time is recorded; objects without MPM take none.
+    assert!(soft.mpm_wall_s > 0.0 && stiff.mpm_wall_s > 0.0);
+    assert_eq!((block.mpm_wall_s, shelf.mpm_wall_s), (0.0, 0.0));
 
     // c_p = sqrt((λ + 2μ) / ρ); snow's bound uses its moduli hardened as at its hardest
     // particle (plus a margin for the coming substep), so a falling snowball's is at least the

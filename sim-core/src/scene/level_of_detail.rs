@@ -1,43 +1,57 @@
-//! Level of detail by budget: choose how coarsely a scene's deformable objects are simulated so
-//! that it runs at a given number of simulated frames per wall second.
+//! Level of detail by budget: choose how coarsely each of a scene's deformable objects is
+//! simulated so that the scene runs at a given number of simulated frames per wall second.
 //!
 //! The systems that make deformable Gaussian objects interactive simulate a coarse proxy and
 //! carry the Gaussians along (VR-GS, Jiang et al. 2024; PhysTwin, Jiang et al. 2025). Here the
 //! proxy is the object's physics-particle subset ([`SceneObject::physics_spacing_m`], carried by
-//! `crate::world::carry`) on a coarser MPM grid: a [`LevelOfDetail`] sets the grid cell and each
-//! deformable object's spacing (half a cell: two particles per cell per axis, MLS-MPM's usual
-//! eight per cell).
+//! `crate::world::carry`) on a coarser MPM grid of its own: a [`LevelOfDetail`] sets each
+//! deformable object's grid cell and spacing (half a cell: two particles per cell per axis,
+//! MLS-MPM's usual eight per cell).
 //!
-//! [`choose`] measures candidates through a [`CostModel`] (timed calibration runs in
-//! `splatphys run`, a table in tests), from the scene as written to coarser grids, and keeps the
-//! finest that meets the budget; if none does, the fastest, flagged. The cost is assumed to fall
-//! as the grid coarsens, so the search stops at the first candidate that meets the budget.
+//! Every deformable object has its own ladder of cells ([`object_ladder`]): as written, then
+//! [`DX_FACTORS`] × the scene's cell while [`MIN_CELLS_ACROSS`] cells still fit across its
+//! thinnest extent. [`choose`] measures candidates through a [`CostModel`] (timed calibration
+//! runs in `splatphys run`, a table in tests) in two phases:
 //!
-//! What a level of detail never changes: rigid, static and kinematic objects keep their particles
-//! and their collision surfaces (sampled surfaces keep the written grid's cell through
-//! [`SimulationSettings::collision_dx_m`]). They do step with the coarser grid's substeps, since
-//! the whole scene shares one time step.
+//! 1. Uniform steps: every object one rung further down its ladder at a time (an object at the
+//!    bottom of its ladder stays there), from the scene as written, stopping at the first
+//!    candidate that meets the budget. None does: the fastest, flagged.
+//! 2. Per object (method `com`, where every deformable object has its own grid, with two or more
+//!    of them): from that candidate, objects are refined one rung at a time while a model of the
+//!    frame time predicts the budget still holds. The model is each object's own MPM time per
+//!    frame at each rung, measured in phase 1, plus the rest of the frame (contacts, rigid
+//!    bodies) as measured at the finest rung in use. The object refined next is the one with the
+//!    fewest cells across its thinnest extent (between equals, the one whose refinement costs
+//!    least), so a small object that costs little gets a fine grid, and of two equal objects the
+//!    cheap one (a soft material, with longer substeps) is refined before the costly one. The result is measured once more; it is chosen
+//!    only if that measurement meets the budget, else phase 1's candidate is.
+//!
+//! The cost is assumed to fall as a grid coarsens. What a level of detail never changes: rigid,
+//! static and kinematic objects keep their particles and their collision surfaces (sampled
+//! surfaces keep the written grid's cell through [`SimulationSettings::collision_dx_m`]). Under
+//! the baselines (methods `mpm`, `multi-field`) every object shares one grid, so only phase 1
+//! runs, and it coarsens that shared grid.
 
 use serde::{Deserialize, Serialize};
 
-use super::{ObjectKind, Scene, SceneObject, SimulationSettings};
+use super::{Method, ObjectKind, Scene, SceneObject, SimulationSettings};
 
 /// Candidate grid cells, as multiples of the scene's own `grid_dx_m`, finest first.
 pub const DX_FACTORS: [f64; 7] = [1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0];
 
-/// Grid cells a candidate keeps across every deformable object's thinnest extent (its
-/// axis-aligned bounds): fewer and MPM no longer resolves the object's shape.
+/// Grid cells a candidate keeps across a deformable object's thinnest extent (its axis-aligned
+/// bounds): fewer and MPM no longer resolves the object's shape.
 pub const MIN_CELLS_ACROSS: f64 = 3.0;
 
 /// Physics-particle spacing of a coarsened deformable object, as a fraction of the grid cell.
 pub const SPACING_PER_DX: f64 = 0.5;
 
-/// How coarsely a scene's deformable objects are simulated: the grid cell and each deformable
-/// object's physics-particle spacing. Serialised into `summary.json` so that a run can be
-/// reproduced exactly (`splatphys run --spacing-from summary.json`).
+/// How coarsely a scene's deformable objects are simulated: the scene's grid cell and each
+/// deformable object's physics-particle spacing and grid cell. Serialised into `summary.json` so
+/// that a run can be reproduced exactly (`splatphys run --spacing-from summary.json`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LevelOfDetail {
-    /// MPM grid cell, m.
+    /// The scene's MPM grid cell, m (under method `com` the cell of objects without their own).
     pub grid_dx_m: f64,
     /// Cell of collision surfaces sampled from points, m (the written scene's, so that solid
     /// objects keep their surfaces).
@@ -59,8 +73,20 @@ pub struct ObjectSpacing {
     pub grid_dx_m: Option<f64>,
 }
 
+impl ObjectSpacing {
+    /// Its MPM grid cell, m, in a level whose scene cell is `scene_dx_m` under method `com`
+    /// (the rule of [`SceneObject::grid_dx_m`]).
+    pub fn cell_m(&self, scene_dx_m: f64) -> f64 {
+        match (self.grid_dx_m, self.physics_spacing_m) {
+            (Some(dx), _) => dx,
+            (None, Some(h)) => scene_dx_m.max(2.0 * f64::from(h)),
+            (None, None) => scene_dx_m,
+        }
+    }
+}
+
 /// What a calibration run of one level of detail measured.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Measurement {
     /// Wall seconds per simulated frame.
     pub wall_s_per_frame: f64,
@@ -70,6 +96,11 @@ pub struct Measurement {
     /// 95th percentile of the distance between the moving Gaussians and the scene-as-written's at
     /// the end of the calibration, m; `None` when not measured.
     pub p95_error_m: Option<f64>,
+    /// Wall seconds per simulated frame spent in each deformable object's own MPM substeps, in
+    /// the order of [`LevelOfDetail::objects`]; empty when not measured (then only uniform
+    /// candidates are chosen).
+    #[serde(default)]
+    pub object_wall_s_per_frame: Vec<f64>,
 }
 
 impl Measurement {
@@ -102,7 +133,8 @@ pub struct Choice {
     pub chosen: LevelOfDetail,
     /// What it measured: its speed and the error it is expected to cost.
     pub expected: Measurement,
-    /// Every candidate measured, finest first.
+    /// Every candidate measured, in the order measured: the uniform steps finest first, then
+    /// the per-object choice when one was tried.
     pub calibration: Vec<(LevelOfDetail, Measurement)>,
 }
 
@@ -145,6 +177,11 @@ fn deformable(o: &SceneObject) -> bool {
     o.kind == ObjectKind::Deformable
 }
 
+/// Whether every deformable object has a grid of its own (method `com`).
+fn per_object(scene: &Scene) -> bool {
+    scene.simulation.method == Method::Com
+}
+
 impl LevelOfDetail {
     /// The scene as written.
     pub fn as_written(scene: &Scene) -> Self {
@@ -165,14 +202,34 @@ impl LevelOfDetail {
         }
     }
 
-    /// The scene on a grid of cell `grid_dx_m`, every deformable object at [`SPACING_PER_DX`] of
-    /// it, collision surfaces as written.
+    /// The scene with every deformable object on a grid of cell `grid_dx_m` at
+    /// [`SPACING_PER_DX`] of it, collision surfaces as written: under method `com` each object
+    /// gets that cell as its own and the scene's cell stays; under the baselines the shared grid
+    /// takes it.
     pub fn coarsened(scene: &Scene, grid_dx_m: f64) -> Self {
+        let cells = vec![Some(grid_dx_m); LevelOfDetail::as_written(scene).objects.len()];
+        Self::with_cells(scene, &cells)
+    }
+
+    /// The scene with deformable object i (in [`Self::objects`] order) on cell `cells[i]` (m) at
+    /// [`SPACING_PER_DX`] of it, or as written for `None`. Under the baselines the shared grid
+    /// takes the coarsest cell given.
+    fn with_cells(scene: &Scene, cells: &[Option<f64>]) -> Self {
         let mut level = Self::as_written(scene);
-        level.grid_dx_m = grid_dx_m;
-        for o in &mut level.objects {
-            o.physics_spacing_m = Some((grid_dx_m * SPACING_PER_DX) as f32);
-            o.grid_dx_m = None;
+        let spacing = |dx: f64| Some((dx * SPACING_PER_DX) as f32);
+        if per_object(scene) {
+            for (o, cell) in level.objects.iter_mut().zip(cells) {
+                if let Some(dx) = *cell {
+                    o.physics_spacing_m = spacing(dx);
+                    o.grid_dx_m = Some(dx);
+                }
+            }
+        } else if let Some(dx) = cells.iter().flatten().copied().reduce(f64::max) {
+            level.grid_dx_m = dx;
+            for o in &mut level.objects {
+                o.physics_spacing_m = spacing(dx);
+                o.grid_dx_m = None;
+            }
         }
         level
     }
@@ -180,6 +237,15 @@ impl LevelOfDetail {
     /// Whether it leaves `scene` as written.
     pub fn is_as_written(&self, scene: &Scene) -> bool {
         *self == Self::as_written(scene)
+    }
+
+    /// The coarsest grid cell of its deformable objects under method `com`, m (the scene's cell
+    /// when it has none).
+    pub fn coarsest_cell_m(&self) -> f64 {
+        self.objects
+            .iter()
+            .map(|o| o.cell_m(self.grid_dx_m))
+            .fold(self.grid_dx_m, f64::max)
     }
 
     /// Sets the scene's grid cell, collision cell and deformable objects' spacings.
@@ -243,47 +309,104 @@ impl LevelOfDetail {
     }
 }
 
-/// The levels of detail worth measuring for `scene`, finest first: the scene as written, then
-/// grids of [`DX_FACTORS`] × its cell that keep [`MIN_CELLS_ACROSS`] cells across every
-/// deformable object. Only the scene as written when it has no deformable object.
-pub fn candidates(scene: &Scene) -> Vec<LevelOfDetail> {
-    let mut out = vec![LevelOfDetail::as_written(scene)];
-    let thinnest = scene
+/// One deformable object's rungs: the grid cells it may be simulated on, finest first.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ladder {
+    /// Its thinnest extent (axis-aligned bounds of its Gaussians), m.
+    pub thinnest_m: f64,
+    /// Rung 0 is the object as written (its written cell); then [`DX_FACTORS`] × the scene's
+    /// cell, coarser than the written one, keeping [`MIN_CELLS_ACROSS`] cells across.
+    pub cells_m: Vec<f64>,
+}
+
+impl Ladder {
+    /// Cell of rung `r` as a level of detail gives it: `None` for the object as written.
+    fn cell(&self, r: usize) -> Option<f64> {
+        (r > 0).then(|| self.cells_m[r])
+    }
+
+    /// Cells across its thinnest extent at rung `r`.
+    fn cells_across(&self, r: usize) -> f64 {
+        self.thinnest_m / self.cells_m[r]
+    }
+
+    fn last(&self) -> usize {
+        self.cells_m.len() - 1
+    }
+}
+
+/// The ladder of deformable object `o` of `scene` (see [`Ladder`]).
+pub fn object_ladder(scene: &Scene, o: &SceneObject) -> Ladder {
+    let (lo, hi) = o.gaussians.positions.iter().fold(
+        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+        |(mut lo, mut hi), p| {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+            (lo, hi)
+        },
+    );
+    let thinnest_m = (0..3)
+        .map(|k| f64::from(hi[k] - lo[k]))
+        .fold(f64::INFINITY, f64::min);
+    let written = o.grid_dx_m(&scene.simulation);
+    let mut cells_m = vec![written];
+    if thinnest_m.is_finite() {
+        let dx = scene.simulation.grid_dx_m;
+        cells_m.extend(
+            DX_FACTORS
+                .iter()
+                .map(|f| f * dx)
+                .filter(|d| *d > written && d * MIN_CELLS_ACROSS <= thinnest_m),
+        );
+    }
+    Ladder {
+        thinnest_m,
+        cells_m,
+    }
+}
+
+/// The ladders of `scene`'s deformable objects, in scene order.
+pub fn ladders(scene: &Scene) -> Vec<Ladder> {
+    scene
         .objects
         .iter()
         .filter(|o| deformable(o))
-        .map(|o| {
-            let (lo, hi) = o.gaussians.positions.iter().fold(
-                ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-                |(mut lo, mut hi), p| {
-                    for k in 0..3 {
-                        lo[k] = lo[k].min(p[k]);
-                        hi[k] = hi[k].max(p[k]);
-                    }
-                    (lo, hi)
-                },
-            );
-            (0..3)
-                .map(|k| f64::from(hi[k] - lo[k]))
-                .fold(f64::INFINITY, f64::min)
-        })
-        .fold(f64::INFINITY, f64::min);
-    if !thinnest.is_finite() {
-        return out;
-    }
-    let dx = scene.simulation.grid_dx_m;
-    out.extend(
-        DX_FACTORS
-            .iter()
-            .map(|f| f * dx)
-            .filter(|d| d * MIN_CELLS_ACROSS <= thinnest)
-            .map(|d| LevelOfDetail::coarsened(scene, d)),
-    );
-    out
+        .map(|o| object_ladder(scene, o))
+        .collect()
 }
 
-/// Chooses the finest of [`candidates`] that runs at `budget_fps` or faster by `model`, measuring
-/// from the finest and stopping at the first that meets the budget; when none does, the fastest
+/// The level with deformable object i at rung `rungs[i]` of `ladders[i]`.
+fn at_rungs(scene: &Scene, ladders: &[Ladder], rungs: &[usize]) -> LevelOfDetail {
+    let cells: Vec<Option<f64>> = ladders.iter().zip(rungs).map(|(l, &r)| l.cell(r)).collect();
+    LevelOfDetail::with_cells(scene, &cells)
+}
+
+/// Every object's rung at uniform step `k` (an object at the bottom of its ladder stays there).
+fn uniform_rungs(ladders: &[Ladder], k: usize) -> Vec<usize> {
+    ladders.iter().map(|l| k.min(l.last())).collect()
+}
+
+/// The uniform levels of detail worth measuring for `scene`, finest first: the scene as
+/// written, then every deformable object one rung further down its ladder at a time. Under
+/// the baselines (one shared grid) only while every object's ladder has that rung. Only the
+/// scene as written when it has no deformable object.
+pub fn candidates(scene: &Scene) -> Vec<LevelOfDetail> {
+    let ladders = ladders(scene);
+    let lengths = ladders.iter().map(|l| l.cells_m.len());
+    let steps = if per_object(scene) {
+        lengths.max()
+    } else {
+        lengths.min()
+    };
+    (0..steps.unwrap_or(1))
+        .map(|k| at_rungs(scene, &ladders, &uniform_rungs(&ladders, k)))
+        .collect()
+}
+
+/// Chooses a level of detail of `scene` that runs at `budget_fps` or faster by `model`, in the
+/// two phases of the module docs; when no uniform candidate meets the budget, the fastest
 /// measured, with `budget_met` false.
 ///
 /// # Errors
@@ -297,14 +420,29 @@ pub fn choose<M: CostModel>(
     let mut calibration: Vec<(LevelOfDetail, Measurement)> = Vec::new();
     for level in candidates(scene) {
         let m = model.measure(&level)?;
+        let met = meets(&m);
         calibration.push((level, m));
-        if meets(&m) {
+        if met {
             break;
         }
     }
     // The last measured is the first that meets the budget, if any did; else the fastest.
     let mut best = calibration.len() - 1;
-    if !meets(&calibration[best].1) {
+    if meets(&calibration[best].1) {
+        let ladders = ladders(scene);
+        let uniform: Vec<&Measurement> = calibration.iter().map(|(_, m)| m).collect();
+        if per_object(scene)
+            && let Some(rungs) = refine(&ladders, &uniform, 1.0 / budget_fps)
+        {
+            let level = at_rungs(scene, &ladders, &rungs);
+            let m = model.measure(&level)?;
+            let met = meets(&m);
+            calibration.push((level, m));
+            if met {
+                best = calibration.len() - 1;
+            }
+        }
+    } else {
         for (k, (_, m)) in calibration.iter().enumerate() {
             if m.frames_per_wall_s() > calibration[best].1.frames_per_wall_s() {
                 best = k;
@@ -319,6 +457,58 @@ pub fn choose<M: CostModel>(
         expected,
         calibration,
     })
+}
+
+/// Phase 2 of [`choose`]: from the last of the `uniform` measurements (step k, which met the
+/// budget), refines objects one rung at a time, fewest cells across first (between equals, the
+/// cheaper refinement), while the predicted
+/// wall time per frame stays within `budget_s`. `None` when there is nothing to refine (fewer
+/// than two objects, k = 0, no per-object times) or no refinement fits.
+fn refine(ladders: &[Ladder], uniform: &[&Measurement], budget_s: f64) -> Option<Vec<usize>> {
+    let k = uniform.len().checked_sub(1)?;
+    if ladders.len() < 2
+        || k == 0
+        || uniform
+            .iter()
+            .any(|m| m.object_wall_s_per_frame.len() != ladders.len())
+    {
+        return None;
+    }
+    // Object o at rung r costs what it cost at uniform step r (where it stood at rung r, or at
+    // the bottom of its ladder, which r then is); the rest of the frame is taken from the
+    // finest step in use.
+    let object_s = |o: usize, r: usize| uniform[r].object_wall_s_per_frame[o];
+    let rest_s = |j: usize| {
+        let m = uniform[j];
+        (m.wall_s_per_frame - m.object_wall_s_per_frame.iter().sum::<f64>()).max(0.0)
+    };
+    let predicted_s = |rungs: &[usize]| {
+        let finest = rungs.iter().copied().min().unwrap_or(0);
+        rest_s(finest) + (0..rungs.len()).map(|o| object_s(o, rungs[o])).sum::<f64>()
+    };
+    let start = uniform_rungs(ladders, k);
+    let mut rungs = start.clone();
+    loop {
+        let mut order: Vec<usize> = (0..ladders.len()).filter(|&o| rungs[o] > 0).collect();
+        // Fewest cells across first; between equals, the cheaper refinement.
+        let extra_s = |o: usize| object_s(o, rungs[o] - 1) - object_s(o, rungs[o]);
+        order.sort_by(|&a, &b| {
+            let across = |o: usize| ladders[o].cells_across(rungs[o]);
+            across(a)
+                .total_cmp(&across(b))
+                .then(extra_s(a).total_cmp(&extra_s(b)))
+        });
+        let refined = order.into_iter().find_map(|o| {
+            let mut finer = rungs.clone();
+            finer[o] -= 1;
+            (predicted_s(&finer) <= budget_s).then_some(finer)
+        });
+        match refined {
+            Some(finer) => rungs = finer,
+            None => break,
+        }
+    }
+    (rungs != start).then_some(rungs)
 }
 
 #[cfg(test)]
@@ -356,12 +546,14 @@ mod tests {
     impl CostModel for Table {
         type Error = String;
         fn measure(&mut self, level: &LevelOfDetail) -> Result<Measurement, String> {
-            self.measured.push(level.grid_dx_m);
-            let r = level.grid_dx_m / self.dx0;
+            let dx = level.coarsest_cell_m();
+            self.measured.push(dx);
+            let r = dx / self.dx0;
             Ok(Measurement {
                 wall_s_per_frame: 1.0 / (self.fps0 * r.powi(3)),
                 com_error_m: Some((r - 1.0) * 1e-3),
                 p95_error_m: Some((r - 1.0) * 2e-3),
+                object_wall_s_per_frame: Vec::new(),
             })
         }
     }
@@ -369,7 +561,7 @@ mod tests {
     #[test]
     fn candidates_keep_three_cells_across_the_thinnest_deformable_object() {
         let s = scene();
-        let dxs: Vec<f64> = candidates(&s).iter().map(|c| c.grid_dx_m).collect();
+        let dxs: Vec<f64> = candidates(&s).iter().map(|c| c.coarsest_cell_m()).collect();
         // 0.0975 m / 3 = 32.5 mm: factors up to 6 (30 mm) qualify, 8 (40 mm) does not.
         let want = [0.005, 0.0075, 0.01, 0.015, 0.02, 0.025, 0.03];
         assert_eq!(dxs.len(), want.len(), "{dxs:?}");
@@ -378,8 +570,13 @@ mod tests {
         }
         let coarse = &candidates(&s)[1];
         assert_eq!(coarse.collision_dx_m, 0.005);
+        assert_eq!(
+            coarse.grid_dx_m, 0.005,
+            "the scene's grid (rigid objects) as written"
+        );
         assert_eq!(coarse.objects.len(), 1, "only the deformable object");
         assert_eq!(coarse.objects[0].physics_spacing_m, Some(0.00375));
+        assert_eq!(coarse.objects[0].grid_dx_m, Some(0.0075));
     }
 
     #[test]
@@ -393,7 +590,7 @@ mod tests {
         };
         let c = choose(&s, 30.0, &mut model).unwrap();
         assert!(c.budget_met);
-        assert!((c.chosen.grid_dx_m - 0.015).abs() < 1e-12);
+        assert!((c.chosen.coarsest_cell_m() - 0.015).abs() < 1e-12);
         assert!((c.expected.frames_per_wall_s() - 54.0).abs() < 1e-9);
         assert!((c.expected.com_error_m.unwrap() - 2e-3).abs() < 1e-12);
         assert_eq!(model.measured.len(), 4, "no candidate past the chosen one");
@@ -423,7 +620,10 @@ mod tests {
         };
         let c = choose(&s, 30.0, &mut model).unwrap();
         assert!(!c.budget_met);
-        assert!((c.chosen.grid_dx_m - 0.03).abs() < 1e-12, "the coarsest");
+        assert!(
+            (c.chosen.coarsest_cell_m() - 0.03).abs() < 1e-12,
+            "the coarsest"
+        );
         assert_eq!(model.measured.len(), 7);
     }
 
@@ -452,9 +652,10 @@ mod tests {
         assert_eq!(back, level);
         let rigid_before = s.objects[1].clone();
         back.apply(&mut s).unwrap();
-        assert_eq!(s.simulation.grid_dx_m, 0.02);
+        assert_eq!(s.simulation.grid_dx_m, 0.005);
         assert_eq!(s.simulation.collision_cell_m(), 0.005);
         assert_eq!(s.objects[0].physics_spacing_m, Some(0.01));
+        assert_eq!(s.objects[0].grid_dx_m(&s.simulation), 0.02);
         assert_eq!(s.objects[1], rigid_before);
         assert_eq!(LevelOfDetail::as_written(&s), level);
     }
@@ -507,5 +708,150 @@ mod tests {
             assert!(e.contains(why), "{e}");
             assert_eq!(s, s0);
         }
+    }
+
+    /// A 20 cm jelly cube and a 4 cm one on a 5 mm grid: the small one's ladder is 5, 7.5 and
+    /// 10 mm (3 cells across its 3.5 cm), the large one's goes to 40 mm.
+    fn two_cubes(method: Method) -> Scene {
+        Scene::builder()
+            .grid_dx_m(0.005)
+            .method(method)
+            .object(
+                SceneObject::cuboid("big", [0.0, 0.0, 0.0], [0.2, 0.2, 0.2])
+                    .spacing_m(0.005)
+                    .material(MaterialSpec::jelly(1e5, 0.3, 1000.0)),
+            )
+            .object(
+                SceneObject::cuboid("small", [0.5, 0.0, 0.0], [0.54, 0.04, 0.04])
+                    .spacing_m(0.005)
+                    .material(MaterialSpec::jelly(1e5, 0.3, 1000.0)),
+            )
+            .build()
+            .unwrap()
+    }
+
+    /// Per-object costs from a table: object o at cell d costs `scale[o]` × (5 mm / d)⁴ seconds
+    /// per frame (cells³ × substeps), plus 1 ms for the rest of the frame; a level with the
+    /// small cube finer than 10 mm and the big one coarser costs `mixed_penalty` times that
+    /// (what a prediction from uniform steps cannot see).
+    struct PerObject {
+        scale: [f64; 2],
+        mixed_penalty: f64,
+        measured: Vec<[f64; 2]>,
+    }
+
+    impl CostModel for PerObject {
+        type Error = String;
+        fn measure(&mut self, level: &LevelOfDetail) -> Result<Measurement, String> {
+            let cells: Vec<f64> = level
+                .objects
+                .iter()
+                .map(|o| o.cell_m(level.grid_dx_m))
+                .collect();
+            self.measured.push([cells[0], cells[1]]);
+            let object: Vec<f64> = (0..2)
+                .map(|o| self.scale[o] * (0.005 / cells[o]).powi(4))
+                .collect();
+            let penalty = if cells[1] < 0.01 && cells[0] > cells[1] {
+                self.mixed_penalty
+            } else {
+                1.0
+            };
+            Ok(Measurement {
+                wall_s_per_frame: penalty * (1e-3 + object.iter().sum::<f64>()),
+                com_error_m: None,
+                p95_error_m: None,
+                object_wall_s_per_frame: object,
+            })
+        }
+    }
+
+    #[test]
+    fn ladders_stop_at_three_cells_across_each_object() {
+        let s = two_cubes(Method::Com);
+        let l = ladders(&s);
+        let mm = |l: &Ladder| {
+            l.cells_m
+                .iter()
+                .map(|d| (d * 1e4).round() / 10.0)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(mm(&l[0]), [5.0, 7.5, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0]);
+        assert_eq!(mm(&l[1]), [5.0, 7.5, 10.0]);
+        // Uniform steps: the small cube stays at 10 mm once its ladder ends.
+        let c = candidates(&s);
+        assert_eq!(c.len(), 8);
+        assert_eq!(c[5].objects[0].grid_dx_m, Some(0.025));
+        assert_eq!(c[5].objects[1].grid_dx_m, Some(0.01));
+    }
+
+    #[test]
+    fn each_object_gets_its_own_cell_and_the_small_one_the_finer() {
+        let s = two_cubes(Method::Com);
+        // Uniform: 1.26 s at 5 mm, 0.25 s at 7.5 mm, 0.080 s at 10 mm, 0.017 s at 15/10 mm
+        // (the first within 1/30 s). Per object from there: the small cube (3.5 cells across at
+        // 10 mm) refines to 7.5 mm (0.018 s) and then to 5 mm (0.026 s); the big one back to
+        // 10 mm would cost 0.089 s.
+        let mut model = PerObject {
+            scale: [1.25, 0.01],
+            mixed_penalty: 1.0,
+            measured: Vec::new(),
+        };
+        let c = choose(&s, 30.0, &mut model).unwrap();
+        assert!(c.budget_met);
+        assert_eq!(
+            c.calibration.len(),
+            5,
+            "four uniform steps and the per-object check"
+        );
+        assert_eq!(model.measured[3], [0.015, 0.01]);
+        assert_eq!(model.measured[4], [0.015, 0.005]);
+        assert_eq!(c.chosen, c.calibration[4].0);
+        assert_eq!(c.chosen.objects[0].grid_dx_m, Some(0.015));
+        assert_eq!(c.chosen.objects[0].physics_spacing_m, Some(0.0075));
+        assert_eq!(
+            c.chosen.objects[1].grid_dx_m, None,
+            "the small cube as written"
+        );
+        assert!(
+            (c.expected.wall_s_per_frame - 0.02643).abs() < 1e-4,
+            "{:?}",
+            c.expected
+        );
+    }
+
+    #[test]
+    fn a_per_object_choice_that_measures_over_budget_falls_back_to_the_uniform_step() {
+        let s = two_cubes(Method::Com);
+        let mut model = PerObject {
+            scale: [1.25, 0.01],
+            mixed_penalty: 3.0,
+            measured: Vec::new(),
+        };
+        let c = choose(&s, 30.0, &mut model).unwrap();
+        assert!(c.budget_met);
+        assert_eq!(c.calibration.len(), 5, "{:?}", model.measured);
+        assert_eq!(
+            c.chosen, c.calibration[3].0,
+            "the uniform step that met the budget"
+        );
+    }
+
+    #[test]
+    fn a_shared_grid_is_coarsened_as_one() {
+        let s = two_cubes(Method::Mpm);
+        let c = candidates(&s);
+        assert_eq!(c.len(), 3, "as far as the small cube's ladder goes");
+        assert_eq!(c[2].grid_dx_m, 0.01);
+        assert!(c[2].objects.iter().all(|o| o.grid_dx_m.is_none()));
+        let mut model = PerObject {
+            scale: [0.2, 0.05],
+            mixed_penalty: 1.0,
+            measured: Vec::new(),
+        };
+        let chosen = choose(&s, 30.0, &mut model).unwrap();
+        // 0.050 s at 7.5 mm, 0.017 s at 10 mm: no per-object step on a shared grid.
+        assert_eq!(model.measured.len(), 3);
+        assert_eq!(chosen.chosen, c[2]);
     }
 }

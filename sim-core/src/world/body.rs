@@ -213,6 +213,10 @@ pub struct Body {
     pub substeps_taken: u64,
     /// Smallest and largest of those substeps (s); `[inf, 0]` before the first.
     pub dt_range_s: [f64; 2],
+    /// Wall time its own MPM substeps took so far (s): a timing of this machine, not simulation
+    /// state (method `com` only; zero for objects without MPM and under the shared-grid
+    /// baselines).
+    pub mpm_wall_s: f64,
     /// Contacts with other objects in the last published frame.
     pub contacts: u32,
     /// Largest particle speed after the last substep (m/s).
@@ -310,6 +314,7 @@ impl Body {
             still_s: 0.0,
             substeps_skipped: 0,
             substeps_taken: 0,
+            mpm_wall_s: 0.0,
             dt_range_s: [f64::INFINITY, 0.0],
             contacts: 0,
             max_speed_m_s: v0.length(),

@@ -3,7 +3,8 @@
 //! sparse-grid blocks it touched, how many substeps it slept through, and its own CFL limit
 //! dt = C·dx / (c_p + |v|max) (Courant-Friedrichs-Lewy; c_p = sqrt((λ + 2μ)/ρ) of its material),
 //! so a user sees which object and material set the substep. Objects that step in separate
-//! islands ([`super::islands`]) show their own substep counts and ranges.
+//! islands ([`super::islands`]) show their own substep counts and ranges, and each object's own
+//! MPM wall time says where a frame's time goes.
 
 use serde::{Deserialize, Serialize};
 
@@ -49,6 +50,9 @@ pub struct ObjectExplanation {
     pub max_speed_m_s: f32,
     /// Its own CFL limit with the scene's C, s (deformable only).
     pub dt_limit_s: Option<f32>,
+    /// Wall time its own MPM substeps took so far, s (method `com`; a timing of this machine).
+    #[serde(default)]
+    pub mpm_wall_s: f64,
 }
 
 /// The whole report.
@@ -133,6 +137,7 @@ impl World {
                     dt_limit_s: wave
                         .filter(|_| deformable)
                         .map(|c| cfl_dt_s(cfl, b.solver.dx_m, c, b.max_speed_m_s)),
+                    mpm_wall_s: b.mpm_wall_s,
                 }
             })
             .collect();
@@ -210,7 +215,7 @@ impl Explanation {
         );
         s.push_str(&format!("background: {}\n", self.background));
         s.push_str(&format!(
-            "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>7} {:>19} {:>9} {:>7} {:>9} {:>10}  modelled as\n",
+            "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>7} {:>19} {:>9} {:>7} {:>9} {:>10} {:>10}  modelled as\n",
             "object",
             "kind",
             "material",
@@ -222,11 +227,12 @@ impl Explanation {
             "computed",
             "slept",
             "c_p m/s",
-            "dt limit s"
+            "dt limit s",
+            "MPM wall s"
         ));
         for o in &self.objects {
             s.push_str(&format!(
-                "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>7} {:>19} {:>9} {:>7} {:>9} {:>10}  {}\n",
+                "{:<16} {:<10} {:<11} {:>9} {:>9} {:>7} {:>7} {:>19} {:>9} {:>7} {:>9} {:>10} {:>10}  {}\n",
                 o.name,
                 o.kind,
                 o.material,
@@ -239,6 +245,11 @@ impl Explanation {
                 o.substeps_slept,
                 o.wave_speed_m_s.map_or("-".into(), |c| format!("{c:.1}")),
                 o.dt_limit_s.map_or("-".into(), |d| format!("{d:.2e}")),
+                if o.particles_simulated > 0 {
+                    format!("{:.3}", o.mpm_wall_s)
+                } else {
+                    "-".into()
+                },
                 o.modelled_as
             ));
         }

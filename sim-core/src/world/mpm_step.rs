@@ -204,6 +204,7 @@ impl World {
                 self.bodies[k].substeps_skipped += 1;
                 continue;
             }
+            let started = std::time::Instant::now();
             let b = &mut self.bodies[k];
             let dx = b.solver.dx_m;
             let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx));
@@ -221,6 +222,7 @@ impl World {
             let b = &mut self.bodies[k];
             b.solver = solver;
             b.particles = particles;
+            b.mpm_wall_s += started.elapsed().as_secs_f64();
             step.finish(&mut self.stats, b, r)?;
         }
         self.boundary_touches = touches;
