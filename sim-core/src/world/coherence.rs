@@ -7,6 +7,14 @@
 //! angular, is made equal to its object-level value (old momentum + J, old angular momentum +
 //! r × J) by adding a uniform velocity and a rigid rotation field (v += δv + δω × r, C += `[δω]×`):
 //! rigid fields carry no strain rate, so the internal deformation velocities are undisturbed.
+//!
+//! A contact impulse ([`apply_contact_impulse`]) may change the object's rigid-level kinetic
+//! energy as the restitution law says, and no more: when the zone kick raises the kinetic energy
+//! of the particles' motion relative to their rigid fit (v − v_com − ω × r, with ω from the
+//! orbital angular momentum and inertia, so it carries no momentum or angular momentum), that
+//! relative motion is scaled back to the energy it had before. Without it, a kick of J/2 over a
+//! zone of mass M_z adds up to ½ |J/2|² / M_z at once (6 % of the kinetic energy in a head-on
+//! impact of two jelly spheres at e = 1), which MPM's transfers then mostly dissipate.
 
 use glam::{DVec3, Mat3A, Vec3A};
 
@@ -55,6 +63,92 @@ pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[
     let dv = (target_p - s.velocity_m_s * s.mass_kg - kicked_p) / s.mass_kg;
     let dw = inverse_or_zero(s.inertia) * (target_l - s.angular_momentum - kicked_l);
     rigid_field(body, dv, dw, s.com_m);
+}
+
+/// [`apply_impulse`] for a contact: afterwards the kinetic energy of the particles' motion
+/// relative to their rigid fit is no larger than before (see the module docs). Momentum and
+/// angular momentum are those of [`apply_impulse`] (the relative motion carries none).
+pub fn apply_contact_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[u32]) {
+    if zone.is_empty() {
+        // Uniform and rigid fields only: the relative motion is unchanged.
+        apply_impulse(body, j, h, point, zone);
+        return;
+    }
+    let before = RigidFit::of(&body.particles);
+    apply_impulse(body, j, h, point, zone);
+    let after = RigidFit::of(&body.particles);
+    if !(after.relative_energy_j > before.relative_energy_j && after.relative_energy_j > 0.0) {
+        return;
+    }
+    let alpha = (before.relative_energy_j.max(0.0) / after.relative_energy_j).sqrt() as f32;
+    let (com, v_com, omega) = (
+        after.com_m.as_vec3a(),
+        after.velocity_m_s.as_vec3a(),
+        after.omega_rad_s.as_vec3a(),
+    );
+    if !(com.is_finite() && v_com.is_finite() && omega.is_finite()) {
+        return;
+    }
+    let p = &mut body.particles;
+    for i in 0..p.len() {
+        let rigid = v_com + omega.cross(p.x[i] - com);
+        p.v[i] = rigid + (p.v[i] - rigid) * alpha;
+    }
+}
+
+/// The particles' rigid fit: COM, COM velocity and ω = I⁻¹ L from the orbital angular momentum
+/// and inertia (Σ m r × v, Σ m (|r|² 1 − r rᵀ); no APIC spin), and the kinetic energy of the
+/// motion relative to it, ½ Σ m |v|² − ½ M |v_com|² − ½ ω · L (J).
+struct RigidFit {
+    com_m: DVec3,
+    velocity_m_s: DVec3,
+    omega_rad_s: DVec3,
+    relative_energy_j: f64,
+}
+
+impl RigidFit {
+    fn of(p: &crate::mpm::Particles) -> Self {
+        let (mut m, mut mx, mut mv) = (0.0f64, DVec3::ZERO, DVec3::ZERO);
+        for i in 0..p.len() {
+            let mi = p.mass_kg[i] as f64;
+            m += mi;
+            mx += p.x[i].as_dvec3() * mi;
+            mv += p.v[i].as_dvec3() * mi;
+        }
+        if m <= 0.0 {
+            return Self {
+                com_m: DVec3::ZERO,
+                velocity_m_s: DVec3::ZERO,
+                omega_rad_s: DVec3::ZERO,
+                relative_energy_j: 0.0,
+            };
+        }
+        let (com, vel) = (mx / m, mv / m);
+        let (mut l, mut diag, mut off, mut energy) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, 0.0);
+        for i in 0..p.len() {
+            let mi = p.mass_kg[i] as f64;
+            let r = p.x[i].as_dvec3() - com;
+            let v = p.v[i].as_dvec3() - vel;
+            l += r.cross(v) * mi;
+            let mr = r * mi;
+            diag += mr * r;
+            off += DVec3::new(mr.x * r.y, mr.x * r.z, mr.y * r.z);
+            energy += 0.5 * mi * v.length_squared();
+        }
+        let trace = diag.x + diag.y + diag.z;
+        let inertia = glam::DMat3::from_cols(
+            DVec3::new(trace - diag.x, -off.x, -off.y),
+            DVec3::new(-off.x, trace - diag.y, -off.z),
+            DVec3::new(-off.y, -off.z, trace - diag.z),
+        );
+        let omega = inverse_or_zero(inertia) * l;
+        Self {
+            com_m: com,
+            velocity_m_s: vel,
+            omega_rad_s: omega,
+            relative_energy_j: energy - 0.5 * omega.dot(l),
+        }
+    }
 }
 
 /// Makes the particles' total momentum `target_p` (kg m/s) and angular momentum about `com`

@@ -497,7 +497,7 @@ impl World {
                 continue;
             }
             b.impulse_total_n_s += j.length();
-            coherence::apply_impulse(b, j * sign, h * sign, point, zone);
+            coherence::apply_contact_impulse(b, j * sign, h * sign, point, zone);
         }
     }
 
