@@ -346,3 +346,104 @@ fn spacing_from_a_file_without_a_fitting_level_of_detail_is_a_clear_error() {
         );
     }
 }
+
+/// Two jelly balls (radius 5 cm and 3 cm) on a 10 mm grid: the big one's ladder is 10, 15, 20 and
+/// 30 mm, the small one's (5.5 cm between its outer Gaussians) stops at 15 mm.
+const TWO_BALLS: &str = r#"
+[simulation]
+duration_s = 0.06
+frame_rate_hz = 100.0
+grid_dx_m = 0.01
+domain_m = [[-0.3, -0.3, -0.05], [0.3, 0.3, 0.4]]
+
+[[object]]
+name = "big"
+shape = { sphere = { center_m = [-0.1, 0.0, 0.08], radius_m = 0.05 } }
+spacing_m = 0.005
+material = { model = "jelly", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
+
+[[object]]
+name = "small"
+shape = { sphere = { center_m = [0.1, 0.0, 0.08], radius_m = 0.03 } }
+spacing_m = 0.005
+material = { model = "jelly", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
+
+[[collider]]
+name = "floor"
+plane = { point_m = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }
+surface = "separate"
+"#;
+
+#[test]
+fn each_deformable_object_has_its_own_ladder_and_its_own_time_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("two.toml");
+    std::fs::write(&scene, TWO_BALLS).unwrap();
+    let out = dir.path().join("out");
+    let s = run(
+        "lod_two",
+        &[
+            scene.to_str().unwrap(),
+            "--in-process",
+            "--threads",
+            "2",
+            "--budget-fps",
+            "1e9",
+            "--error-window-s",
+            "0",
+        ],
+        &out,
+    );
+    let lod = &s["level_of_detail"];
+    let candidates = lod["calibration"]["candidates"].as_array().unwrap();
+    let cells: Vec<Vec<f64>> = candidates
+        .iter()
+        .map(|k| {
+            k["cells_m"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| (c.as_f64().unwrap() * 1e4).round() / 10.0)
+                .collect()
+        })
+        .collect();
+    // Uniform steps only (the budget is unreachable): the small ball stays at the bottom of
+    // its ladder while the big one goes on.
+    assert_eq!(
+        cells,
+        [[10.0, 10.0], [15.0, 15.0], [20.0, 15.0], [30.0, 15.0]],
+        "{candidates:?}"
+    );
+    // Each object gets its own grid in the chosen level; the scene's grid stays as written.
+    assert_eq!(lod["chosen"]["grid_dx_m"], 0.01);
+    let chosen = lod["chosen"]["objects"].as_array().unwrap();
+    assert_eq!(chosen.len(), 2);
+    assert!(chosen.iter().all(|o| o["grid_dx_m"].as_f64().is_some()));
+
+    // A budget the scene meets: its one calibration run goes to the end, and each object's
+    // own MPM time per frame is recorded (none when a run stops within its first frame).
+    let out = dir.path().join("met");
+    let s = run(
+        "lod_two_met",
+        &[
+            scene.to_str().unwrap(),
+            "--in-process",
+            "--budget-fps",
+            "1e-3",
+            "--error-window-s",
+            "0",
+        ],
+        &out,
+    );
+    let candidates = s["level_of_detail"]["calibration"]["candidates"]
+        .as_array()
+        .unwrap();
+    assert_eq!(candidates.len(), 1);
+    let times = candidates[0]["object_wall_s_per_frame"].as_array().unwrap();
+    assert_eq!(times.len(), 2, "{}", candidates[0]);
+    assert!(
+        times.iter().all(|t| t.as_f64().unwrap() > 0.0),
+        "each object's own MPM time is measured: {}",
+        candidates[0]
+    );
+}

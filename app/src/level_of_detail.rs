@@ -91,6 +91,9 @@ pub struct CandidateRecord {
     pub objects: Vec<ObjectSpacing>,
     /// The grid cell each of them is simulated on, m, in the same order.
     pub cells_m: Vec<f64>,
+    /// Wall seconds per simulated frame each of them spent in its own MPM substeps, in the same
+    /// order (what the per-object choice predicts from).
+    pub object_wall_s_per_frame: Vec<f64>,
     /// Simulated frames per wall second (until it was stopped, for a run stopped as over budget).
     pub frames_per_wall_s: f64,
     /// Largest COM error over the window, m (when errors were measured).
@@ -299,6 +302,7 @@ fn record(c: &Choice, settings: &CalibrationSettings) -> LodRecord {
                         .iter()
                         .map(|o| o.cell_m(level.grid_dx_m))
                         .collect(),
+                    object_wall_s_per_frame: m.object_wall_s_per_frame.clone(),
                     frames_per_wall_s: m.frames_per_wall_s(),
                     com_error_m: m.com_error_m,
                     p95_error_m: m.p95_error_m,

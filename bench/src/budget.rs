@@ -114,18 +114,25 @@ impl CostModel for Calibration<'_> {
         let t = self.run(level, errors)?;
         let frames = t.frames_run.max(1e-9);
         let wall_s_per_frame = t.wall_s / frames;
-        // Each deformable object's own MPM time, matched by name (the level lists them).
-        let object_wall_s_per_frame = level
-            .objects
-            .iter()
-            .map(|o| {
-                t.explain
-                    .objects
-                    .iter()
-                    .find(|e| e.name == o.name)
-                    .map_or(0.0, |e| e.mpm_wall_s / frames)
-            })
-            .collect();
+        // Each deformable object's own MPM time per whole frame, matched by name (the level
+        // lists them); unknown (empty) when the run stopped within its first frame.
+        let whole_frames = t.com.len();
+        let object_wall_s_per_frame = if whole_frames == 0 {
+            Vec::new()
+        } else {
+            level
+                .objects
+                .iter()
+                .map(|o| {
+                    t.explain
+                        .objects
+                        .iter()
+                        .position(|e| e.name == o.name)
+                        .and_then(|k| t.object_mpm_s_whole_frames.get(k))
+                        .map_or(0.0, |s| s / whole_frames as f64)
+                })
+                .collect()
+        };
         if !errors {
             return Ok(Measurement {
                 wall_s_per_frame,

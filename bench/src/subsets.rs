@@ -71,6 +71,11 @@ pub(crate) struct Trace {
     pub(crate) substeps: u64,
     /// `--explain`'s report at the end of the run.
     pub(crate) explain: Explanation,
+    /// `[object]` wall seconds of each object's own MPM over the whole frames run (in the order
+    /// of `explain.objects`); empty when the run was stopped within its first frame. A run
+    /// stopped within a frame has stepped some islands of that frame and not others, so only
+    /// whole frames count.
+    pub(crate) object_mpm_s_whole_frames: Vec<f64>,
 }
 
 /// Indices of the objects that move (not static).
@@ -139,6 +144,7 @@ pub(crate) fn run_scene_within(scene: &Scene, pb: &ProgressBar, max_wall_s: f64)
     let mut wall_s = 0.0;
     let cpu0 = process_cpu_s();
     let started = Instant::now();
+    let mut object_mpm_s_whole_frames = Vec::new();
     while !w.is_finished() {
         let t = Instant::now();
         let mut keep_going = || started.elapsed().as_secs_f64() < max_wall_s;
@@ -153,6 +159,7 @@ pub(crate) fn run_scene_within(scene: &Scene, pb: &ProgressBar, max_wall_s: f64)
         wall_s += t.elapsed().as_secs_f64();
         let o = w.objects();
         com.push(ids.iter().map(|&k| DVec3::from(o[k].com_m)).collect());
+        object_mpm_s_whole_frames = w.bodies.iter().map(|b| b.mpm_wall_s).collect();
         pb.inc(1);
     }
     // Whole loop (the per-frame COM measurement is a few 0.1 ms of it): /proc counts in 10 ms
@@ -181,6 +188,7 @@ pub(crate) fn run_scene_within(scene: &Scene, pb: &ProgressBar, max_wall_s: f64)
         particles: ids.iter().map(|&k| w.bodies[k].particles.len()).sum(),
         substeps: w.stats.substeps,
         explain: w.explain(),
+        object_mpm_s_whole_frames,
     })
 }
 

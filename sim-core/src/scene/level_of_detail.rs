@@ -97,8 +97,8 @@ pub struct Measurement {
     /// the end of the calibration, m; `None` when not measured.
     pub p95_error_m: Option<f64>,
     /// Wall seconds per simulated frame spent in each deformable object's own MPM substeps, in
-    /// the order of [`LevelOfDetail::objects`]; empty when not measured (then only uniform
-    /// candidates are chosen).
+    /// the order of [`LevelOfDetail::objects`]; empty when not measured (a per-object choice
+    /// then never refines an object into this candidate's rung).
     #[serde(default)]
     pub object_wall_s_per_frame: Vec<f64>,
 }
@@ -461,25 +461,30 @@ pub fn choose<M: CostModel>(
 
 /// Phase 2 of [`choose`]: from the last of the `uniform` measurements (step k, which met the
 /// budget), refines objects one rung at a time, fewest cells across first (between equals, the
-/// cheaper refinement), while the predicted
-/// wall time per frame stays within `budget_s`. `None` when there is nothing to refine (fewer
-/// than two objects, k = 0, no per-object times) or no refinement fits.
+/// cheaper refinement), while the predicted wall time per frame stays within `budget_s`. A step
+/// without per-object times counts as too slow. `None` when there is nothing to refine (fewer
+/// than two objects, k = 0, no per-object times at step k) or no refinement fits.
 fn refine(ladders: &[Ladder], uniform: &[&Measurement], budget_s: f64) -> Option<Vec<usize>> {
     let k = uniform.len().checked_sub(1)?;
-    if ladders.len() < 2
-        || k == 0
-        || uniform
-            .iter()
-            .any(|m| m.object_wall_s_per_frame.len() != ladders.len())
-    {
+    let known = |m: &Measurement| m.object_wall_s_per_frame.len() == ladders.len();
+    if ladders.len() < 2 || k == 0 || !known(uniform[k]) {
         return None;
     }
     // Object o at rung r costs what it cost at uniform step r (where it stood at rung r, or at
     // the bottom of its ladder, which r then is); the rest of the frame is taken from the
     // finest step in use.
-    let object_s = |o: usize, r: usize| uniform[r].object_wall_s_per_frame[o];
+    let object_s = |o: usize, r: usize| {
+        if known(uniform[r]) {
+            uniform[r].object_wall_s_per_frame[o]
+        } else {
+            f64::INFINITY
+        }
+    };
     let rest_s = |j: usize| {
         let m = uniform[j];
+        if !known(m) {
+            return f64::INFINITY;
+        }
         (m.wall_s_per_frame - m.object_wall_s_per_frame.iter().sum::<f64>()).max(0.0)
     };
     let predicted_s = |rungs: &[usize]| {
@@ -738,6 +743,9 @@ mod tests {
         scale: [f64; 2],
         mixed_penalty: f64,
         measured: Vec<[f64; 2]>,
+        /// Levels whose cells are all this fine report no per-object times (a calibration run
+        /// stopped within its first frame).
+        unknown_at_m: Option<f64>,
     }
 
     impl CostModel for PerObject {
@@ -757,11 +765,15 @@ mod tests {
             } else {
                 1.0
             };
+            let wall_s_per_frame = penalty * (1e-3 + object.iter().sum::<f64>());
+            let unknown = self
+                .unknown_at_m
+                .is_some_and(|d| cells.iter().all(|c| *c <= d));
             Ok(Measurement {
-                wall_s_per_frame: penalty * (1e-3 + object.iter().sum::<f64>()),
+                wall_s_per_frame,
                 com_error_m: None,
                 p95_error_m: None,
-                object_wall_s_per_frame: object,
+                object_wall_s_per_frame: if unknown { Vec::new() } else { object },
             })
         }
     }
@@ -796,6 +808,7 @@ mod tests {
             scale: [1.25, 0.01],
             mixed_penalty: 1.0,
             measured: Vec::new(),
+            unknown_at_m: None,
         };
         let c = choose(&s, 30.0, &mut model).unwrap();
         assert!(c.budget_met);
@@ -821,12 +834,30 @@ mod tests {
     }
 
     #[test]
+    fn no_object_is_refined_into_a_rung_whose_times_are_unknown() {
+        let s = two_cubes(Method::Com);
+        // As above, but the 5 mm step reports no per-object times: the small cube stops at
+        // 7.5 mm.
+        let mut model = PerObject {
+            scale: [1.25, 0.01],
+            mixed_penalty: 1.0,
+            measured: Vec::new(),
+            unknown_at_m: Some(0.005),
+        };
+        let c = choose(&s, 30.0, &mut model).unwrap();
+        assert!(c.budget_met);
+        assert_eq!(model.measured[4], [0.015, 0.0075]);
+        assert_eq!(c.chosen.objects[1].grid_dx_m, Some(0.0075));
+    }
+
+    #[test]
     fn a_per_object_choice_that_measures_over_budget_falls_back_to_the_uniform_step() {
         let s = two_cubes(Method::Com);
         let mut model = PerObject {
             scale: [1.25, 0.01],
             mixed_penalty: 3.0,
             measured: Vec::new(),
+            unknown_at_m: None,
         };
         let c = choose(&s, 30.0, &mut model).unwrap();
         assert!(c.budget_met);
@@ -848,6 +879,7 @@ mod tests {
             scale: [0.2, 0.05],
             mixed_penalty: 1.0,
             measured: Vec::new(),
+            unknown_at_m: None,
         };
         let chosen = choose(&s, 30.0, &mut model).unwrap();
         // 0.050 s at 7.5 mm, 0.017 s at 10 mm: no per-object step on a shared grid.
