@@ -23,8 +23,9 @@
 //!    bodies) as measured at the finest rung in use. The object refined next is the one with the
 //!    fewest cells across its thinnest extent (between equals, the one whose refinement costs
 //!    least), so a small object that costs little gets a fine grid, and of two equal objects the
-//!    cheap one (a soft material, with longer substeps) is refined before the costly one. The result is measured once more; it is chosen
-//!    only if that measurement meets the budget, else phase 1's candidate is.
+//!    cheap one (a soft material, with longer substeps) is refined before the costly one. The
+//!    result is measured once more; it is chosen only if that measurement meets the budget,
+//!    else phase 1's candidate is.
 //!
 //! The cost is assumed to fall as a grid coarsens. What a level of detail never changes: rigid,
 //! static and kinematic objects keep their particles and their collision surfaces (sampled
