@@ -159,7 +159,8 @@ pub(crate) fn run_scene_within(scene: &Scene, pb: &ProgressBar, max_wall_s: f64)
         wall_s += t.elapsed().as_secs_f64();
         let o = w.objects();
         com.push(ids.iter().map(|&k| DVec3::from(o[k].com_m)).collect());
-        object_mpm_s_whole_frames = w.bodies.iter().map(|b| b.mpm_wall_s).collect();
+        object_mpm_s_whole_frames.clear();
+        object_mpm_s_whole_frames.extend(w.bodies.iter().map(|b| b.mpm_wall_s));
         pb.inc(1);
     }
     // Whole loop (the per-frame COM measurement is a few 0.1 ms of it): /proc counts in 10 ms

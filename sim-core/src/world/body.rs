@@ -126,13 +126,8 @@ pub fn measure(p: &Particles, dx_m: f32) -> BodyState {
         r2max = r2max.max(r.length_squared());
     }
     l += spin * d;
-    // I = Σ m (|r|² 1 - r rᵀ), plus each particle's own spread m d (2 on the diagonal).
-    let trace = diag.x + diag.y + diag.z + 2.0 * d * m;
-    let inertia = DMat3::from_cols(
-        DVec3::new(trace - diag.x, -off.x, -off.y),
-        DVec3::new(-off.x, trace - diag.y, -off.z),
-        DVec3::new(-off.y, -off.z, trace - diag.z),
-    );
+    // Plus each particle's own spread m d (2 on the diagonal).
+    let inertia = inertia_from_second_moments(diag, off, 2.0 * d * m);
     BodyState {
         mass_kg: m,
         com_m: com,
@@ -142,6 +137,17 @@ pub fn measure(p: &Particles, dx_m: f32) -> BodyState {
         radius_m: r2max.sqrt() + dx_m as f64 / 2.0,
         aabb_m: (lo, hi),
     }
+}
+
+/// The inertia tensor Σ m (|r|² 1 − r rᵀ) + `spread` 1 (kg m²) from the second moments Σ m r rᵀ:
+/// `diag` its diagonal, `off` its (xy, xz, yz) entries.
+pub fn inertia_from_second_moments(diag: DVec3, off: DVec3, spread: f64) -> DMat3 {
+    let trace = diag.x + diag.y + diag.z + spread;
+    DMat3::from_cols(
+        DVec3::new(trace - diag.x, -off.x, -off.y),
+        DVec3::new(-off.x, trace - diag.y, -off.z),
+        DVec3::new(-off.y, -off.z, trace - diag.z),
+    )
 }
 
 /// a bᵀ.

@@ -18,7 +18,7 @@
 
 use glam::{DVec3, Mat3A, Vec3A};
 
-use super::body::{Body, inverse_or_zero, measure};
+use super::body::{Body, inertia_from_second_moments, inverse_or_zero, measure};
 
 /// Share of a contact impulse given to the contact zone (the rest spreads over the object).
 pub const ZONE_SHARE: f64 = 0.5;
@@ -135,13 +135,7 @@ impl RigidFit {
             off += DVec3::new(mr.x * r.y, mr.x * r.z, mr.y * r.z);
             energy += 0.5 * mi * v.length_squared();
         }
-        let trace = diag.x + diag.y + diag.z;
-        let inertia = glam::DMat3::from_cols(
-            DVec3::new(trace - diag.x, -off.x, -off.y),
-            DVec3::new(-off.x, trace - diag.y, -off.z),
-            DVec3::new(-off.y, -off.z, trace - diag.z),
-        );
-        let omega = inverse_or_zero(inertia) * l;
+        let omega = inverse_or_zero(inertia_from_second_moments(diag, off, 0.0)) * l;
         Self {
             com_m: com,
             velocity_m_s: vel,
