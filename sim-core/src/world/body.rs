@@ -99,12 +99,58 @@ pub fn measure_bounds(p: &Particles, dx_m: f32) -> BodyState {
 /// Measures mass, COM, velocity, angular momentum and inertia of `p` (cell size `dx_m` for the
 /// APIC spin term and the radius margin).
 pub fn measure(p: &Particles, dx_m: f32) -> BodyState {
+    measure_with_fit(p, dx_m).0
+}
+
+/// The particles' rigid fit: the rigid motion (COM velocity and ω) that carries their momentum
+/// and orbital angular momentum, and the kinetic energy of their motion relative to it.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RigidFit {
+    /// COM (m).
+    pub com_m: DVec3,
+    /// COM velocity (m/s).
+    pub velocity_m_s: DVec3,
+    /// (Σ m (|r|² 1 − r rᵀ))⁻¹ about the COM, orbital only (no APIC spin, no particle spread)
+    /// (1/(kg m²)); zero when singular.
+    pub inverse_orbital_inertia: DMat3,
+    /// ω = I⁻¹ Σ m r × v (rad/s).
+    pub omega_rad_s: DVec3,
+    /// ½ Σ m |v − v_com|² − ½ ω · Σ m r × v (J): the energy no rigid motion accounts for.
+    pub relative_energy_j: f64,
+}
+
+impl RigidFit {
+    /// The fit of the same particles (same positions, hence the same COM and inertia) after
+    /// their velocities changed: `momentum` Σ m v (kg m/s), `orbital` Σ m r × v about the COM
+    /// (kg m²/s) and `twice_energy` Σ m |v|² (J × 2), of total mass `mass_kg`.
+    pub fn with_velocities(
+        &self,
+        mass_kg: f64,
+        momentum: DVec3,
+        orbital: DVec3,
+        twice_energy: f64,
+    ) -> Self {
+        let velocity = momentum / mass_kg;
+        let omega = self.inverse_orbital_inertia * orbital;
+        Self {
+            velocity_m_s: velocity,
+            omega_rad_s: omega,
+            relative_energy_j: 0.5 * (twice_energy - mass_kg * velocity.length_squared())
+                - 0.5 * omega.dot(orbital),
+            ..*self
+        }
+    }
+}
+
+/// [`measure`] and the particles' [`RigidFit`], in the same two passes.
+pub fn measure_with_fit(p: &Particles, dx_m: f32) -> (BodyState, RigidFit) {
     let Some((m, com, vel, (lo, hi))) = zeroth_and_first_moments(p) else {
-        return BodyState::default();
+        return Default::default();
     };
     let d = (dx_m as f64).powi(2) / 4.0;
     let mut l = DVec3::ZERO;
     let mut spin = DVec3::ZERO;
+    let mut twice_relative = 0.0f64;
     // Second moments Σ m r rᵀ: diagonal and (xy, xz, yz).
     let mut diag = DVec3::ZERO;
     let mut off = DVec3::ZERO;
@@ -120,23 +166,33 @@ pub fn measure(p: &Particles, dx_m: f32) -> BodyState {
             (c.x_axis.y - c.y_axis.x) as f64,
         ) * mi;
         l += r.cross(v) * mi;
+        twice_relative += mi * v.length_squared();
         let mr = r * mi;
         diag += mr * r;
         off += DVec3::new(mr.x * r.y, mr.x * r.z, mr.y * r.z);
         r2max = r2max.max(r.length_squared());
     }
-    l += spin * d;
+    let inverse_orbital_inertia = inverse_or_zero(inertia_from_second_moments(diag, off, 0.0));
+    let omega = inverse_orbital_inertia * l;
+    let fit = RigidFit {
+        com_m: com,
+        velocity_m_s: vel,
+        inverse_orbital_inertia,
+        omega_rad_s: omega,
+        relative_energy_j: 0.5 * twice_relative - 0.5 * omega.dot(l),
+    };
     // Plus each particle's own spread m d (2 on the diagonal).
     let inertia = inertia_from_second_moments(diag, off, 2.0 * d * m);
-    BodyState {
+    let state = BodyState {
         mass_kg: m,
         com_m: com,
         velocity_m_s: vel,
-        angular_momentum: l,
+        angular_momentum: l + spin * d,
         inertia,
         radius_m: r2max.sqrt() + dx_m as f64 / 2.0,
         aabb_m: (lo, hi),
-    }
+    };
+    (state, fit)
 }
 
 /// The inertia tensor Σ m (|r|² 1 − r rᵀ) + `spread` 1 (kg m²) from the second moments Σ m r rᵀ:

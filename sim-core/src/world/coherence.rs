@@ -8,40 +8,82 @@
 //! r × J) by adding a uniform velocity and a rigid rotation field (v += δv + δω × r, C += `[δω]×`):
 //! rigid fields carry no strain rate, so the internal deformation velocities are undisturbed.
 //!
-//! A contact impulse ([`apply_contact_impulse`]) may change the object's rigid-level kinetic
-//! energy as the restitution law says, and no more: when the zone kick raises the kinetic energy
-//! of the particles' motion relative to their rigid fit (v − v_com − ω × r, with ω from the
-//! orbital angular momentum and inertia, so it carries no momentum or angular momentum), that
-//! relative motion is scaled back to the energy it had before. Without it, a kick of J/2 over a
+//! Contact impulses ([`apply_contact_impulses`], one per contact patch, applied together) may
+//! change the object's rigid-level kinetic energy as the restitution law says, and no more:
+//! when the zone kicks raise the kinetic energy of the particles' motion relative to their rigid
+//! fit (v − v_com − ω × r, with ω from the orbital angular momentum and inertia, so it carries
+//! no momentum or angular momentum), that relative motion is scaled back to the energy it had
+//! before. Without it, a kick of J/2 over a
 //! zone of mass M_z adds up to ½ |J/2|² / M_z at once (6 % of the kinetic energy in a head-on
 //! impact of two jelly spheres at e = 1), which MPM's transfers then mostly dissipate.
 
 use glam::{DVec3, Mat3A, Vec3A};
 
-use super::body::{Body, inertia_from_second_moments, inverse_or_zero, measure};
+use super::body::{Body, RigidFit, inverse_or_zero, measure, measure_with_fit};
 
 /// Share of a contact impulse given to the contact zone (the rest spreads over the object).
 pub const ZONE_SHARE: f64 = 0.5;
 
+/// One impulse on a deformable object: `impulse_n_s` (N s) at `point_m` (m) plus the couple
+/// `couple_n_m_s` (N m s), its zone kick going to the particles `zone`.
+#[derive(Debug, Clone, Copy)]
+pub struct Kick<'a> {
+    /// Impulse (N s).
+    pub impulse_n_s: DVec3,
+    /// Couple (N m s).
+    pub couple_n_m_s: DVec3,
+    /// Where the impulse acts (m).
+    pub point_m: DVec3,
+    /// The particles near that point (indices into the body's particles).
+    pub zone: &'a [u32],
+}
+
 /// Applies impulse `j` (N s) at `point` (m) and angular impulse `h` (N m s, a couple) to
 /// deformable `body`, zone particles `zone`.
 pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[u32]) {
+    let kick = Kick {
+        impulse_n_s: j,
+        couple_n_m_s: h,
+        point_m: point,
+        zone,
+    };
+    apply_kicks(body, &[kick], false);
+}
+
+/// [`apply_impulse`] for several contact impulses at once: afterwards the kinetic energy of the
+/// particles' motion relative to their rigid fit is no larger than before (see the module docs).
+/// Momentum and angular momentum are those of the kicks (the relative motion carries none).
+/// Three passes over the particles (two to measure, one for the rigid field) and a fourth only
+/// when the energy has to be scaled back, however many kicks.
+pub fn apply_contact_impulses(body: &mut Body, kicks: &[Kick<'_>]) {
+    apply_kicks(body, kicks, true);
+}
+
+fn apply_kicks(body: &mut Body, kicks: &[Kick<'_>], bound_energy: bool) {
     let dx = body.solver.dx_m;
-    let before = measure(&body.particles, dx);
+    let (before, fit) = measure_with_fit(&body.particles, dx);
     if before.mass_kg <= 0.0 {
         return;
     }
-    let target_p = before.velocity_m_s * before.mass_kg + j;
-    let target_l = before.angular_momentum + (point - before.com_m).cross(j) + h;
-    // The zone kick's own momentum and angular momentum (about the COM), so the rigid field
+    let mut target_p = before.velocity_m_s * before.mass_kg;
+    let mut target_l = before.angular_momentum;
+    // The zone kicks' own momentum and angular momentum (about the COM), so the rigid field
     // that follows needs no second pass over the object to measure them.
     let mut kicked_p = DVec3::ZERO;
     let mut kicked_l = DVec3::ZERO;
-    let zone_mass: f64 = zone
-        .iter()
-        .map(|&i| body.particles.mass_kg[i as usize] as f64)
-        .sum();
-    if zone_mass > 0.0 {
+    let mut kicked_zone = false;
+    for k in kicks {
+        let j = k.impulse_n_s;
+        if !(j.is_finite() && k.couple_n_m_s.is_finite() && k.point_m.is_finite()) {
+            continue;
+        }
+        target_p += j;
+        target_l += (k.point_m - before.com_m).cross(j) + k.couple_n_m_s;
+        let p = &mut body.particles;
+        let zone_mass: f64 = k.zone.iter().map(|&i| p.mass_kg[i as usize] as f64).sum();
+        if zone_mass <= 0.0 {
+            continue;
+        }
         let mut dv = j * ZONE_SHARE / zone_mass;
         let cap = 2.0 * j.length() / before.mass_kg;
         if dv.length() > cap {
@@ -49,38 +91,38 @@ pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[
         }
         let dv32 = dv.as_vec3a();
         let dv = dv32.as_dvec3();
-        let p = &mut body.particles;
         let mut first_moment = DVec3::ZERO;
-        for &i in zone {
+        for &i in k.zone {
             let i = i as usize;
             p.v[i] += dv32;
             first_moment += (p.x[i].as_dvec3() - before.com_m) * p.mass_kg[i] as f64;
         }
-        kicked_p = dv * zone_mass;
-        kicked_l = first_moment.cross(dv);
+        kicked_p += dv * zone_mass;
+        kicked_l += first_moment.cross(dv);
+        kicked_zone = true;
     }
     let s = &before;
     let dv = (target_p - s.velocity_m_s * s.mass_kg - kicked_p) / s.mass_kg;
     let dw = inverse_or_zero(s.inertia) * (target_l - s.angular_momentum - kicked_l);
-    rigid_field(body, dv, dw, s.com_m);
+    let Some(sums) = rigid_field(body, dv, dw, s.com_m) else {
+        return;
+    };
+    if !(bound_energy && kicked_zone) {
+        // Uniform and rigid fields only: the relative motion is unchanged.
+        return;
+    }
+    let after = fit.with_velocities(sums.mass_kg, sums.momentum, sums.orbital, sums.twice_energy);
+    bound_relative_energy(body, &fit, &after);
 }
 
-/// [`apply_impulse`] for a contact: afterwards the kinetic energy of the particles' motion
-/// relative to their rigid fit is no larger than before (see the module docs). Momentum and
-/// angular momentum are those of [`apply_impulse`] (the relative motion carries none).
-pub fn apply_contact_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[u32]) {
-    if zone.is_empty() {
-        // Uniform and rigid fields only: the relative motion is unchanged.
-        apply_impulse(body, j, h, point, zone);
+/// Scales the particles' motion relative to their rigid fit `after` back to the energy it had
+/// in `before` when it has more (a relative 1e-9 is rounding between the two fits' sums).
+fn bound_relative_energy(body: &mut Body, before: &RigidFit, after: &RigidFit) {
+    let (e0, e1) = (before.relative_energy_j.max(0.0), after.relative_energy_j);
+    if !(e1 > e0 * (1.0 + 1e-9) && e1 > 0.0) {
         return;
     }
-    let before = RigidFit::of(&body.particles);
-    apply_impulse(body, j, h, point, zone);
-    let after = RigidFit::of(&body.particles);
-    if !(after.relative_energy_j > before.relative_energy_j && after.relative_energy_j > 0.0) {
-        return;
-    }
-    let alpha = (before.relative_energy_j.max(0.0) / after.relative_energy_j).sqrt() as f32;
+    let alpha = (e0 / e1).sqrt() as f32;
     let (com, v_com, omega) = (
         after.com_m.as_vec3a(),
         after.velocity_m_s.as_vec3a(),
@@ -93,55 +135,6 @@ pub fn apply_contact_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, 
     for i in 0..p.len() {
         let rigid = v_com + omega.cross(p.x[i] - com);
         p.v[i] = rigid + (p.v[i] - rigid) * alpha;
-    }
-}
-
-/// The particles' rigid fit: COM, COM velocity and ω = I⁻¹ L from the orbital angular momentum
-/// and inertia (Σ m r × v, Σ m (|r|² 1 − r rᵀ); no APIC spin), and the kinetic energy of the
-/// motion relative to it, ½ Σ m |v|² − ½ M |v_com|² − ½ ω · L (J).
-struct RigidFit {
-    com_m: DVec3,
-    velocity_m_s: DVec3,
-    omega_rad_s: DVec3,
-    relative_energy_j: f64,
-}
-
-impl RigidFit {
-    fn of(p: &crate::mpm::Particles) -> Self {
-        let (mut m, mut mx, mut mv) = (0.0f64, DVec3::ZERO, DVec3::ZERO);
-        for i in 0..p.len() {
-            let mi = p.mass_kg[i] as f64;
-            m += mi;
-            mx += p.x[i].as_dvec3() * mi;
-            mv += p.v[i].as_dvec3() * mi;
-        }
-        if m <= 0.0 {
-            return Self {
-                com_m: DVec3::ZERO,
-                velocity_m_s: DVec3::ZERO,
-                omega_rad_s: DVec3::ZERO,
-                relative_energy_j: 0.0,
-            };
-        }
-        let (com, vel) = (mx / m, mv / m);
-        let (mut l, mut diag, mut off, mut energy) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, 0.0);
-        for i in 0..p.len() {
-            let mi = p.mass_kg[i] as f64;
-            let r = p.x[i].as_dvec3() - com;
-            let v = p.v[i].as_dvec3() - vel;
-            l += r.cross(v) * mi;
-            let mr = r * mi;
-            diag += mr * r;
-            off += DVec3::new(mr.x * r.y, mr.x * r.z, mr.y * r.z);
-            energy += 0.5 * mi * v.length_squared();
-        }
-        let omega = inverse_or_zero(inertia_from_second_moments(diag, off, 0.0)) * l;
-        Self {
-            com_m: com,
-            velocity_m_s: vel,
-            omega_rad_s: omega,
-            relative_energy_j: energy - 0.5 * omega.dot(l),
-        }
     }
 }
 
@@ -160,12 +153,23 @@ pub fn enforce(body: &mut Body, target_p: DVec3, target_l: DVec3, com: DVec3) {
     rigid_field(body, dv, dw, s.com_m);
 }
 
+/// Velocity sums over every particle after a [`rigid_field`], about the COM it was given.
+struct VelocitySums {
+    mass_kg: f64,
+    /// Σ m v (kg m/s).
+    momentum: DVec3,
+    /// Σ m (x − com) × v (kg m²/s).
+    orbital: DVec3,
+    /// Σ m |v|² (2 J).
+    twice_energy: f64,
+}
+
 /// Adds the uniform velocity `dv` (m/s) and the rigid rotation field of `dw` (rad/s) about `com`
-/// (m) to every particle: v += dv + dw × (x − com), C += `[dw]×`. Nothing when either is not
-/// finite.
-fn rigid_field(body: &mut Body, dv: DVec3, dw: DVec3, com: DVec3) {
+/// (m) to every particle: v += dv + dw × (x − com), C += `[dw]×`, and sums the new velocities.
+/// Nothing (and `None`) when either is not finite.
+fn rigid_field(body: &mut Body, dv: DVec3, dw: DVec3, com: DVec3) -> Option<VelocitySums> {
     if !(dv.is_finite() && dw.is_finite()) {
-        return;
+        return None;
     }
     let (dv, dw) = (dv.as_vec3a(), dw.as_vec3a());
     let skew = Mat3A::from_cols(
@@ -175,8 +179,20 @@ fn rigid_field(body: &mut Body, dv: DVec3, dw: DVec3, com: DVec3) {
     );
     let c = com.as_vec3a();
     let p = &mut body.particles;
+    let mut sums = VelocitySums {
+        mass_kg: 0.0,
+        momentum: DVec3::ZERO,
+        orbital: DVec3::ZERO,
+        twice_energy: 0.0,
+    };
     for i in 0..p.len() {
         p.v[i] += dv + dw.cross(p.x[i] - c);
         p.c[i] += skew;
+        let (mi, v) = (p.mass_kg[i] as f64, p.v[i].as_dvec3());
+        sums.mass_kg += mi;
+        sums.momentum += v * mi;
+        sums.orbital += (p.x[i].as_dvec3() - com).cross(v) * mi;
+        sums.twice_energy += mi * v.length_squared();
     }
+    Some(sums)
 }

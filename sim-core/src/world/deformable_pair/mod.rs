@@ -1,0 +1,323 @@
+//! Contact between two deformable objects (method `com`): the paper's stage 2 (eqs. 3-6), an
+//! impulse law at the COM level, applied per contact patch (docs/com-layer.md maps one to the
+//! other).
+//!
+//! Broad phase: bounding spheres (eq. 3: |c_i - c_j| <= r_i + r_j) and boxes. Narrow phase
+//! ([`narrow`]): the overlap of the two objects' occupied grid cells, grouped into patches of at
+//! most 5 cells across. Each patch has its own contact zone (each object's particles in its
+//! cells), contact point (the midpoint of the two zones' centroids) and normal n (from A to B:
+//! the difference of the objects' outward normals there, each the least-variance direction of
+//! that object's particles within 3 cells of the point). So a plank across a trough, a peg
+//! against both sides of a hole, or any non-convex pair gets one normal per place of contact
+//! rather than one for the whole pair; a head-on impact of two spheres is one patch on the axis.
+//!
+//! Response ([`law`]): the patches of a pair are solved together by sequential impulses (Catto
+//! 2005) on the two objects' rigid-level dynamics, 8 sweeps over the patches, each with an
+//! accumulated, clamped normal impulse (λ >= 0) and Coulomb friction in an isotropic cone
+//! (|j_t| <= μ λ). A patch approaching faster than 2 g dt is an impact and its target is the
+//! restitution law's separation speed −e v_n (for a single patch this is the impulse law
+//! j_n = −(1 + e) v_n / k_n); a slower one is resting contact with target 0 and a couple that
+//! keeps the relative spin at zero with its pressure centre inside the patch's footprint. Every
+//! patch's impulse J (on B, −J on A) acts at its point, so linear and angular momentum are both
+//! conserved; the particles receive all of a body's patch impulses at once through
+//! [`super::coherence::apply_contact_impulses`], each patch's zone kick on its own particles.
+//!
+//! Resting patches are warm-started: the impulse a resting patch needed in one substep is
+//! applied again at the start of the next, before P2G, so the load reaches the grids in the
+//! velocities the positions are advanced with, and a grid boundary under the lower object takes
+//! it. The end-of-substep solve then only corrects it (it may pull back, down to zero normal
+//! impulse). Without it, the impulse arrives after the positions moved and a resting object
+//! sinks into the one below by g dt² per substep (g dt per second: 2.6 mm/s at dt = 0.27 ms).
+//! A warm impulse counts towards the clamped total of the patch nearest to where it acted.
+
+mod law;
+mod narrow;
+
+use std::collections::BTreeMap;
+
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+
+use super::World;
+use super::body::{Body, BodyState, measure, measure_bounds};
+use super::coherence::{self, Kick};
+use crate::contact::{mix_friction, mix_restitution};
+use crate::scene::{Method, ObjectKind};
+use law::{Accumulated, Dynamics, PatchLaw, patch_impulse};
+use narrow::{broad_phase, narrow_phase};
+
+/// The most sequential-impulse sweeps over a pair's patches per substep (Box2D's default
+/// velocity iterations); a single patch is solved by the first, and a second finds nothing left.
+const ITERATIONS: usize = 8;
+
+/// A resting patch's impulse over one substep, applied again at the start of the next (warm
+/// starting; module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct RestingPair {
+    /// Body index of A.
+    pub a: usize,
+    /// Body index of B (> a).
+    pub b: usize,
+    /// Accumulated impulse on B (−it on A) over a substep of `dt_s`.
+    pub impulse: Accumulated,
+    /// The substep it was accumulated over (s); a substep of another length scales it.
+    pub dt_s: f64,
+    /// Where it acts (m).
+    pub point_m: DVec3,
+    /// A's particles in the patch's cells.
+    pub zone_a: Vec<u32>,
+    /// B's particles in the patch's cells.
+    pub zone_b: Vec<u32>,
+}
+
+/// The kicks on A and B of a patch's impulse `c` (on B; −it on A) at `point` (m), their zones
+/// `zones`.
+fn pair_kicks(c: Accumulated, point: DVec3, zones: [&[u32]; 2]) -> [Kick<'_>; 2] {
+    [(-1.0, zones[0]), (1.0, zones[1])].map(|(sign, zone)| Kick {
+        impulse_n_s: c.linear_n_s * sign,
+        couple_n_m_s: c.angular_n_m_s * sign,
+        point_m: point,
+        zone,
+    })
+}
+
+impl World {
+    /// Applies the resting patches' impulses of the last substep, scaled to `dt` (s), before
+    /// this substep's MPM step (module docs), all of a body's at once. Only for method `com`.
+    pub(super) fn warm_start_deformable_pairs(&mut self, dt: f64) {
+        let pairs = std::mem::take(&mut self.resting_pairs);
+        let mut by_body: BTreeMap<usize, Vec<Kick<'_>>> = BTreeMap::new();
+        for p in &pairs {
+            let c = p.impulse.scaled(dt / p.dt_s);
+            let [on_a, on_b] = pair_kicks(c, p.point_m, [&p.zone_a, &p.zone_b]);
+            by_body.entry(p.a).or_default().push(on_a);
+            by_body.entry(p.b).or_default().push(on_b);
+        }
+        for (k, kicks) in &by_body {
+            self.kick_deformable(*k, kicks);
+        }
+        self.resting_pairs = pairs;
+    }
+
+    /// Applies `kicks` to deformable body `k` when it is awake. A kick whose zone names
+    /// particles the body no longer has (a command changed them since) is dropped.
+    fn kick_deformable(&mut self, k: usize, kicks: &[Kick<'_>]) {
+        let Some(b) = self.bodies.get_mut(k) else {
+            return;
+        };
+        let n = b.particles.len() as u32;
+        if b.sleeping || kicks.is_empty() {
+            return;
+        }
+        let kicks: Vec<Kick<'_>> = kicks
+            .iter()
+            .filter(|kick| kick.zone.iter().all(|&i| i < n))
+            .copied()
+            .collect();
+        b.impulse_total_n_s += kicks.iter().map(|k| k.impulse_n_s.length()).sum::<f64>();
+        coherence::apply_contact_impulses(b, &kicks);
+    }
+
+    /// Every pair of deformable objects, one of them awake, through the broad and narrow phase;
+    /// the patches of a pair in contact get the impulse law's impulses (module docs). Only for
+    /// method `com`: the baselines couple deformable objects on their grids.
+    pub(super) fn resolve_deformable_pairs(&mut self, dt: f64) {
+        if self.settings.method != Method::Com {
+            return;
+        }
+        let ids: Vec<usize> = (0..self.bodies.len())
+            .filter(|&k| self.bodies[k].kind == ObjectKind::Deformable && self.stepping(k))
+            .collect();
+        if ids.len() < 2 {
+            return;
+        }
+        let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
+        // Bounds for the broad phase (one pass per object); the full state (inertia, angular
+        // momentum) only for objects of a pair that passes it, once per substep.
+        let bounds: Vec<BodyState> = ids
+            .par_iter()
+            .map(|&k| measure_bounds(&self.bodies[k].particles, self.bodies[k].dx_m()))
+            .collect();
+        let warm = std::mem::take(&mut self.resting_pairs);
+        let mut full: Vec<Option<BodyState>> = vec![None; ids.len()];
+        for x in 0..ids.len() {
+            for y in x + 1..ids.len() {
+                let (i, j) = (ids[x], ids[y]);
+                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+                // Objects on grids of different cells meet at the coarser one's.
+                let dx = bi.dx_m().max(bj.dx_m());
+                if !(bi.is_active() || bj.is_active())
+                    || !broad_phase(&bounds[x], &bounds[y], dx as f64)
+                {
+                    continue;
+                }
+                for (z, k) in [(x, i), (y, j)] {
+                    if full[z].is_none() {
+                        let b = &self.bodies[k];
+                        full[z] = Some(measure(&b.particles, b.dx_m()));
+                    }
+                }
+                let (Some(si), Some(sj)) = (full[x], full[y]) else {
+                    continue;
+                };
+                let Some(manifold) = narrow_phase(bi, &si, bj, &sj, dx) else {
+                    continue;
+                };
+                let moving = [bi.is_moving(), bj.is_moving()];
+                self.bodies[i].contacts += 1;
+                self.bodies[j].contacts += 1;
+                for (k, other_moving) in [(i, moving[1]), (j, moving[0])] {
+                    if self.bodies[k].sleeping && other_moving {
+                        self.bodies[k].wake_on_contact();
+                    }
+                }
+                let warm_here: Vec<&RestingPair> =
+                    warm.iter().filter(|w| (w.a, w.b) == (i, j)).collect();
+                let solved =
+                    self.solve_pair([i, j], [&si, &sj], &manifold, &warm_here, dt, resting);
+                let (mut on_a, mut on_b) = (Vec::new(), Vec::new());
+                for (c, p) in solved.changes.iter().zip(&manifold.patches) {
+                    if *c != Accumulated::default() {
+                        let [ka, kb] = pair_kicks(*c, p.point_m, [&p.zone_a, &p.zone_b]);
+                        on_a.push(ka);
+                        on_b.push(kb);
+                    }
+                }
+                if !on_a.is_empty() {
+                    self.stats.contact_impulses += on_a.len() as u64;
+                    self.kick_deformable(i, &on_a);
+                    self.kick_deformable(j, &on_b);
+                    for k in [i, j] {
+                        let b = &mut self.bodies[k];
+                        if !b.sleeping {
+                            b.max_speed_m_s =
+                                b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+                        }
+                    }
+                    // Their velocities changed: a later pair re-measures them.
+                    full[x] = None;
+                    full[y] = None;
+                }
+                let both_asleep = self.bodies[i].sleeping && self.bodies[j].sleeping;
+                for (p, (total, rests)) in manifold
+                    .patches
+                    .into_iter()
+                    .zip(solved.totals.into_iter().zip(solved.resting))
+                {
+                    if rests && total.linear_n_s.dot(p.normal) > 0.0 && !both_asleep {
+                        self.resting_pairs.push(RestingPair {
+                            a: i,
+                            b: j,
+                            impulse: total,
+                            dt_s: dt,
+                            point_m: p.point_m,
+                            zone_a: p.zone_a,
+                            zone_b: p.zone_b,
+                        });
+                    }
+                }
+            }
+        }
+    }
+
+    /// Solves the patches of the pair `ids` [A, B] (states `states`) together: at most 8
+    /// sequential-impulse sweeps on their rigid-level dynamics (module docs), starting from the
+    /// warm impulses `warm` already applied this substep, each counted in the patch nearest to
+    /// it.
+    fn solve_pair(
+        &self,
+        ids: [usize; 2],
+        states: [&BodyState; 2],
+        manifold: &narrow::Manifold,
+        warm: &[&RestingPair],
+        dt: f64,
+        resting_speed_m_s: f64,
+    ) -> Solved {
+        let (bi, bj) = (&self.bodies[ids[0]], &self.bodies[ids[1]]);
+        let dynamics = |b: &Body, s: &BodyState| {
+            if b.sleeping {
+                return Dynamics {
+                    com_m: s.com_m,
+                    velocity_m_s: DVec3::ZERO,
+                    omega_rad_s: DVec3::ZERO,
+                    inverse_mass: 0.0,
+                    inverse_inertia: DMat3::ZERO,
+                };
+            }
+            Dynamics {
+                com_m: s.com_m,
+                velocity_m_s: s.velocity_m_s,
+                omega_rad_s: s.angular_velocity(),
+                inverse_mass: b.inverse_mass(s),
+                inverse_inertia: b.inverse_inertia(s),
+            }
+        };
+        let (mut da, mut db) = (dynamics(bi, states[0]), dynamics(bj, states[1]));
+        let e = mix_restitution(bi.restitution, bj.restitution) as f64;
+        let mu = mix_friction(bi.friction, bj.friction) as f64;
+        let patches = &manifold.patches;
+        let approach: Vec<f64> = patches
+            .iter()
+            .map(|p| (db.point_velocity(p.point_m) - da.point_velocity(p.point_m)).dot(p.normal))
+            .collect();
+        let resting: Vec<bool> = approach.iter().map(|&v| v >= -resting_speed_m_s).collect();
+        let footprints = resting
+            .iter()
+            .any(|&r| r)
+            .then(|| manifold.footprints(bi, bj));
+        let mut start = vec![Accumulated::default(); patches.len()];
+        for w in warm {
+            let nearest = (0..patches.len()).min_by(|&p, &q| {
+                let d = |k: usize| (patches[k].point_m - w.point_m).length_squared();
+                d(p).total_cmp(&d(q))
+            });
+            if let Some(k) = nearest {
+                start[k] = start[k].plus(w.impulse.scaled(dt / w.dt_s));
+            }
+        }
+        let mut totals = start.clone();
+        for _ in 0..ITERATIONS {
+            let mut changed = false;
+            for (k, p) in patches.iter().enumerate() {
+                let law = PatchLaw {
+                    point_m: p.point_m,
+                    normal: p.normal,
+                    target_vn_m_s: if resting[k] { 0.0 } else { -e * approach[k] },
+                    friction: mu,
+                    footprint: footprints.as_ref().filter(|_| resting[k]).map(|f| &f[k]),
+                };
+                if let Some(d) = patch_impulse(&da, &db, &law, totals[k]) {
+                    da.take(-d.linear_n_s, -d.angular_n_m_s, p.point_m);
+                    db.take(d.linear_n_s, d.angular_n_m_s, p.point_m);
+                    totals[k] = totals[k].plus(d);
+                    // Converged when no patch changes by more than a millionth of its total.
+                    let size = |a: Accumulated| a.linear_n_s.length() + a.angular_n_m_s.length();
+                    changed |= size(d) > 1e-6 * size(totals[k]);
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        let changes = totals
+            .iter()
+            .zip(&start)
+            .map(|(t, s)| t.plus(s.scaled(-1.0)))
+            .collect();
+        Solved {
+            changes,
+            totals,
+            resting,
+        }
+    }
+}
+
+/// A pair's patches after [`World::solve_pair`], in the manifold's order.
+struct Solved {
+    /// The impulse each patch adds this substep (on B; −it on A).
+    changes: Vec<Accumulated>,
+    /// Each patch's accumulated impulse over the substep, warm part included.
+    totals: Vec<Accumulated>,
+    /// Whether each patch is resting contact (else an impact).
+    resting: Vec<bool>,
+}

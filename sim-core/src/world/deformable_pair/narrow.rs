@@ -1,0 +1,461 @@
+//! Broad and narrow phase of deformable pairs: bounding spheres and boxes, then the objects'
+//! occupied grid cells, grouped into contact patches (a contact manifold), each with its own
+//! point, normal and particles.
+
+use glam::{DMat3, DVec3, IVec3, Vec3A};
+
+use super::super::body::{Body, BodyState, outer};
+
+/// The largest distance, in cells along any axis, of a patch's cells from its first cell: a
+/// patch spans at most 5 cells, so contacts a few cells apart (a peg touching both sides of a
+/// hole, the two ends of a plank on a trough) get their own normals, and a patch still holds
+/// enough particles for a plane fit ([`surface_normal`]).
+pub const PATCH_RADIUS_CELLS: i32 = 2;
+
+/// One contact patch of a pair: where the two objects share grid cells within a few cells of
+/// each other.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Patch {
+    /// Unit normal from A to B.
+    pub normal: DVec3,
+    /// Contact point (m): the midpoint of the two zones' centroids.
+    pub point_m: DVec3,
+    /// A's particles in the patch's cells (cells B occupies).
+    pub zone_a: Vec<u32>,
+    /// B's particles in the patch's cells (cells A occupies).
+    pub zone_b: Vec<u32>,
+    /// The first cells of the groups of cells it was made of ([`group_cells`]).
+    seeds: Vec<IVec3>,
+}
+
+/// A detected contact between two deformable bodies: its patches, and what
+/// [`Manifold::footprints`] needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Manifold {
+    /// The patches, in the order of their first cells.
+    pub patches: Vec<Patch>,
+    /// Each body's particles near the overlap, and the cells each occupies inside it (sorted).
+    near: [Vec<u32>; 2],
+    cells: [Vec<[i32; 3]>; 2],
+    /// The overlap of the two boxes grown by a cell (m), and 1 / cell size (1/m).
+    overlap_m: (DVec3, DVec3),
+    inv_cell: f32,
+}
+
+impl Manifold {
+    /// Where each patch may press when it rests: A's and B's particles within a cell of a cell
+    /// the other occupies (where the two touch or are about to; the zones are only where they
+    /// already overlap) and within a cell of the patch's extent, as offsets from the patch's
+    /// point in its contact plane. Computed on demand: impacts do not need it.
+    pub fn footprints(&self, a: &Body, b: &Body) -> Vec<Footprint> {
+        let (lo, hi) = self.overlap_m;
+        let inv_h = self.inv_cell;
+        let mut touching: Vec<(DVec3, IVec3)> = Vec::new();
+        for (body, near, other) in [
+            (a, &self.near[0], &self.cells[1]),
+            (b, &self.near[1], &self.cells[0]),
+        ] {
+            touching.extend(near.iter().filter_map(|&i| {
+                let x = body.particles.x[i as usize];
+                let xd = x.as_dvec3();
+                if !(xd.cmpge(lo).all() && xd.cmple(hi).all()) {
+                    return None;
+                }
+                let c = cell(x, inv_h);
+                let touches = (0..27).any(|k| {
+                    let d = IVec3::new(k % 3 - 1, (k / 3) % 3 - 1, k / 9 - 1);
+                    other.binary_search(&(c + d).to_array()).is_ok()
+                });
+                touches.then_some((xd, c))
+            }));
+        }
+        self.patches
+            .iter()
+            .map(|p| {
+                let (point, n) = (p.point_m, p.normal);
+                let offsets_m = touching
+                    .iter()
+                    .filter(|(_, c)| {
+                        p.seeds
+                            .iter()
+                            .any(|s| (*c - *s).abs().max_element() <= PATCH_RADIUS_CELLS + 1)
+                    })
+                    .map(|(x, _)| {
+                        let d = *x - point;
+                        d - n * d.dot(n)
+                    })
+                    .collect();
+                Footprint::new(offsets_m)
+            })
+            .collect()
+    }
+}
+
+/// Where a resting contact may press: the in-plane offsets (m) from the contact point of the
+/// particles where the two objects touch ([`Manifold::footprints`]). The centre of pressure must
+/// lie inside it, which bounds the couple a flat contact can carry (a box standing off-centre on
+/// another is held; one hanging past the edge tips).
+#[derive(Debug, Clone, Default)]
+pub struct Footprint {
+    offsets_m: Vec<DVec3>,
+    mean_arm_m: f64,
+}
+
+impl Footprint {
+    fn new(offsets_m: Vec<DVec3>) -> Self {
+        let mean_arm_m = if offsets_m.is_empty() {
+            0.0
+        } else {
+            offsets_m.iter().map(|d| d.length()).sum::<f64>() / offsets_m.len() as f64
+        };
+        Self {
+            offsets_m,
+            mean_arm_m,
+        }
+    }
+
+    /// How far the footprint reaches from the point along unit `u` (m, >= 0).
+    pub fn reach_m(&self, u: DVec3) -> f64 {
+        self.offsets_m.iter().map(|d| d.dot(u)).fold(0.0, f64::max)
+    }
+
+    /// Mean distance from the point (m): the arm of torsional friction (2/3 R for a disc).
+    pub fn mean_arm_m(&self) -> f64 {
+        self.mean_arm_m
+    }
+}
+
+#[inline]
+fn cell(x: Vec3A, inv_h: f32) -> IVec3 {
+    (x * inv_h).floor().as_ivec3()
+}
+
+/// Broad phase: bounding spheres and boxes (expanded by `margin_m`) overlap.
+pub fn broad_phase(a: &BodyState, b: &BodyState, margin_m: f64) -> bool {
+    let d = (a.com_m - b.com_m).length();
+    if d > a.radius_m + b.radius_m + margin_m {
+        return false;
+    }
+    let m = DVec3::splat(margin_m);
+    (a.aabb_m.0 - m).cmple(b.aabb_m.1).all() && (b.aabb_m.0 - m).cmple(a.aabb_m.1).all()
+}
+
+/// Groups the shared cells (sorted) into patches: each cell joins the first patch whose first
+/// cell is within [`PATCH_RADIUS_CELLS`] of it along every axis, else starts one. Returns each
+/// cell's patch and the patches' first cells; deterministic (the cells' order).
+fn group_cells(shared: &[[i32; 3]]) -> (Vec<u32>, Vec<IVec3>) {
+    let mut seeds: Vec<IVec3> = Vec::new();
+    let of_cell = shared
+        .iter()
+        .map(|&c| {
+            let c = IVec3::from_array(c);
+            let k = seeds
+                .iter()
+                .position(|s| (c - *s).abs().max_element() <= PATCH_RADIUS_CELLS)
+                .unwrap_or_else(|| {
+                    seeds.push(c);
+                    seeds.len() - 1
+                });
+            k as u32
+        })
+        .collect();
+    (of_cell, seeds)
+}
+
+/// The largest angle between a group's normal and a contact's for [`merge_smooth`] to take the
+/// group as part of that contact (45°). The groups of one smooth contact (two spheres, two flat
+/// faces) face within a few degrees of each other, up to ~20° where a group sits at the edge of
+/// a face (its plane fit sees the edge); a peg's two sides in a hole face 180° apart, a trough's
+/// walls 60° or more.
+const SMOOTH_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// Groups `groups` into contacts, largest group first: each joins the first contact whose normal
+/// (the particle-weighted mean of its groups') is within 45° of its own, else starts one.
+/// Deterministic (ties in size keep the groups' order); contacts come in the order of their
+/// first groups.
+fn merge_smooth(groups: Vec<Patch>) -> Vec<Vec<Patch>> {
+    let size = |g: &Patch| g.zone_a.len() + g.zone_b.len();
+    let mut order: Vec<usize> = (0..groups.len()).collect();
+    order.sort_by_key(|&k| (std::cmp::Reverse(size(&groups[k])), k));
+    let mut contacts: Vec<(DVec3, Vec<usize>)> = Vec::new();
+    for k in order {
+        let n = groups[k].normal;
+        let joins = contacts
+            .iter()
+            .position(|(sum, _)| sum.normalize_or_zero().dot(n) >= SMOOTH_COS);
+        let weighted = n * size(&groups[k]) as f64;
+        match joins {
+            Some(c) => {
+                contacts[c].0 += weighted;
+                contacts[c].1.push(k);
+            }
+            None => contacts.push((weighted, vec![k])),
+        }
+    }
+    for (_, members) in &mut contacts {
+        members.sort_unstable();
+    }
+    contacts.sort_by_key(|(_, members)| members[0]);
+    let mut groups: Vec<Option<Patch>> = groups.into_iter().map(Some).collect();
+    contacts
+        .into_iter()
+        .map(|(_, members)| {
+            members
+                .into_iter()
+                .filter_map(|k| groups[k].take())
+                .collect()
+        })
+        .collect()
+}
+
+/// Narrow phase on occupied cells of size `cell_m`; `None` when no cell is shared.
+pub fn narrow_phase(
+    a: &Body,
+    sa: &BodyState,
+    b: &Body,
+    sb: &BodyState,
+    cell_m: f32,
+) -> Option<Manifold> {
+    let inv_h = 1.0 / cell_m;
+    // Only particles inside the boxes' overlap (grown by a cell) can share a cell, and the
+    // normal below looks 3 cells around each contact point (which lies in that grown overlap):
+    // one pass per body keeps the particles of the overlap grown by 4 cells, and everything
+    // after works on those.
+    let lo = sa.aabb_m.0.max(sb.aabb_m.0) - DVec3::splat(cell_m as f64);
+    let hi = sa.aabb_m.1.min(sb.aabb_m.1) + DVec3::splat(cell_m as f64);
+    let (lo3, hi3) = (
+        (lo - DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
+        (hi + DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
+    );
+    let near = |body: &Body| -> Vec<u32> {
+        (0..body.particles.len() as u32)
+            .filter(|&i| {
+                let x = body.particles.x[i as usize];
+                x.cmpge(lo3).all() && x.cmple(hi3).all()
+            })
+            .collect()
+    };
+    let (near_a, near_b) = (near(a), near(b));
+    if near_a.is_empty() || near_b.is_empty() {
+        return None;
+    }
+    let inside = |x: Vec3A| {
+        let x = x.as_dvec3();
+        x.cmpge(lo).all() && x.cmple(hi).all()
+    };
+    // Occupied cells as a sorted, deduplicated list (binary search; no hashing).
+    let cells_of = |body: &Body, near: &[u32]| -> Vec<[i32; 3]> {
+        let mut c: Vec<[i32; 3]> = near
+            .iter()
+            .map(|&i| body.particles.x[i as usize])
+            .filter(|x| inside(*x))
+            .map(|x| cell(x, inv_h).to_array())
+            .collect();
+        c.sort_unstable();
+        c.dedup();
+        c
+    };
+    let cells_b = cells_of(b, &near_b);
+    if cells_b.is_empty() {
+        return None;
+    }
+    let cells_a = cells_of(a, &near_a);
+    let shared: Vec<[i32; 3]> = cells_a
+        .iter()
+        .filter(|c| cells_b.binary_search(c).is_ok())
+        .copied()
+        .collect();
+    if shared.is_empty() {
+        return None;
+    }
+    let (patch_of_cell, seeds) = group_cells(&shared);
+    // Each body's particles in shared cells, by patch.
+    let zones = |body: &Body, near: &[u32]| -> Vec<Vec<u32>> {
+        let mut zones = vec![Vec::new(); seeds.len()];
+        for &i in near {
+            let x = body.particles.x[i as usize];
+            if !inside(x) {
+                continue;
+            }
+            if let Ok(k) = shared.binary_search(&cell(x, inv_h).to_array()) {
+                zones[patch_of_cell[k] as usize].push(i);
+            }
+        }
+        zones
+    };
+    let (zones_a, zones_b) = (zones(a, &near_a), zones(b, &near_b));
+    let centroid = |body: &Body, z: &[u32]| {
+        let mut m = 0.0;
+        let mut mx = DVec3::ZERO;
+        for &i in z {
+            let mi = body.particles.mass_kg[i as usize] as f64;
+            m += mi;
+            mx += body.particles.x[i as usize].as_dvec3() * mi;
+        }
+        mx / m.max(f64::MIN_POSITIVE)
+    };
+    // Each patch's outward surface normals from the particles within 3 cells of its point
+    // ([`surface_normal`]): robust even when its zones hold a handful of particles (zone
+    // centroids alone are not).
+    let reach_m = 3.0 * cell_m as f64;
+    let patch = |zone_a: Vec<u32>, zone_b: Vec<u32>, seeds: Vec<IVec3>| {
+        let (ca, cb) = (centroid(a, &zone_a), centroid(b, &zone_b));
+        let point = (ca + cb) * 0.5;
+        let outward = |body: &Body, near: &[u32]| surface_normal(body, near, point, reach_m);
+        let normal = match (outward(a, &near_a), outward(b, &near_b)) {
+            (Some(na), Some(nb)) => (na - nb).try_normalize(),
+            (Some(na), None) => Some(na),
+            (None, Some(nb)) => Some(-nb),
+            (None, None) => None,
+        }
+        .or_else(|| (cb - ca).try_normalize())
+        .or_else(|| (sb.com_m - sa.com_m).try_normalize())
+        .unwrap_or(DVec3::Z);
+        Patch {
+            normal,
+            point_m: point,
+            zone_a,
+            zone_b,
+            seeds,
+        }
+    };
+    let groups: Vec<Patch> = zones_a
+        .into_iter()
+        .zip(zones_b)
+        .zip(seeds)
+        .filter(|((za, zb), _)| !za.is_empty() && !zb.is_empty())
+        .map(|((za, zb), seed)| patch(za, zb, vec![seed]))
+        .collect();
+    // Groups that face the same way are one smooth contact (two spheres, two flat faces, a
+    // plank on two supports): merged, they get one point and one normal from all their
+    // particles, and a couple over their whole footprint holds a resting pair.
+    let patches = merge_smooth(groups)
+        .into_iter()
+        .map(|members| {
+            if members.len() == 1 {
+                return members.into_iter().next().expect("one member");
+            }
+            let mut merged = (Vec::new(), Vec::new(), Vec::new());
+            for m in members {
+                merged.0.extend(m.zone_a);
+                merged.1.extend(m.zone_b);
+                merged.2.extend(m.seeds);
+            }
+            patch(merged.0, merged.1, merged.2)
+        })
+        .collect::<Vec<_>>();
+    (!patches.is_empty()).then_some(Manifold {
+        patches,
+        near: [near_a, near_b],
+        cells: [cells_a, cells_b],
+        overlap_m: (lo, hi),
+        inv_cell: inv_h,
+    })
+}
+
+/// The outward normal of `body`'s surface near `point` (m), from its particles among `near`
+/// within `reach_m` of it; `None` when none is that close.
+///
+/// The particles of a surface patch, or of the solid cap behind it, vary least across the
+/// surface: the normal is the least-variance direction of their mass-weighted covariance
+/// (principal component analysis, as in Hoppe et al. 1992, "Surface reconstruction from
+/// unorganized points"), turned to point from their centroid towards `point`. Captured objects are
+/// often open shells (a donut scanned on a plate has no underside), so the direction from the
+/// centroid alone leans towards wherever the capture has surface. Fewer than four particles,
+/// or a spread with no clear thin direction (smallest variance above half the middle one: a
+/// point deep inside, a line of particles), fall back to the direction from the centroid.
+pub fn surface_normal(body: &Body, near: &[u32], point: DVec3, reach_m: f64) -> Option<DVec3> {
+    let reach2 = reach_m * reach_m;
+    let close: Vec<(DVec3, f64)> = near
+        .iter()
+        .map(|&i| {
+            let i = i as usize;
+            (
+                body.particles.x[i].as_dvec3(),
+                body.particles.mass_kg[i] as f64,
+            )
+        })
+        .filter(|(x, _)| (*x - point).length_squared() <= reach2)
+        .collect();
+    let (mut m, mut mx) = (0.0, DVec3::ZERO);
+    for &(x, mi) in &close {
+        m += mi;
+        mx += x * mi;
+    }
+    if m <= 0.0 || !m.is_finite() {
+        return None;
+    }
+    let centroid = mx / m;
+    let from_centroid = (point - centroid).try_normalize();
+    if close.len() < 4 {
+        return from_centroid;
+    }
+    let mut cov = DMat3::ZERO;
+    for &(x, mi) in &close {
+        let d = x - centroid;
+        cov += outer(d, d) * (mi / m);
+    }
+    let svd = crate::math::svd3(glam::Mat3A::from(cov.as_mat3()));
+    let (s1, s2) = (svd.sigma.y as f64, svd.sigma.z as f64);
+    let thin = s2 <= 0.5 * s1; // false for NaN too
+    if !thin {
+        return from_centroid;
+    }
+    let n = svd.v.z_axis.as_dvec3().try_normalize()?;
+    let out = from_centroid.unwrap_or(n);
+    Some(if n.dot(out) < 0.0 { -n } else { n })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn group(normal: DVec3, particles: usize, seed: [i32; 3]) -> Patch {
+        Patch {
+            normal: normal.normalize(),
+            point_m: DVec3::ZERO,
+            zone_a: vec![0; particles],
+            zone_b: vec![0; particles],
+            seeds: vec![IVec3::from_array(seed)],
+        }
+    }
+
+    #[test]
+    fn cells_group_within_two_cells_of_their_first() {
+        // A row of 12 cells along x and one cell far off it.
+        let mut cells: Vec<[i32; 3]> = (0..12).map(|x| [x, 0, 0]).collect();
+        cells.push([1, 9, 0]);
+        cells.sort_unstable();
+        let (of_cell, seeds) = group_cells(&cells);
+        assert_eq!(
+            seeds,
+            [[0, 0, 0], [1, 9, 0], [3, 0, 0], [6, 0, 0], [9, 0, 0]].map(IVec3::from_array)
+        );
+        for (c, k) in cells.iter().zip(&of_cell) {
+            let d = IVec3::from_array(*c) - seeds[*k as usize];
+            assert!(d.abs().max_element() <= PATCH_RADIUS_CELLS, "{c:?} in {k}");
+        }
+    }
+
+    #[test]
+    fn groups_facing_the_same_way_merge_and_opposite_sides_do_not() {
+        let tilted = DVec3::new(20f64.to_radians().sin(), 0.0, 20f64.to_radians().cos());
+        let groups = vec![
+            group(DVec3::X, 3, [0, 0, 0]),
+            group(DVec3::Z, 9, [0, 5, 0]),
+            group(-DVec3::X, 4, [0, 9, 0]),
+            group(tilted, 2, [40, 0, 0]),
+        ];
+        let contacts = merge_smooth(groups);
+        let normals: Vec<Vec<DVec3>> = contacts
+            .iter()
+            .map(|c| c.iter().map(|g| g.normal).collect())
+            .collect();
+        // In the order of their first groups; the tilted group joins the upward contact however
+        // far it is (a plank on two supports is one contact).
+        assert_eq!(
+            normals,
+            vec![vec![DVec3::X], vec![DVec3::Z, tilted], vec![-DVec3::X]]
+        );
+    }
+}
