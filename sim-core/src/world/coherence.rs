@@ -19,7 +19,7 @@
 
 use glam::{DVec3, Mat3A, Vec3A};
 
-use super::body::{Body, RigidFit, inverse_or_zero, measure, measure_with_fit};
+use super::body::{Body, BodyState, RigidFit, inverse_or_zero, measure, measure_with_fit};
 
 /// Share of a contact impulse given to the contact zone (the rest spreads over the object).
 pub const ZONE_SHARE: f64 = 0.5;
@@ -39,7 +39,7 @@ pub struct Kick<'a> {
 }
 
 /// Applies impulse `j` (N s) at `point` (m) and angular impulse `h` (N m s, a couple) to
-/// deformable `body`, zone particles `zone`.
+/// deformable `body`, zone particles `zone`, and updates its largest particle speed.
 pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[u32]) {
     let kick = Kick {
         impulse_n_s: j,
@@ -47,7 +47,8 @@ pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[
         point_m: point,
         zone,
     };
-    apply_kicks(body, &[kick], false);
+    let measured = measure_with_fit(&body.particles, body.dx_m());
+    apply_kicks(body, &[kick], measured, false);
 }
 
 /// [`apply_impulse`] for several contact impulses at once: afterwards the kinetic energy of the
@@ -55,13 +56,24 @@ pub fn apply_impulse(body: &mut Body, j: DVec3, h: DVec3, point: DVec3, zone: &[
 /// Momentum and angular momentum are those of the kicks (the relative motion carries none).
 /// Three passes over the particles (two to measure, one for the rigid field) and a fourth only
 /// when the energy has to be scaled back, however many kicks.
-pub fn apply_contact_impulses(body: &mut Body, kicks: &[Kick<'_>]) {
-    apply_kicks(body, kicks, true);
+///
+/// `measured` is the body's [`measure_with_fit`] when the caller has it for its particles as they
+/// are (saving two of the passes).
+pub fn apply_contact_impulses(
+    body: &mut Body,
+    kicks: &[Kick<'_>],
+    measured: Option<(BodyState, RigidFit)>,
+) {
+    let measured = measured.unwrap_or_else(|| measure_with_fit(&body.particles, body.dx_m()));
+    apply_kicks(body, kicks, measured, true);
 }
 
-fn apply_kicks(body: &mut Body, kicks: &[Kick<'_>], bound_energy: bool) {
-    let dx = body.solver.dx_m;
-    let (before, fit) = measure_with_fit(&body.particles, dx);
+fn apply_kicks(
+    body: &mut Body,
+    kicks: &[Kick<'_>],
+    (before, fit): (BodyState, RigidFit),
+    bound_energy: bool,
+) {
     if before.mass_kg <= 0.0 {
         return;
     }
@@ -107,20 +119,24 @@ fn apply_kicks(body: &mut Body, kicks: &[Kick<'_>], bound_energy: bool) {
     let Some(sums) = rigid_field(body, dv, dw, s.com_m) else {
         return;
     };
+    body.max_speed_m_s = sums.max_speed_m_s;
     if !(bound_energy && kicked_zone) {
         // Uniform and rigid fields only: the relative motion is unchanged.
         return;
     }
     let after = fit.with_velocities(sums.mass_kg, sums.momentum, sums.orbital, sums.twice_energy);
-    bound_relative_energy(body, &fit, &after);
+    if let Some(max_speed_m_s) = bound_relative_energy(body, &fit, &after) {
+        body.max_speed_m_s = max_speed_m_s;
+    }
 }
 
 /// Scales the particles' motion relative to their rigid fit `after` back to the energy it had
-/// in `before` when it has more (a relative 1e-9 is rounding between the two fits' sums).
-fn bound_relative_energy(body: &mut Body, before: &RigidFit, after: &RigidFit) {
+/// in `before` when it has more (a relative 1e-9 is rounding between the two fits' sums), and
+/// returns the particles' largest speed then (m/s).
+fn bound_relative_energy(body: &mut Body, before: &RigidFit, after: &RigidFit) -> Option<f32> {
     let (e0, e1) = (before.relative_energy_j.max(0.0), after.relative_energy_j);
     if !(e1 > e0 * (1.0 + 1e-9) && e1 > 0.0) {
-        return;
+        return None;
     }
     let alpha = (e0 / e1).sqrt() as f32;
     let (com, v_com, omega) = (
@@ -129,13 +145,16 @@ fn bound_relative_energy(body: &mut Body, before: &RigidFit, after: &RigidFit) {
         after.omega_rad_s.as_vec3a(),
     );
     if !(com.is_finite() && v_com.is_finite() && omega.is_finite()) {
-        return;
+        return None;
     }
     let p = &mut body.particles;
+    let mut max_speed2 = 0.0f32;
     for i in 0..p.len() {
         let rigid = v_com + omega.cross(p.x[i] - com);
         p.v[i] = rigid + (p.v[i] - rigid) * alpha;
+        max_speed2 = max_speed2.max(p.v[i].length_squared());
     }
+    Some(max_speed2.sqrt())
 }
 
 /// Makes the particles' total momentum `target_p` (kg m/s) and angular momentum about `com`
@@ -162,10 +181,13 @@ struct VelocitySums {
     orbital: DVec3,
     /// Σ m |v|² (2 J).
     twice_energy: f64,
+    /// max |v| (m/s).
+    max_speed_m_s: f32,
 }
 
 /// Adds the uniform velocity `dv` (m/s) and the rigid rotation field of `dw` (rad/s) about `com`
 /// (m) to every particle: v += dv + dw × (x − com), C += `[dw]×`, and sums the new velocities.
+/// Sets nothing else: the caller updates the body's largest speed.
 /// Nothing (and `None`) when either is not finite.
 fn rigid_field(body: &mut Body, dv: DVec3, dw: DVec3, com: DVec3) -> Option<VelocitySums> {
     if !(dv.is_finite() && dw.is_finite()) {
@@ -184,7 +206,9 @@ fn rigid_field(body: &mut Body, dv: DVec3, dw: DVec3, com: DVec3) -> Option<Velo
         momentum: DVec3::ZERO,
         orbital: DVec3::ZERO,
         twice_energy: 0.0,
+        max_speed_m_s: 0.0,
     };
+    let mut max_speed2 = 0.0f32;
     for i in 0..p.len() {
         p.v[i] += dv + dw.cross(p.x[i] - c);
         p.c[i] += skew;
@@ -193,6 +217,8 @@ fn rigid_field(body: &mut Body, dv: DVec3, dw: DVec3, com: DVec3) -> Option<Velo
         sums.momentum += v * mi;
         sums.orbital += (p.x[i].as_dvec3() - com).cross(v) * mi;
         sums.twice_energy += mi * v.length_squared();
+        max_speed2 = max_speed2.max(p.v[i].length_squared());
     }
+    sums.max_speed_m_s = max_speed2.sqrt();
     Some(sums)
 }

@@ -128,7 +128,6 @@ impl World {
                     Vec::new()
                 };
                 coherence::apply_impulse(b, j_n_s.as_dvec3(), DVec3::ZERO, point, &zone);
-                b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
             }
         }
         Ok(())

@@ -39,7 +39,7 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use super::World;
-use super::body::{Body, BodyState, measure, measure_bounds};
+use super::body::{Body, BodyState, RigidFit, measure_bounds, measure_with_fit};
 use super::coherence::{self, Kick};
 use crate::contact::{mix_friction, mix_restitution};
 use crate::scene::{Method, ObjectKind};
@@ -94,14 +94,21 @@ impl World {
             by_body.entry(p.b).or_default().push(on_b);
         }
         for (k, kicks) in &by_body {
-            self.kick_deformable(*k, kicks);
+            self.kick_deformable(*k, kicks, None);
         }
         self.resting_pairs = pairs;
     }
 
     /// Applies `kicks` to deformable body `k` when it is awake. A kick whose zone names
     /// particles the body no longer has (a command changed them since) is dropped.
-    fn kick_deformable(&mut self, k: usize, kicks: &[Kick<'_>]) {
+    /// `measured` is the body's state and rigid fit when the caller has them for its particles
+    /// as they are.
+    fn kick_deformable(
+        &mut self,
+        k: usize,
+        kicks: &[Kick<'_>],
+        measured: Option<(BodyState, RigidFit)>,
+    ) {
         let Some(b) = self.bodies.get_mut(k) else {
             return;
         };
@@ -115,7 +122,7 @@ impl World {
             .copied()
             .collect();
         b.impulse_total_n_s += kicks.iter().map(|k| k.impulse_n_s.length()).sum::<f64>();
-        coherence::apply_contact_impulses(b, &kicks);
+        coherence::apply_contact_impulses(b, &kicks, measured);
     }
 
     /// Every pair of deformable objects, one of them awake, through the broad and narrow phase;
@@ -139,7 +146,9 @@ impl World {
             .map(|&k| measure_bounds(&self.bodies[k].particles, self.bodies[k].dx_m()))
             .collect();
         let warm = std::mem::take(&mut self.resting_pairs);
-        let mut full: Vec<Option<BodyState>> = vec![None; ids.len()];
+        // Each object's state and rigid fit, as its particles are now (None once an impulse
+        // changed them).
+        let mut full: Vec<Option<(BodyState, RigidFit)>> = vec![None; ids.len()];
         for x in 0..ids.len() {
             for y in x + 1..ids.len() {
                 let (i, j) = (ids[x], ids[y]);
@@ -154,10 +163,10 @@ impl World {
                 for (z, k) in [(x, i), (y, j)] {
                     if full[z].is_none() {
                         let b = &self.bodies[k];
-                        full[z] = Some(measure(&b.particles, b.dx_m()));
+                        full[z] = Some(measure_with_fit(&b.particles, b.dx_m()));
                     }
                 }
-                let (Some(si), Some(sj)) = (full[x], full[y]) else {
+                let (Some((si, fit_i)), Some((sj, fit_j))) = (full[x], full[y]) else {
                     continue;
                 };
                 let Some(manifold) = narrow_phase(bi, &si, bj, &sj, dx) else {
@@ -185,15 +194,8 @@ impl World {
                 }
                 if !on_a.is_empty() {
                     self.stats.contact_impulses += on_a.len() as u64;
-                    self.kick_deformable(i, &on_a);
-                    self.kick_deformable(j, &on_b);
-                    for k in [i, j] {
-                        let b = &mut self.bodies[k];
-                        if !b.sleeping {
-                            b.max_speed_m_s =
-                                b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
-                        }
-                    }
+                    self.kick_deformable(i, &on_a, Some((si, fit_i)));
+                    self.kick_deformable(j, &on_b, Some((sj, fit_j)));
                     // Their velocities changed: a later pair re-measures them.
                     full[x] = None;
                     full[y] = None;
