@@ -10,7 +10,7 @@
 //! 3. Rigid objects keep the solved velocities and the push-out for the position half.
 //!
 //! Deformable objects never come here: against a solid they meet its boundary nodes on their
-//! grid, against each other the COM-level impulse of `deformable_pair.rs`.
+//! grid, against each other the COM-level impulse law on contact patches of `deformable_pair/`.
 
 use std::collections::HashMap;
 

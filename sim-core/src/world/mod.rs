@@ -8,7 +8,8 @@
 //! 2. the restitution law where a deformable object's grid contact with a solid ends
 //!    (`impact.rs`);
 //! 3. rigid objects' velocity half: gravity and the grids' reactions ([`rigid`]);
-//! 4. deformable pairs: one COM-level impulse per pair (`deformable_pair.rs`, [`coherence`]);
+//! 4. deformable pairs: the COM-level impulse law per contact patch (`deformable_pair/`,
+//!    [`coherence`]);
 //! 5. one contact solve for rigid and static objects, colliders and the background
 //!    ([`contact`], [`crate::contact::solver`]);
 //! 6. rigid objects' position half, kinematic objects' motion ([`kinematic`]: their velocities
@@ -233,8 +234,8 @@ pub struct World {
     contact_cache: contact::ContactCache,
     /// This substep's deformable–solid grid contacts: (deformable, solid, impulse on it in N s).
     boundary_touches: Vec<(usize, impact::SolidOf, glam::DVec3)>,
-    /// Resting deformable pairs of the last substep, warm-started into the next
-    /// (`deformable_pair.rs`).
+    /// Resting patches of deformable pairs in the last substep, warm-started into the next
+    /// (`deformable_pair/`).
     resting_pairs: Vec<deformable_pair::RestingPair>,
     /// Open deformable–solid impacts (`impact.rs`).
     impacts: std::collections::HashMap<(usize, impact::SolidOf), impact::Impact>,
