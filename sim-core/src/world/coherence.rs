@@ -13,9 +13,9 @@
 //! when the zone kicks raise the kinetic energy of the particles' motion relative to their rigid
 //! fit (v − v_com − ω × r, with ω from the orbital angular momentum and inertia, so it carries
 //! no momentum or angular momentum), that relative motion is scaled back to the energy it had
-//! before. Without it, a kick of J/2 over a
-//! zone of mass M_z adds up to ½ |J/2|² / M_z at once (6 % of the kinetic energy in a head-on
-//! impact of two jelly spheres at e = 1), which MPM's transfers then mostly dissipate.
+//! before. Without it, a kick of J/2 over a zone of mass M_z adds up to ½ |J/2|² / M_z at once
+//! (6 % of the kinetic energy in a head-on impact of two jelly spheres at e = 1), which MPM's
+//! transfers then mostly dissipate.
 
 use glam::{DVec3, Mat3A, Vec3A};
 
@@ -117,6 +117,13 @@ fn apply_kicks(
     let dv = (target_p - s.velocity_m_s * s.mass_kg - kicked_p) / s.mass_kg;
     let dw = inverse_or_zero(s.inertia) * (target_l - s.angular_momentum - kicked_l);
     let Some(sums) = rigid_field(body, dv, dw, s.com_m) else {
+        // Only the zone kicks moved.
+        body.max_speed_m_s = body
+            .particles
+            .v
+            .iter()
+            .map(|v| v.length())
+            .fold(0.0, f32::max);
         return;
     };
     body.max_speed_m_s = sums.max_speed_m_s;
@@ -186,9 +193,9 @@ struct VelocitySums {
 }
 
 /// Adds the uniform velocity `dv` (m/s) and the rigid rotation field of `dw` (rad/s) about `com`
-/// (m) to every particle: v += dv + dw × (x − com), C += `[dw]×`, and sums the new velocities.
-/// Sets nothing else: the caller updates the body's largest speed.
-/// Nothing (and `None`) when either is not finite.
+/// (m) to every particle: v += dv + dw × (x − com), C += `[dw]×`, and sums the new velocities
+/// (the caller updates the body's largest speed from them). Nothing, and `None`, when either is
+/// not finite.
 fn rigid_field(body: &mut Body, dv: DVec3, dw: DVec3, com: DVec3) -> Option<VelocitySums> {
     if !(dv.is_finite() && dw.is_finite()) {
         return None;
