@@ -35,7 +35,7 @@ use glam::Vec3A;
 
 use super::body::Body;
 use super::contact::{ContactCache, Other, PairKey};
-use super::deformable_pair::RestingPair;
+use super::deformable_pair::RestingPatch;
 use super::kinematic::Drive;
 use super::{World, WorldError};
 use crate::scene::{Method, ObjectKind};
@@ -226,11 +226,11 @@ impl World {
         let contacts = self.contact_cache.split_off(|(a, other): PairKey| {
             mine(a) || matches!(other, Other::Object(b) if mine(b))
         });
-        let (resting, others): (Vec<RestingPair>, Vec<RestingPair>) =
-            std::mem::take(&mut self.resting_pairs)
+        let (resting, others): (Vec<RestingPatch>, Vec<RestingPatch>) =
+            std::mem::take(&mut self.resting_patches)
                 .into_iter()
                 .partition(|p| mine(p.a as u32) || mine(p.b as u32));
-        self.resting_pairs = resting;
+        self.resting_patches = resting;
         self.island = Some(mask);
         Aside {
             contacts,
@@ -242,14 +242,14 @@ impl World {
     fn leave_island(&mut self, aside: Aside) {
         self.island = None;
         self.contact_cache.absorb(aside.contacts);
-        self.resting_pairs.extend(aside.resting);
+        self.resting_patches.extend(aside.resting);
     }
 }
 
 /// What one island's stepping sets aside of the others'.
 struct Aside {
     contacts: ContactCache,
-    resting: Vec<RestingPair>,
+    resting: Vec<RestingPatch>,
 }
 
 #[cfg(test)]

@@ -236,7 +236,7 @@ pub struct World {
     boundary_touches: Vec<(usize, impact::SolidOf, glam::DVec3)>,
     /// Resting patches of deformable pairs in the last substep, warm-started into the next
     /// (`deformable_pair/`).
-    resting_pairs: Vec<deformable_pair::RestingPair>,
+    resting_patches: Vec<deformable_pair::RestingPatch>,
     /// Open deformable–solid impacts (`impact.rs`).
     impacts: std::collections::HashMap<(usize, impact::SolidOf), impact::Impact>,
     /// The contact points of the last substep.
@@ -407,7 +407,7 @@ impl World {
             boundary_touches: Vec::new(),
             max_particle_substeps_per_frame: limits::DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME,
             impacts: Default::default(),
-            resting_pairs: Vec::new(),
+            resting_patches: Vec::new(),
             last_contacts: Vec::new(),
             island: None,
         })
@@ -681,7 +681,7 @@ impl World {
         self.contact_cache = Default::default();
         self.last_contacts.clear();
         self.impacts.clear();
-        self.resting_pairs.clear();
+        self.resting_patches.clear();
         self.island = None;
     }
 }
