@@ -6,14 +6,13 @@ use glam::{DMat3, DVec3, IVec3, Vec3A};
 
 use super::super::body::{Body, BodyState, outer};
 
-/// The largest distance, in cells along any axis, of a patch's cells from its first cell: a
-/// patch spans at most 5 cells, so contacts a few cells apart (a peg touching both sides of a
-/// hole, the two ends of a plank on a trough) get their own normals, and a patch still holds
-/// enough particles for a plane fit ([`surface_normal`]).
+/// The largest distance, in cells along any axis, of a group's cells from its first cell
+/// ([`group_cells`]): a group spans at most 5 cells, so places of contact a few cells apart (a
+/// peg touching both sides of a hole, the two walls of a trough) get their own normals, and
+/// the groups that face the same way are merged again ([`merge_smooth`]).
 pub const PATCH_RADIUS_CELLS: i32 = 2;
 
-/// One contact patch of a pair: where the two objects share grid cells within a few cells of
-/// each other.
+/// One contact patch of a pair: groups of the cells both objects occupy that face the same way.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Patch {
     /// Unit normal from A to B.
