@@ -131,7 +131,7 @@ impl TimeStepPolicy {
         let slack = 1.0001;
         Ok(if remaining <= dt * slack {
             remaining.max(f32::MIN_POSITIVE)
-        } else if matches!(self, Self::Cfl { .. }) {
+        } else if matches!(self, Self::Cfl { .. }) && remaining.is_finite() {
             remaining / (remaining / (dt * slack)).ceil()
         } else {
             dt
@@ -176,5 +176,16 @@ mod tests {
         let steps = frame(fixed, 1.0 / 30.0);
         assert_eq!(steps.len(), 4, "{steps:?}");
         assert!((steps[3] - (1.0 / 30.0 - 0.03)).abs() < 1e-6, "{steps:?}");
+    }
+
+    #[test]
+    fn a_substep_with_no_frame_end_is_the_bound() {
+        // A substep asked for outside a frame (no end to land on) is the bound itself, not
+        // ∞ / ⌈∞⌉ = NaN.
+        let cfl = TimeStepPolicy::Cfl { number: 0.5 };
+        for remaining_s in [f64::INFINITY, f64::NAN] {
+            let dt = cfl.next_dt_s(0.01, 0.0, 0.5, remaining_s).expect("dt");
+            assert!((dt - 0.01).abs() < 1e-9, "{remaining_s}: {dt}");
+        }
     }
 }
