@@ -115,7 +115,8 @@ impl CostModel for Calibration<'_> {
         let frames = t.frames_run.max(1e-9);
         let wall_s_per_frame = t.wall_s / frames;
         // Each deformable object's own MPM time per whole frame, matched by name (the level
-        // lists them); unknown (empty) when the run stopped within its first frame.
+        // lists them); unknown (empty) when the run stopped within its first frame or an
+        // object has no time.
         let whole_frames = t.com.len();
         let object_wall_s_per_frame = if whole_frames == 0 {
             Vec::new()
@@ -129,9 +130,10 @@ impl CostModel for Calibration<'_> {
                         .iter()
                         .position(|e| e.name == o.name)
                         .and_then(|k| t.object_mpm_s_whole_frames.get(k))
-                        .map_or(0.0, |s| s / whole_frames as f64)
+                        .map(|s| s / whole_frames as f64)
                 })
-                .collect()
+                .collect::<Option<Vec<f64>>>()
+                .unwrap_or_default()
         };
         if !errors {
             return Ok(Measurement {

@@ -78,7 +78,8 @@ impl SolverBody {
         }
     }
 
-    fn velocity_at(&self, r: DVec3) -> DVec3 {
+    /// The velocity (m/s) of the body's point at `r` (m) from its COM.
+    pub(crate) fn velocity_at(&self, r: DVec3) -> DVec3 {
         self.velocity_m_s + self.omega_rad_s.cross(r)
     }
 
@@ -86,9 +87,15 @@ impl SolverBody {
         self.push_m_s + self.push_rad_s.cross(r)
     }
 
-    fn apply(&mut self, r: DVec3, p: DVec3) {
+    /// Takes impulse `p` (N s) at `r` (m) from its COM.
+    pub(crate) fn apply(&mut self, r: DVec3, p: DVec3) {
         self.velocity_m_s += p * self.inverse_mass;
         self.omega_rad_s += self.inverse_inertia * r.cross(p);
+    }
+
+    /// Takes angular impulse `l` (N m s) about its COM.
+    pub(crate) fn apply_angular(&mut self, l: DVec3) {
+        self.omega_rad_s += self.inverse_inertia * l;
     }
 
     fn apply_push(&mut self, r: DVec3, p: DVec3) {
@@ -97,7 +104,7 @@ impl SolverBody {
     }
 
     /// d·(I⁻¹ (r × e)) × r + 1/m: the response along d to a unit impulse along e at r.
-    fn response(&self, r: DVec3, d: DVec3, e: DVec3) -> f64 {
+    pub(crate) fn response(&self, r: DVec3, d: DVec3, e: DVec3) -> f64 {
         if self.inverse_mass == 0.0 {
             return 0.0;
         }
@@ -192,8 +199,8 @@ pub(super) fn apply_pair(
 
 /// An angular impulse `l` on B about its COM, and −`l` on A.
 pub(super) fn apply_twist(bodies: &mut [SolverBody], a: usize, b: usize, l: DVec3) {
-    bodies[a].omega_rad_s -= bodies[a].inverse_inertia * l;
-    bodies[b].omega_rad_s += bodies[b].inverse_inertia * l;
+    bodies[a].apply_angular(-l);
+    bodies[b].apply_angular(l);
 }
 
 pub(super) fn effective(

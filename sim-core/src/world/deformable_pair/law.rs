@@ -1,43 +1,12 @@
 //! The impulse law of one contact patch between two deformable objects, on their object-level
-//! (rigid) dynamics: one sequential-impulse step (Catto 2005) with an accumulated, clamped
+//! (rigid) dynamics, each as the contact solver's [`SolverBody`]: one sequential-impulse step (Catto 2005) with an accumulated, clamped
 //! impulse, restitution as a target separation speed, Coulomb friction as an isotropic cone, and
 //! for resting patches a couple whose pressure centre stays inside the patch's footprint.
 
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 
 use super::narrow::Footprint;
-
-/// Per-body quantities the impulse law needs, updated as the patches' impulses are solved.
-#[derive(Debug, Clone, Copy)]
-pub struct Dynamics {
-    /// COM (m).
-    pub com_m: DVec3,
-    /// COM velocity (m/s).
-    pub velocity_m_s: DVec3,
-    /// Angular velocity (rad/s).
-    pub omega_rad_s: DVec3,
-    /// 1/m (zero: immovable).
-    pub inverse_mass: f64,
-    /// I⁻¹ about the COM (zero: immovable).
-    pub inverse_inertia: DMat3,
-}
-
-impl Dynamics {
-    pub fn point_velocity(&self, p: DVec3) -> DVec3 {
-        self.velocity_m_s + self.omega_rad_s.cross(p - self.com_m)
-    }
-
-    fn effective(&self, p: DVec3, dir: DVec3) -> f64 {
-        let r = p - self.com_m;
-        self.inverse_mass + dir.dot((self.inverse_inertia * r.cross(dir)).cross(r))
-    }
-
-    /// Takes impulse `j` (N s) at `point` (m) and couple `h` (N m s) as a rigid body.
-    pub fn take(&mut self, j: DVec3, h: DVec3, point: DVec3) {
-        self.velocity_m_s += j * self.inverse_mass;
-        self.omega_rad_s += self.inverse_inertia * ((point - self.com_m).cross(j) + h);
-    }
-}
+use crate::contact::solver::SolverBody;
 
 /// A patch's accumulated impulse on B (−it on A): the force part `linear_n_s` (N s) at the
 /// contact point and the couple `angular_n_m_s` (N m s) of a pressure centre away from it.
@@ -92,15 +61,16 @@ pub struct PatchLaw<'a> {
 /// For one patch, approaching at v_n with no impulse yet, this is the impulse law
 /// j_n = −(1 + e) v_n / (1/m_A + 1/m_B + n·[(I_A⁻¹ (r_A × n)) × r_A + (I_B⁻¹ (r_B × n)) × r_B]).
 pub fn patch_impulse(
-    a: &Dynamics,
-    b: &Dynamics,
+    a: &SolverBody,
+    b: &SolverBody,
     law: &PatchLaw<'_>,
     acc: Accumulated,
 ) -> Option<Accumulated> {
     let (point, n, mu) = (law.point_m, law.normal, law.friction);
-    let v_rel = b.point_velocity(point) - a.point_velocity(point);
+    let (ra, rb) = (point - a.com_m, point - b.com_m);
+    let v_rel = b.velocity_at(rb) - a.velocity_at(ra);
     let vn = v_rel.dot(n);
-    let k_n = a.effective(point, n) + b.effective(point, n);
+    let k_n = a.response(ra, n, n) + b.response(rb, n, n);
     if k_n <= 0.0 || !k_n.is_finite() {
         return None;
     }
@@ -111,7 +81,7 @@ pub fn patch_impulse(
     let mut jt = jt_old;
     let vt = v_rel - n * vn;
     if let Some(t) = vt.try_normalize() {
-        let k_t = a.effective(point, t) + b.effective(point, t);
+        let k_t = a.response(ra, t, t) + b.response(rb, t, t);
         if k_t > 0.0 {
             jt -= t * (vt.length() / k_t);
         }
@@ -137,8 +107,8 @@ pub fn patch_impulse(
 /// The change of a resting patch's couple (N m s) against the relative spin left after the
 /// force change `dj`, with normal impulse `lam` ([`patch_impulse`]).
 fn couple_change(
-    a: &Dynamics,
-    b: &Dynamics,
+    a: &SolverBody,
+    b: &SolverBody,
     law: &PatchLaw<'_>,
     footprint: &Footprint,
     dj: DVec3,

@@ -41,9 +41,10 @@ use rayon::prelude::*;
 use super::World;
 use super::body::{Body, BodyState, RigidFit, measure_bounds, measure_with_fit};
 use super::coherence::{self, Kick};
+use crate::contact::solver::SolverBody;
 use crate::contact::{mix_friction, mix_restitution};
 use crate::scene::{Method, ObjectKind};
-use law::{Accumulated, Dynamics, PatchLaw, patch_impulse};
+use law::{Accumulated, PatchLaw, patch_impulse};
 use narrow::{broad_phase, narrow_phase};
 
 /// The most sequential-impulse sweeps over a pair's patches per substep (Box2D's default
@@ -116,13 +117,16 @@ impl World {
         if b.sleeping || kicks.is_empty() {
             return;
         }
-        let kicks: Vec<Kick<'_>> = kicks
-            .iter()
-            .filter(|kick| kick.zone.iter().all(|&i| i < n))
-            .copied()
-            .collect();
+        let valid = |kick: &Kick<'_>| kick.zone.iter().all(|&i| i < n);
+        let kept: Vec<Kick<'_>>;
+        let kicks = if kicks.iter().all(valid) {
+            kicks
+        } else {
+            kept = kicks.iter().filter(|k| valid(k)).copied().collect();
+            &kept
+        };
         b.impulse_total_n_s += kicks.iter().map(|k| k.impulse_n_s.length()).sum::<f64>();
-        coherence::apply_contact_impulses(b, &kicks, measured);
+        coherence::apply_contact_impulses(b, kicks, measured);
     }
 
     /// Every pair of deformable objects, one of them awake, through the broad and narrow phase;
@@ -236,23 +240,18 @@ impl World {
         resting_speed_m_s: f64,
     ) -> Solved {
         let (bi, bj) = (&self.bodies[ids[0]], &self.bodies[ids[1]]);
+        // Each object as a rigid body; a sleeping one is an immovable support.
         let dynamics = |b: &Body, s: &BodyState| {
             if b.sleeping {
-                return Dynamics {
-                    com_m: s.com_m,
-                    velocity_m_s: DVec3::ZERO,
-                    omega_rad_s: DVec3::ZERO,
-                    inverse_mass: 0.0,
-                    inverse_inertia: DMat3::ZERO,
-                };
+                return SolverBody::new(s.com_m, DVec3::ZERO, DVec3::ZERO, 0.0, DMat3::ZERO);
             }
-            Dynamics {
-                com_m: s.com_m,
-                velocity_m_s: s.velocity_m_s,
-                omega_rad_s: s.angular_velocity(),
-                inverse_mass: b.inverse_mass(s),
-                inverse_inertia: b.inverse_inertia(s),
-            }
+            SolverBody::new(
+                s.com_m,
+                s.velocity_m_s,
+                s.angular_velocity(),
+                b.inverse_mass(s),
+                b.inverse_inertia(s),
+            )
         };
         let (mut da, mut db) = (dynamics(bi, states[0]), dynamics(bj, states[1]));
         let e = mix_restitution(bi.restitution, bj.restitution) as f64;
@@ -260,7 +259,11 @@ impl World {
         let patches = &manifold.patches;
         let approach: Vec<f64> = patches
             .iter()
-            .map(|p| (db.point_velocity(p.point_m) - da.point_velocity(p.point_m)).dot(p.normal))
+            .map(|p| {
+                let v_rel =
+                    db.velocity_at(p.point_m - db.com_m) - da.velocity_at(p.point_m - da.com_m);
+                v_rel.dot(p.normal)
+            })
             .collect();
         let resting: Vec<bool> = approach.iter().map(|&v| v >= -resting_speed_m_s).collect();
         let footprints = resting
@@ -289,8 +292,10 @@ impl World {
                     footprint: footprints.as_ref().filter(|_| resting[k]).map(|f| &f[k]),
                 };
                 if let Some(d) = patch_impulse(&da, &db, &law, totals[k]) {
-                    da.take(-d.linear_n_s, -d.angular_n_m_s, p.point_m);
-                    db.take(d.linear_n_s, d.angular_n_m_s, p.point_m);
+                    da.apply(p.point_m - da.com_m, -d.linear_n_s);
+                    da.apply_angular(-d.angular_n_m_s);
+                    db.apply(p.point_m - db.com_m, d.linear_n_s);
+                    db.apply_angular(d.angular_n_m_s);
                     totals[k] = totals[k].plus(d);
                     // Converged when no patch changes by more than a millionth of its total.
                     let size = |a: Accumulated| a.linear_n_s.length() + a.angular_n_m_s.length();
