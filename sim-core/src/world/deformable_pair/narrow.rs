@@ -144,13 +144,23 @@ pub fn broad_phase(a: &BodyState, b: &BodyState, margin_m: f64) -> bool {
 /// cell's patch and the patches' first cells; deterministic (the cells' order).
 fn group_cells(shared: &[[i32; 3]]) -> (Vec<u32>, Vec<IVec3>) {
     let mut seeds: Vec<IVec3> = Vec::new();
+    // Cells come in x order, so seeds do too: those more than the radius behind the current
+    // cell in x can take no later cell, and the search starts after them.
+    let mut first_in_reach = 0;
     let of_cell = shared
         .iter()
         .map(|&c| {
             let c = IVec3::from_array(c);
-            let k = seeds
+            while seeds
+                .get(first_in_reach)
+                .is_some_and(|s| s.x < c.x - PATCH_RADIUS_CELLS)
+            {
+                first_in_reach += 1;
+            }
+            let k = seeds[first_in_reach..]
                 .iter()
                 .position(|s| (c - *s).abs().max_element() <= PATCH_RADIUS_CELLS)
+                .map(|k| k + first_in_reach)
                 .unwrap_or_else(|| {
                     seeds.push(c);
                     seeds.len() - 1
