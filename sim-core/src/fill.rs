@@ -4,13 +4,32 @@
 //! in all six directions (PhysGaussian's ray test). Interior cell centres become invisible
 //! particles.
 //!
+//! **Sealing.** A capture samples its surface at its own spacing (a `voxel_m` of 4 mm keeps one
+//! Gaussian per 4 mm voxel). A fill finer than that sees gaps between surface cells, the rays
+//! leave through them, and the solid loses volume silently: the captured donut filled at 2.5 mm
+//! kept 1.68 of its 1.99 L. So the test runs on the surface dilated by k cells (a cube of side
+//! 2k + 1), which closes gaps up to 2k cells wide, and the outside it finds is dilated by k cells
+//! again, back to the surface (a morphological closing of the shell, as in
+//! [`crate::world::carry::volume`]). k = 0 is the plain ray test. k grows from 0, up to
+//! [`FillParams::max_seal_cells`], while each step finds more than 5 % more interior cells: a
+//! closed surface keeps k = 0 and the plain test's cells, a leaky one stops at the first k that
+//! seals it, before closing real openings such as a donut's hole (the captured donut at 5 mm:
+//! 7,063 interior cells at k = 0, 10,328 at k = 1, then +2 %; at 2.5 mm, 10,401, 95,260,
+//! 112,504, then +3 %).
+//!
 //! Bounded work: the density splat puts each Gaussian's opacity into the cell of its centre
 //! (no covariance evaluation, so a near-singular covariance cannot stall it); the grid is
 //! coarsened (spacing doubled) until it has at most [`FillParams::max_grid_cells`] cells; the six
-//! ray tests are prefix sweeps, O(cells); at most [`FillParams::max_particles`] points are
-//! returned (an even stride over the interior cells when more qualify).
+//! ray tests and the dilations are sweeps along grid lines, O(cells) each, for each k; at most
+//! [`FillParams::max_particles`] points are returned (an even stride over the interior cells when
+//! more qualify).
 
 use crate::gaussians::GaussianCloud;
+
+/// The most [`FillParams::max_seal_cells`] can ask for (larger values are clamped to it).
+pub const MAX_SEAL_CELLS: usize = 16;
+/// Relative gain in interior cells for which the next larger seal is taken.
+const SEAL_GAIN: f64 = 0.05;
 
 /// Parameters of [`fill_interior`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -23,6 +42,10 @@ pub struct FillParams {
     pub max_particles: usize,
     /// Hard limit on grid cells (spacing is doubled until it fits). Default 8 000 000.
     pub max_grid_cells: usize,
+    /// Largest seal k, in cells: gaps in the surface up to 2k cells wide are closed (module
+    /// docs, "Sealing"); 0 is PhysGaussian's plain ray test. Default 4, at most
+    /// [`MAX_SEAL_CELLS`].
+    pub max_seal_cells: usize,
 }
 
 impl Default for FillParams {
@@ -32,6 +55,7 @@ impl Default for FillParams {
             density_threshold: 0.5,
             max_particles: 200_000,
             max_grid_cells: 8_000_000,
+            max_seal_cells: 4,
         }
     }
 }
@@ -44,60 +68,50 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
     }
     let [lo, hi] = crate::formats::inspect::bounds(cloud);
     let mut h = params.spacing_m;
+    // A margin of empty cells all round, more than the largest seal, so that the outside
+    // surrounds a sealed surface.
+    let max_seal = params.max_seal_cells.min(MAX_SEAL_CELLS);
+    let margin = max_seal + 1;
     let dims = |h: f32| -> [usize; 3] {
-        [0, 1, 2].map(|k| (((hi[k] - lo[k]) / h).floor() as usize).saturating_add(1))
+        [0, 1, 2].map(|k| {
+            (((hi[k] - lo[k]) / h).floor() as usize).saturating_add(1 + 2 * margin)
+        })
     };
     let mut d = dims(h);
-    while d.iter().map(|&v| v as f64).product::<f64>() > params.max_grid_cells.max(1) as f64 {
+    while d.iter().map(|&v| v as f64).product::<f64>() > params.max_grid_cells.max(1) as f64
+        && d.iter().any(|&v| v > 1 + 2 * margin)
+    {
         h *= 2.0;
         d = dims(h);
     }
-    let [nx, ny, nz] = d;
-    let idx = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
-    let mut density = vec![0f32; nx * ny * nz];
+    let lo = lo.map(|v| v - margin as f32 * h);
+    let grid = Lines { dims: d };
+    let mut density = vec![0f32; grid.len()];
     for (g, p) in cloud.positions.iter().enumerate() {
-        let c = [0, 1, 2].map(|k| (((p[k] - lo[k]) / h) as usize).min(d[k] - 1));
-        density[idx(c[0], c[1], c[2])] += cloud.opacity(g);
+        let c = [0, 1, 2].map(|k| (((p[k] - lo[k]) / h) as usize).min(d[k] - 1 - margin));
+        density[grid.index(c)] += cloud.opacity(g);
     }
     let surface: Vec<bool> = density
         .iter()
         .map(|&v| v >= params.density_threshold)
         .collect();
-    // hits[c] counts the directions in which a surface cell lies beyond c.
-    let mut hits = vec![0u8; surface.len()];
-    let mut sweep =
-        |len: usize, others: [usize; 2], cell: &dyn Fn(usize, usize, usize) -> usize| {
-            for a in 0..others[0] {
-                for b in 0..others[1] {
-                    let mut seen = false;
-                    for t in 0..len {
-                        let c = cell(t, a, b);
-                        if seen && !surface[c] {
-                            hits[c] += 1;
-                        }
-                        seen |= surface[c];
-                    }
-                    seen = false;
-                    for t in (0..len).rev() {
-                        let c = cell(t, a, b);
-                        if seen && !surface[c] {
-                            hits[c] += 1;
-                        }
-                        seen |= surface[c];
-                    }
-                }
-            }
-        };
-    sweep(nx, [ny, nz], &|t, a, b| idx(t, a, b));
-    sweep(ny, [nx, nz], &|t, a, b| idx(a, t, b));
-    sweep(nz, [nx, ny], &|t, a, b| idx(a, b, t));
-    let interior: Vec<usize> = (0..hits.len()).filter(|&c| hits[c] == 6).collect();
-    let stride = interior.len().div_ceil(params.max_particles.max(1)).max(1);
-    interior
-        .iter()
+    let mut interior = grid.interior(&surface, 0);
+    let mut count = interior.iter().filter(|&&i| i).count();
+    for seal in 1..=max_seal {
+        let candidate = grid.interior(&surface, seal);
+        let n = candidate.iter().filter(|&&i| i).count();
+        if n as f64 <= (1.0 + SEAL_GAIN) * count as f64 {
+            break;
+        }
+        (interior, count) = (candidate, n);
+    }
+    let stride = count.div_ceil(params.max_particles.max(1)).max(1);
+    let [nx, ny, _] = d;
+    (0..interior.len())
+        .filter(|&c| interior[c])
         .step_by(stride)
         .take(params.max_particles)
-        .map(|&c| {
+        .map(|c| {
             let i = c % nx;
             let j = (c / nx) % ny;
             let k = c / (nx * ny);
@@ -108,4 +122,148 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
             ]
         })
         .collect()
+}
+
+/// A dense grid of `dims` cells (x fastest) and the sweeps along its lines.
+struct Lines {
+    dims: [usize; 3],
+}
+
+impl Lines {
+    fn len(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    fn index(&self, [i, j, k]: [usize; 3]) -> usize {
+        (k * self.dims[1] + j) * self.dims[0] + i
+    }
+
+    /// Calls `f` with the cell indices of every grid line along `axis`, in order.
+    fn each_line(&self, axis: usize, mut f: impl FnMut(&mut dyn Iterator<Item = usize>)) {
+        let [a, b] = match axis {
+            0 => [1, 2],
+            1 => [0, 2],
+            _ => [0, 1],
+        };
+        for u in 0..self.dims[a] {
+            for v in 0..self.dims[b] {
+                let mut cell = [0; 3];
+                cell[a] = u;
+                cell[b] = v;
+                f(&mut (0..self.dims[axis]).map(|t| {
+                    cell[axis] = t;
+                    self.index(cell)
+                }));
+            }
+        }
+    }
+
+    /// Cells that are not `surface` and not outside it when its gaps up to 2 `seal` cells wide
+    /// are closed (module docs, "Sealing").
+    fn interior(&self, surface: &[bool], seal: usize) -> Vec<bool> {
+        let sealed = self.dilate(surface, seal);
+        let hits = self.ray_hits(&sealed);
+        let outside: Vec<bool> = (0..sealed.len())
+            .map(|c| !sealed[c] && hits[c] < 6)
+            .collect();
+        let outside = self.dilate(&outside, seal);
+        (0..surface.len())
+            .map(|c| !surface[c] && !outside[c])
+            .collect()
+    }
+
+    /// For each cell, the number of the six axis directions in which a `wall` cell lies beyond
+    /// it.
+    fn ray_hits(&self, wall: &[bool]) -> Vec<u8> {
+        let mut hits = vec![0u8; wall.len()];
+        let mut line = Vec::new();
+        for axis in 0..3 {
+            self.each_line(axis, |cells| {
+                line.clear();
+                line.extend(cells);
+                for order in [false, true] {
+                    let mut seen = false;
+                    for n in 0..line.len() {
+                        let c = line[if order { line.len() - 1 - n } else { n }];
+                        if seen && !wall[c] {
+                            hits[c] += 1;
+                        }
+                        seen |= wall[c];
+                    }
+                }
+            });
+        }
+        hits
+    }
+
+    /// `mask` dilated by a cube of side 2 `r` + 1 cells (Chebyshev distance ≤ `r`), one axis
+    /// at a time.
+    fn dilate(&self, mask: &[bool], r: usize) -> Vec<bool> {
+        let mut out = mask.to_vec();
+        if r == 0 {
+            return out;
+        }
+        let mut line = Vec::new();
+        let mut reach = Vec::new();
+        for axis in 0..3 {
+            let src = out.clone();
+            self.each_line(axis, |cells| {
+                line.clear();
+                line.extend(cells);
+                // reach[n]: distance from n to the nearest set cell of the line (capped).
+                reach.clear();
+                reach.resize(line.len(), usize::MAX);
+                for order in [false, true] {
+                    let mut last = usize::MAX;
+                    for n in 0..line.len() {
+                        let n = if order { line.len() - 1 - n } else { n };
+                        last = if src[line[n]] { 0 } else { last.saturating_add(1) };
+                        reach[n] = reach[n].min(last);
+                    }
+                }
+                for (n, &c) in line.iter().enumerate() {
+                    out[c] = reach[n] <= r;
+                }
+            });
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_dilation_reaches_r_cells_along_each_axis_and_diagonal() {
+        let grid = Lines { dims: [7, 7, 7] };
+        let mut mask = vec![false; grid.len()];
+        mask[grid.index([3, 3, 3])] = true;
+        let out = grid.dilate(&mask, 1);
+        assert_eq!(out.iter().filter(|&&m| m).count(), 27);
+        assert!(out[grid.index([2, 4, 2])] && out[grid.index([4, 4, 4])]);
+        assert!(!out[grid.index([5, 3, 3])]);
+        assert_eq!(grid.dilate(&mask, 0), mask);
+    }
+
+    #[test]
+    fn a_seal_closes_a_hole_in_a_box_wall_and_keeps_the_box_inside() {
+        // A hollow box of walls one cell thick, cells 2..=12 of 15, with a hole of 2 x 2 cells
+        // in its top wall: the plain ray test loses the cells under the hole.
+        let grid = Lines { dims: [15, 15, 15] };
+        let mut wall = vec![false; grid.len()];
+        for k in 2..=12 {
+            for j in 2..=12 {
+                for i in 2..=12 {
+                    let edge = [i, j, k].iter().any(|&v| v == 2 || v == 12);
+                    let hole = k == 12 && (6..=7).contains(&i) && (6..=7).contains(&j);
+                    wall[grid.index([i, j, k])] = edge && !hole;
+                }
+            }
+        }
+        let inside = |seal| grid.interior(&wall, seal).iter().filter(|&&c| c).count();
+        assert_eq!(inside(0), 9 * 9 * 9 - 2 * 2 * 9);
+        // Sealed: the whole inside, and the hole's own 2 x 2 cells of wall with it.
+        assert_eq!(inside(1), 9 * 9 * 9 + 2 * 2);
+    }
 }

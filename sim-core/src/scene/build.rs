@@ -546,12 +546,20 @@ fn object(
             max_particles: fill
                 .max_particles
                 .unwrap_or(crate::fill::FillParams::default().max_particles),
+            max_seal_cells: fill
+                .max_seal_cells
+                .unwrap_or(crate::fill::FillParams::default().max_seal_cells),
             ..crate::fill::FillParams::default()
         };
         ctx.check(
             params.spacing_m.is_finite() && params.spacing_m > 0.0,
             format!("{key}.fill.spacing_m"),
             "must be > 0",
+        )?;
+        ctx.check(
+            params.max_seal_cells <= crate::fill::MAX_SEAL_CELLS,
+            format!("{key}.fill.max_seal_cells"),
+            format!("must be at most {}", crate::fill::MAX_SEAL_CELLS),
         )?;
         let added = crate::fill::fill_interior(&gaussians, &params);
         let n_add = added.len();

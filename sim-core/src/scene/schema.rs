@@ -262,6 +262,8 @@ pub struct FillToml {
     pub density_threshold: Option<f32>,
     /// Hard limit on added particles.
     pub max_particles: Option<usize>,
+    /// Largest seal of gaps in the surface, in fill cells (0: the plain ray test).
+    pub max_seal_cells: Option<usize>,
 }
 
 /// `[[collider]]`.
