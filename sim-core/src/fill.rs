@@ -10,12 +10,14 @@
 //! kept 1.68 of its 1.99 L. So the test runs on the surface dilated by k cells (a cube of side
 //! 2k + 1), which closes gaps up to 2k cells wide, and the outside it finds is dilated by k cells
 //! again, back to the surface (a morphological closing of the shell, as in
-//! [`crate::world::carry::volume`]). k = 0 is the plain ray test. k grows from 0, up to
-//! [`FillParams::max_seal_cells`], while each step finds more than 5 % more interior cells: a
-//! closed surface keeps k = 0 and the plain test's cells, a leaky one stops at the first k that
-//! seals it, before closing real openings such as a donut's hole (the captured donut at 5 mm:
-//! 7,063 interior cells at k = 0, 10,328 at k = 1, then +2 %; at 2.5 mm, 10,401, 95,260,
-//! 112,504, then +3 %).
+//! [`crate::world::carry::volume`]). k = 0 is the plain ray test. k grows from 0 while each step
+//! finds more than 5 % more interior cells, up to [`FillParams::max_seal_cells`] and to 1.5
+//! median spacings of the Gaussians (the gaps of a surface sampled at spacing s are up to about
+//! 3 s wide; wider openings belong to the object): a closed surface keeps k = 0 and the plain
+//! test's cells, a leaky one stops at the first k that seals it. The captured donut
+//! (`voxel_m = 0.004`, median spacing 4.2 mm) has gaps at 5 mm as well: 7,063 interior cells at
+//! k = 0, 10,330 at k = 1 (the added cells spread through the whole tube); at 2.5 mm, 10,401,
+//! 95,260, 112,504 (k = 2); at 10 mm the plain test (k = 0).
 //!
 //! Bounded work: the density splat puts each Gaussian's opacity into the cell of its centre
 //! (no covariance evaluation, so a near-singular covariance cannot stall it); the grid is
@@ -24,10 +26,15 @@
 //! [`FillParams::max_particles`] points are returned (an even stride over the interior cells when
 //! more qualify).
 
+use glam::Vec3A;
+
 use crate::gaussians::GaussianCloud;
+use crate::world::carry::volume::local_spacing;
 
 /// The most [`FillParams::max_seal_cells`] can ask for (larger values are clamped to it).
 pub const MAX_SEAL_CELLS: usize = 16;
+/// The largest seal, in median spacings of the surface's Gaussians.
+const SEAL_SPACINGS: f64 = 1.5;
 /// Relative gain in interior cells for which the next larger seal is taken.
 const SEAL_GAIN: f64 = 0.05;
 
@@ -70,7 +77,10 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
     let mut h = params.spacing_m;
     // A margin of empty cells all round, more than the largest seal, so that the outside
     // surrounds a sealed surface.
-    let max_seal = params.max_seal_cells.min(MAX_SEAL_CELLS);
+    let max_seal = params
+        .max_seal_cells
+        .min(MAX_SEAL_CELLS)
+        .min(seal_reach_cells(cloud, params.spacing_m));
     let margin = max_seal + 1;
     let dims = |h: f32| -> [usize; 3] {
         [0, 1, 2].map(|k| {
@@ -122,6 +132,21 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
             ]
         })
         .collect()
+}
+
+/// The largest seal worth trying at fill spacing `h_m`, in cells: gaps in a surface sampled at
+/// median spacing s (of its Gaussians, [`local_spacing`]) are up to about 3 s wide (what
+/// [`crate::world::carry::volume`] seals to measure the solid), so k h ≤ 1.5 s. A larger seal
+/// would close openings of the object itself, such as a donut's hole; 0 when there is no spacing
+/// to go by.
+fn seal_reach_cells(cloud: &GaussianCloud, h_m: f32) -> usize {
+    let x: Vec<Vec3A> = cloud.positions.iter().map(|&p| Vec3A::from(p)).collect();
+    let Some(mut spacing) = local_spacing(&x) else {
+        return 0;
+    };
+    let mid = spacing.len() / 2;
+    let median = *spacing.select_nth_unstable_by(mid, f64::total_cmp).1;
+    (SEAL_SPACINGS * median / h_m as f64).floor() as usize
 }
 
 /// A dense grid of `dims` cells (x fastest) and the sweeps along its lines.
