@@ -83,9 +83,7 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
         .min(seal_reach_cells(cloud, params.spacing_m));
     let margin = max_seal + 1;
     let dims = |h: f32| -> [usize; 3] {
-        [0, 1, 2].map(|k| {
-            (((hi[k] - lo[k]) / h).floor() as usize).saturating_add(1 + 2 * margin)
-        })
+        [0, 1, 2].map(|k| (((hi[k] - lo[k]) / h).floor() as usize).saturating_add(1 + 2 * margin))
     };
     let mut d = dims(h);
     while d.iter().map(|&v| v as f64).product::<f64>() > params.max_grid_cells.max(1) as f64
@@ -242,7 +240,11 @@ impl Lines {
                     let mut last = usize::MAX;
                     for n in 0..line.len() {
                         let n = if order { line.len() - 1 - n } else { n };
-                        last = if src[line[n]] { 0 } else { last.saturating_add(1) };
+                        last = if src[line[n]] {
+                            0
+                        } else {
+                            last.saturating_add(1)
+                        };
                         reach[n] = reach[n].min(last);
                     }
                 }
