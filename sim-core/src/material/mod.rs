@@ -19,7 +19,7 @@ mod sand;
 pub mod snow;
 mod spec;
 
-pub use elastic::ElasticParams;
+pub use elastic::{ElasticParams, MAX_DAMPING_VISCOSITY_PA_S};
 pub use foam::Foam;
 pub use jelly::Jelly;
 pub use metal::Metal;
@@ -165,7 +165,8 @@ impl Material {
             spec.youngs_modulus_pa,
             spec.poisson_ratio,
             spec.density_kg_m3,
-        )?;
+        )?
+        .with_damping(model.name(), spec.damping_viscosity_pa_s.unwrap_or(0.0))?;
         let yield_stress = |fraction: f64| {
             spec.yield_stress_pa
                 .unwrap_or(spec.youngs_modulus_pa * fraction)
@@ -211,6 +212,9 @@ impl Material {
             f64::from(e.poisson_ratio),
             f64::from(e.density_kg_m3),
         );
+        if e.damping_viscosity_pa_s > 0.0 {
+            s.damping_viscosity_pa_s = Some(f64::from(e.damping_viscosity_pa_s));
+        }
         match self {
             Material::Jelly(_) | Material::NeoHookean(_) => {}
             Material::Snow(m) => {

@@ -53,6 +53,11 @@ pub struct MaterialSpec {
     /// Foam: viscosity of the viscoplastic flow, Pa·s (default 10).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub viscosity_pa_s: Option<f64>,
+    /// Any model: Kelvin–Voigt damping viscosity η_d, Pa·s (default 0, no damping): a viscous
+    /// Kirchhoff stress J η_d (∇v + ∇vᵀ) added to the model's, from each particle's APIC
+    /// velocity gradient C (see [`super::ElasticParams::damping_viscosity_pa_s`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping_viscosity_pa_s: Option<f64>,
     /// Snow: hardening coefficient ξ (default 10).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hardening: Option<f64>,
@@ -81,6 +86,7 @@ impl MaterialSpec {
             yield_stress_pa: None,
             softening: None,
             viscosity_pa_s: None,
+            damping_viscosity_pa_s: None,
             hardening: None,
             critical_compression: None,
             critical_stretch: None,

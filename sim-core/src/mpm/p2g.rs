@@ -1,7 +1,8 @@
 //! Particle to grid (MLS-MPM P2G, Hu et al. 2018 eq. 29 with the APIC affine term): each particle
 //! adds mass m w and momentum w (m v + (m C - dt V0 (4/dx²) τ) (xi - xp)) to its 27 nodes, with τ
-//! the Kirchhoff stress of its material. Work is per particle block into a private 6³ scratch
-//! region (no atomics); [`super::grid_update`] sums the regions in a fixed order.
+//! the Kirchhoff stress of its material plus its Kelvin–Voigt damping J η_d (C + Cᵀ). Work is
+//! per particle block into a private 6³ scratch region (no atomics); [`super::grid_update`] sums
+//! the regions in a fixed order.
 
 use glam::{Mat3A, Vec4};
 use rayon::prelude::*;
@@ -98,7 +99,16 @@ pub fn scatter(
                 for (l, &p) in group.iter().enumerate() {
                     let p = p as usize;
                     let m = mass_kg[p];
-                    let affine: Mat3A = tau[l] * (-dt_s * volume0_m3[p] * d_inv) + c[p] * m;
+                    // Kelvin–Voigt damping: J η_d (C + Cᵀ) in parallel with the model's stress.
+                    let eta = materials[material[p] as usize]
+                        .elastic()
+                        .damping_viscosity_pa_s;
+                    let tau = if eta > 0.0 {
+                        tau[l] + (c[p] + c[p].transpose()) * (eta * f[p].determinant())
+                    } else {
+                        tau[l]
+                    };
+                    let affine: Mat3A = tau * (-dt_s * volume0_m3[p] * d_inv) + c[p] * m;
                     scatter_particle(region, origin, x[p], v[p] - v_ref, m, affine, dx_m, inv_dx);
                 }
             }

@@ -80,7 +80,8 @@ impl MpmSystem {
     }
 
     /// Largest dilational wave speed over the materials in use, in their current plastic state
-    /// (m/s; see [`ConstitutiveModel::wave_speed_for_m_s`]).
+    /// (m/s; see [`ConstitutiveModel::wave_speed_for_m_s`]), plus the speed that stands for a
+    /// damped material's viscous limit ([`crate::material::ElasticParams::damping_speed_m_s`]).
     pub fn max_wave_speed_m_s(&self) -> f32 {
         let mut used = vec![false; self.materials.len()];
         for &m in &self.particles.material {
@@ -92,7 +93,10 @@ impl MpmSystem {
             .iter()
             .zip(used)
             .filter(|(_, u)| *u)
-            .map(|(m, _)| m.wave_speed_for_m_s(&self.particles.plastic))
+            .map(|(m, _)| {
+                m.wave_speed_for_m_s(&self.particles.plastic)
+                    + m.elastic().damping_speed_m_s(self.solver.dx_m)
+            })
             .fold(0.0, f32::max)
     }
 

@@ -90,6 +90,7 @@ fn material(ctx: &Ctx, m: &MaterialToml, key: &str) -> Result<MaterialSpec, Scen
         ("yield_stress_pa", m.yield_stress_pa),
         ("softening", m.softening),
         ("viscosity_pa_s", m.viscosity_pa_s),
+        ("damping_viscosity_pa_s", m.damping_viscosity_pa_s),
         ("hardening", m.hardening),
         ("critical_compression", m.critical_compression),
         ("critical_stretch", m.critical_stretch),

@@ -91,11 +91,12 @@ impl World {
             .iter()
             .map(|b| {
                 let deformable = b.kind == ObjectKind::Deformable;
-                // The CFL bound of the current state (snow: its moduli at its hardest particle).
-                let wave = b
-                    .materials
-                    .first()
-                    .map(|m| m.wave_speed_for_m_s(&b.particles.plastic));
+                // The CFL bound of the current state (snow: its moduli at its hardest particle;
+                // with its damping's own limit as a speed).
+                let wave = b.materials.first().map(|m| {
+                    m.wave_speed_for_m_s(&b.particles.plastic)
+                        + m.elastic().damping_speed_m_s(b.solver.dx_m)
+                });
                 let kind = b.kind.name().to_string();
                 let modelled_as = match b.kind {
                     ObjectKind::Deformable if b.particles.len() < b.gaussians.len() => format!(

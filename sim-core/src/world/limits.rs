@@ -148,7 +148,8 @@ impl World {
         };
         // As if the whole world stepped at its smallest bound C dx / c_p (islands only save).
         let bound = |b: &super::Body, m: &Material| {
-            cfl * b.dx_m() as f64 / (m.max_wave_speed_m_s() as f64).max(f64::MIN_POSITIVE)
+            let speed = m.max_wave_speed_m_s() + m.elastic().damping_speed_m_s(b.dx_m());
+            cfl * b.dx_m() as f64 / (speed as f64).max(f64::MIN_POSITIVE)
         };
         let mut others = f64::INFINITY;
         for (k, b) in self.bodies.iter().enumerate() {

@@ -570,7 +570,8 @@ impl World {
     pub fn substep(&mut self, max_dt_s: f64) -> Result<f64, WorldError> {
         self.drive_kinematic();
         // The CFL bound of the stepping objects: the smallest C dx / (c_p + |v|max) of any of
-        // them, with |v|max over all of them and the active colliders.
+        // them, with |v|max over all of them and the active colliders (c_p includes the speed
+        // that stands for a damped material's viscous limit).
         let mut vmax = 0.0f32;
         for (k, b) in self.bodies.iter().enumerate() {
             if b.is_active() && self.stepping(k) {
@@ -583,9 +584,11 @@ impl World {
         let (mut dx, mut wave) = (self.dx_m(), 0.0f32);
         for (k, b) in self.bodies.iter().enumerate() {
             if b.is_active() && self.stepping(k) && b.kind == ObjectKind::Deformable {
+                let m = &b.materials[0];
                 let (dx_b, c_b) = (
                     b.solver.dx_m,
-                    b.materials[0].wave_speed_for_m_s(&b.particles.plastic),
+                    m.wave_speed_for_m_s(&b.particles.plastic)
+                        + m.elastic().damping_speed_m_s(b.solver.dx_m),
                 );
                 if dx_b / (c_b + vmax) < dx / (wave + vmax) {
                     (dx, wave) = (dx_b, c_b);
