@@ -98,7 +98,8 @@ impl World {
                         + m.elastic().damping_speed_m_s(b.solver.dx_m)
                 });
                 let kind = b.kind.name().to_string();
-                let modelled_as = match b.kind {
+                let fill = b.visible.iter().filter(|v| !**v).count();
+                let mut modelled_as = match b.kind {
                     ObjectKind::Deformable if b.particles.len() < b.gaussians.len() => format!(
                         "MPM on {} particles carrying {} Gaussians",
                         b.particles.len(),
@@ -109,6 +110,11 @@ impl World {
                     ObjectKind::Static => "static (never stepped)".to_string(),
                     ObjectKind::Kinematic => "kinematic (moves as commanded, no MPM)".to_string(),
                 };
+                if fill > 0 {
+                    modelled_as.push_str(&format!(
+                        "; {fill} of its Gaussians are interior fill (never published)"
+                    ));
+                }
                 ObjectExplanation {
                     name: b.name.clone(),
                     kind,
