@@ -185,6 +185,12 @@ pub fn run(a: &SagBenchArgs) -> Result<()> {
             }
         }
     }
+    if !(a.damping_viscosity_pa_s.is_finite() && a.damping_viscosity_pa_s >= 0.0) {
+        bail!(
+            "--damping-viscosity-pa-s must be a viscosity >= 0 (Pa·s), not {}",
+            a.damping_viscosity_pa_s
+        );
+    }
     scene.simulation.sleep = false;
     let g = DVec3::from(scene.simulation.gravity_m_s2.map(f64::from));
     if g.length() == 0.0 {

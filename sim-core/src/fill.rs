@@ -22,9 +22,10 @@
 //! Bounded work: the density splat puts each Gaussian's opacity into the cell of its centre
 //! (no covariance evaluation, so a near-singular covariance cannot stall it); the grid is
 //! coarsened (spacing doubled) until it has at most [`FillParams::max_grid_cells`] cells; the six
-//! ray tests and the dilations are sweeps along grid lines, O(cells) each, for each k; at most
-//! [`FillParams::max_particles`] points are returned (an even stride over the interior cells when
-//! more qualify).
+//! ray tests and the dilations are sweeps along grid lines, O(cells) each, for each k; the
+//! seal's cap needs the Gaussians' median spacing (a k-d tree, O(N log N), skipped when
+//! `max_seal_cells` is 0); at most [`FillParams::max_particles`] points are returned (an even
+//! stride over the interior cells when more qualify).
 
 use glam::Vec3A;
 
@@ -76,15 +77,15 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
     let [lo, hi] = crate::formats::inspect::bounds(cloud);
     let mut h = params.spacing_m;
     // A margin of empty cells all round, more than the largest seal, so that the outside
-    // surrounds a sealed surface.
-    let max_seal = params
-        .max_seal_cells
-        .min(MAX_SEAL_CELLS)
-        .min(seal_reach_cells(cloud, params.spacing_m));
-    let margin = max_seal + 1;
-    let dims = |h: f32| -> [usize; 3] {
-        [0, 1, 2].map(|k| (((hi[k] - lo[k]) / h).floor() as usize).saturating_add(1 + 2 * margin))
+    // surrounds a sealed surface. Cells are counted from `lo` and shifted by the margin, so a
+    // Gaussian at the box's edge lands in the first cell inside the margin, whatever the
+    // rounding.
+    let wanted = params.max_seal_cells.min(MAX_SEAL_CELLS);
+    let margin = wanted + 1;
+    let inner = |h: f32| -> [usize; 3] {
+        [0, 1, 2].map(|k| (((hi[k] - lo[k]) / h).floor() as usize).saturating_add(1))
     };
+    let dims = |h: f32| inner(h).map(|n| n.saturating_add(2 * margin));
     let mut d = dims(h);
     while d.iter().map(|&v| v as f64).product::<f64>() > params.max_grid_cells.max(1) as f64
         && d.iter().any(|&v| v > 1 + 2 * margin)
@@ -92,11 +93,17 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
         h *= 2.0;
         d = dims(h);
     }
-    let lo = lo.map(|v| v - margin as f32 * h);
+    // The cap in cells of the spacing the grid ended up with.
+    let max_seal = if wanted > 0 {
+        wanted.min(seal_reach_cells(cloud, h))
+    } else {
+        0
+    };
+    let n = inner(h);
     let grid = Lines { dims: d };
     let mut density = vec![0f32; grid.len()];
     for (g, p) in cloud.positions.iter().enumerate() {
-        let c = [0, 1, 2].map(|k| (((p[k] - lo[k]) / h) as usize).min(d[k] - 1 - margin));
+        let c = [0, 1, 2].map(|k| (((p[k] - lo[k]) / h) as usize).min(n[k] - 1) + margin);
         density[grid.index(c)] += cloud.opacity(g);
     }
     let surface: Vec<bool> = density
@@ -123,11 +130,8 @@ pub fn fill_interior(cloud: &GaussianCloud, params: &FillParams) -> Vec<[f32; 3]
             let i = c % nx;
             let j = (c / nx) % ny;
             let k = c / (nx * ny);
-            [
-                lo[0] + (i as f32 + 0.5) * h,
-                lo[1] + (j as f32 + 0.5) * h,
-                lo[2] + (k as f32 + 0.5) * h,
-            ]
+            let centre = |lo: f32, i: usize| lo + (i as f32 - margin as f32 + 0.5) * h;
+            [centre(lo[0], i), centre(lo[1], j), centre(lo[2], k)]
         })
         .collect()
 }

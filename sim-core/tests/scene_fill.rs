@@ -90,7 +90,8 @@ fn a_fill_finer_than_the_surface_sampling_is_sealed() {
         ball * 1e3
     );
     // The surface cells (about a quarter of a 2 mm band: 0.25 × 0.126 m² × 2 mm = 0.06 L,
-    // 1.5 % of the ball) are not filled; the sealed fill keeps the rest, within 4 %.
+    // 1.5 % of the ball) are not filled; the sealed fill keeps the rest, within 4 %, and fills
+    // nothing outside the ball.
     assert!(plain < 0.5 * ball, "{plain}");
-    assert!((sealed / ball - 1.0).abs() < 0.04, "{sealed} vs {ball}");
+    assert!(sealed > 0.96 * ball && sealed <= ball, "{sealed} vs {ball}");
 }

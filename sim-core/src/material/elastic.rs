@@ -23,6 +23,9 @@ pub struct ElasticParams {
     /// Kirchhoff stress τ_d = J η_d (C + Cᵀ) to the model's (C the particle's APIC velocity
     /// gradient, J = det F): a Newtonian viscous stress 2 η_d D in parallel with the elastic
     /// one, which dissipates 2 η_d D:D per unit volume and leaves rigid motion (D = 0) alone.
+    /// F is the elastic deformation gradient, so in a plastic model (snow, sand) that has
+    /// compacted or dilated the viscous force scales with the elastic volume ratio, not the
+    /// whole one.
     pub damping_viscosity_pa_s: f32,
 }
 
@@ -88,8 +91,10 @@ impl ElasticParams {
 
     /// The speed (m/s) that stands for the damping's own stability limit in the CFL bound
     /// C dx / (c_p + this + |v|max) on a grid of cell `dx_m`: 6 η_d / (ρ dx), so that the bound
-    /// keeps dt ≤ C ρ dx² / (6 η_d), an explicit viscous step's limit in 3D (momentum diffuses
-    /// with ν = η_d / ρ; the forward-Euler limit of the 7-point Laplacian is dx² / (6 ν)).
+    /// keeps dt ≤ C ρ dx² / (6 η_d). The viscous operator's largest eigenvalue on MLS-MPM's
+    /// quadratic B-spline grid is at most 8 η_d / (ρ dx²) (|C_p|² ≤ (4 / dx²) Σ w |v_i|² by
+    /// Cauchy–Schwarz with the inertia D = dx²/4 I), so forward Euler needs dt ≤ ρ dx² / (4 η_d);
+    /// with C ≤ 1 the bound stays inside that.
     pub fn damping_speed_m_s(&self, dx_m: f32) -> f32 {
         if self.damping_viscosity_pa_s > 0.0 {
             6.0 * self.damping_viscosity_pa_s / (self.density_kg_m3 * dx_m)

@@ -44,7 +44,8 @@ pub struct ObjectExplanation {
     pub substeps_computed: u64,
     /// Substeps it skipped (asleep, static, or rigid: no MPM).
     pub substeps_slept: u64,
-    /// Its material's dilational wave speed c_p, m/s (deformable only).
+    /// The speed its CFL bound divides by, m/s (deformable only): its material's dilational
+    /// wave speed c_p, plus 6 η_d / (ρ dx) when the material is damped.
     pub wave_speed_m_s: Option<f32>,
     /// Its largest particle speed in the last substep, m/s.
     pub max_speed_m_s: f32,
@@ -233,7 +234,7 @@ impl Explanation {
             "dt s taken",
             "computed",
             "slept",
-            "c_p m/s",
+            "speed m/s",
             "dt limit s",
             "MPM wall s"
         ));

@@ -162,12 +162,14 @@ impl World {
         let b = &self.bodies[id];
         let old_dt = others.min(bound(b, &b.materials[0]));
         let wave = material.max_wave_speed_m_s();
+        let damping = material.elastic().damping_speed_m_s(b.dx_m());
         let (dt, needed) = need(others.min(bound(b, material)));
         if needed > self.max_particle_substeps_per_frame && needed > need(old_dt).1 {
             return Err(self.refuse(
                 id,
                 format!(
-                    "that material needs substeps of {dt:.2e} s (c_p = {wave:.3e} m/s): \
+                    "that material needs substeps of {dt:.2e} s (c_p = {wave:.3e} m/s, \
+                     damping limit as a speed {damping:.3e} m/s): \
                      {needed:.3e} particle-substeps per frame, above the limit of {:.3e} \
                      (max_particle_substeps_per_frame)",
                     self.max_particle_substeps_per_frame
