@@ -16,7 +16,7 @@
 //! 3 s wide; wider openings belong to the object): a closed surface keeps k = 0 and the plain
 //! test's cells, a leaky one stops at the first k that seals it. The captured donut
 //! (`voxel_m = 0.004`, median spacing 4.2 mm) has gaps at 5 mm as well: 7,063 interior cells at
-//! k = 0, 10,330 at k = 1 (the added cells spread through the whole tube); at 2.5 mm, 10,401,
+//! k = 0, 10,328 at k = 1 (the added cells spread through the whole tube); at 2.5 mm, 10,401,
 //! 95,260, 112,504 (k = 2); at 10 mm the plain test (k = 0).
 //!
 //! Bounded work: the density splat puts each Gaussian's opacity into the cell of its centre
