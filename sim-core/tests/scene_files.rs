@@ -267,6 +267,22 @@ fn invalid_values_name_the_key() {
             "[[object]]\nname = \"a\"\nselect = { source = \"nope\" }\n".to_string(),
             "object[0].select.source",
         ),
+        (
+            format!("{base}fill = {{ spacing_m = 0.01, max_seal_cells = 17 }}\n"),
+            "object[0].fill.max_seal_cells",
+        ),
+        (
+            format!(
+                "{base}material = {{ model = \"jelly\", youngs_modulus_pa = 1e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0, damping_viscosity_pa_s = -1.0 }}\n"
+            ),
+            "object[0].material.damping_viscosity_pa_s",
+        ),
+        (
+            format!(
+                "{base}material = {{ model = \"jelly\", youngs_modulus_pa = 1e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0, damping_viscosity_pa_s = 1e7 }}\n"
+            ),
+            "object[0].material.damping_viscosity_pa_s",
+        ),
     ];
     for (text, key) in cases {
         match scene::load_scene_str(&text, Path::new(".")) {

@@ -104,6 +104,14 @@ fn material(ctx: &Ctx, m: &MaterialToml, key: &str) -> Result<MaterialSpec, Scen
             )?;
         }
     }
+    if let Some(eta) = m.damping_viscosity_pa_s {
+        let max = crate::material::MAX_DAMPING_VISCOSITY_PA_S;
+        ctx.check(
+            eta <= max,
+            format!("{key}.damping_viscosity_pa_s"),
+            format!("must be at most {max:e} Pa·s"),
+        )?;
+    }
     Ok(m.clone())
 }
 
