@@ -164,6 +164,12 @@ pub fn run(a: &SagBenchArgs) -> Result<()> {
     if levels.is_empty() {
         bail!("--levels is empty");
     }
+    if !(a.damping_viscosity_pa_s.is_finite() && a.damping_viscosity_pa_s >= 0.0) {
+        bail!(
+            "--damping-viscosity-pa-s must be a viscosity >= 0 (Pa·s), not {}",
+            a.damping_viscosity_pa_s
+        );
+    }
     let mut scene = load_with_points(&a.scene, a.point_spacing_m)?;
     let Some(k) = scene
         .objects
@@ -184,12 +190,6 @@ pub fn run(a: &SagBenchArgs) -> Result<()> {
                 o.material.damping_viscosity_pa_s = Some(a.damping_viscosity_pa_s);
             }
         }
-    }
-    if !(a.damping_viscosity_pa_s.is_finite() && a.damping_viscosity_pa_s >= 0.0) {
-        bail!(
-            "--damping-viscosity-pa-s must be a viscosity >= 0 (Pa·s), not {}",
-            a.damping_viscosity_pa_s
-        );
     }
     scene.simulation.sleep = false;
     let g = DVec3::from(scene.simulation.gravity_m_s2.map(f64::from));

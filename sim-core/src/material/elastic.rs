@@ -3,7 +3,7 @@
 use super::MaterialError;
 
 /// The largest Kelvin–Voigt damping viscosity accepted, Pa·s (a 1 cm grid of water-dense
-/// material then needs substeps of 2e-8 s).
+/// material then needs substeps of about 1e-8 s).
 pub const MAX_DAMPING_VISCOSITY_PA_S: f64 = 1e6;
 
 /// Young's modulus, Poisson's ratio and density, validated, with the derived Lamé parameters.
