@@ -3,18 +3,23 @@
 use splatphys_core::fill::{FillParams, fill_interior};
 use splatphys_core::procedural::isotropic_gaussians;
 
-/// Gaussians on a sphere surface of radius 0.1 m (a captured object's shell), ~2 mm apart.
-fn shell() -> splatphys_core::gaussians::GaussianCloud {
-    let mut pts = Vec::new();
-    let n = 20_000;
-    for i in 0..n {
-        // Fibonacci sphere.
-        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
-        let r = (1.0 - z * z).sqrt();
-        let phi = i as f32 * 2.399_963;
-        pts.push([0.1 * r * phi.cos(), 0.1 * r * phi.sin(), 0.1 * z]);
-    }
+/// `n` Gaussians on a sphere surface of radius 0.1 m (a captured object's shell), on a
+/// Fibonacci lattice: 20,000 are ~2 mm apart, 7,850 ~4 mm (a voxel-thinned capture).
+fn shell_of(n: usize) -> splatphys_core::gaussians::GaussianCloud {
+    let pts = (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let r = (1.0 - z * z).sqrt();
+            let phi = i as f32 * 2.399_963;
+            [0.1 * r * phi.cos(), 0.1 * r * phi.sin(), 0.1 * z]
+        })
+        .collect();
     isotropic_gaussians(pts, 0.002, [0.5; 3])
+}
+
+/// The shell ~2 mm apart.
+fn shell() -> splatphys_core::gaussians::GaussianCloud {
+    shell_of(20_000)
 }
 
 #[test]
@@ -61,16 +66,8 @@ fn filling_respects_particle_and_grid_bounds() {
 /// ray test leaks through the gaps between surface cells; the seal closes them.
 #[test]
 fn a_fill_finer_than_the_surface_sampling_is_sealed() {
-    let mut pts = Vec::new();
-    // Fibonacci sphere of radius 0.1 m, 7,850 points: about one per (4 mm)² of its area.
-    let n = 7_850;
-    for i in 0..n {
-        let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
-        let r = (1.0 - z * z).sqrt();
-        let phi = i as f32 * 2.399_963;
-        pts.push([0.1 * r * phi.cos(), 0.1 * r * phi.sin(), 0.1 * z]);
-    }
-    let shell = isotropic_gaussians(pts, 0.002, [0.5; 3]);
+    // About one Gaussian per (4 mm)² of the sphere's area.
+    let shell = shell_of(7_850);
     let h = 0.002f32;
     let volume = |max_seal_cells| {
         let p = FillParams {
