@@ -1,6 +1,7 @@
 //! Contact patches: the points of one pair whose normals agree, with their friction (one
-//! Coulomb cone at the centre of pressure and one torsional friction) and, on a flat face, their
-//! normal impulses as one block ([`super::block`]). The solver's module docs give the rules.
+//! Coulomb cone at the centre of pressure, one torsional friction and the pair's rolling
+//! resistance) and, on a flat face, their normal impulses as one block ([`super::block`]). The
+//! solver's module docs give the rules.
 
 use glam::DVec3;
 
@@ -34,8 +35,12 @@ pub struct ContactPatch {
     pub tangent_impulse: DVec3,
     /// Torsional impulse on B about `normal` (N m s).
     pub twist_impulse: f64,
+    /// Rolling-resistance angular impulse on B, in the tangent plane (N m s).
+    pub rolling_impulse: DVec3,
     /// Coulomb friction μ of the pair.
     friction: f64,
+    /// Rolling resistance b of the pair (m).
+    rolling_resistance_m: f64,
     ra: DVec3,
     rb: DVec3,
     tangents: [DVec3; 2],
@@ -43,6 +48,8 @@ pub struct ContactPatch {
     k_t_inv: [f64; 4],
     /// Inverse of the torsional effective inertia (kg m²).
     k_twist_inv: f64,
+    /// Inverse of the 2×2 rolling effective inertia in the tangent plane, row-major (kg m²).
+    k_roll_inv: [f64; 4],
     /// The points' normal impulses as one block; `None` for a single point, normals that
     /// disagree or a degenerate K.
     block: Option<NormalBlock>,
@@ -156,12 +163,10 @@ impl ContactPatch {
         let k00 = effective(bodies, a, b, ra, rb, t0, t0);
         let k01 = effective(bodies, a, b, ra, rb, t0, t1);
         let k11 = effective(bodies, a, b, ra, rb, t1, t1);
-        let det = k00 * k11 - k01 * k01;
-        let k_t_inv = if det > 1e-12 * (k00 * k11).max(f64::MIN_POSITIVE) && det.is_finite() {
-            [k11 / det, -k01 / det, -k01 / det, k00 / det]
-        } else {
-            [0.0; 4]
-        };
+        let k_t_inv = inverse_2x2(k00, k01, k11);
+        let inverse_inertia = bodies[a].inverse_inertia + bodies[b].inverse_inertia;
+        let k_roll = |d: DVec3, e: DVec3| d.dot(inverse_inertia * e);
+        let k_roll_inv = inverse_2x2(k_roll(t0, t0), k_roll(t0, t1), k_roll(t1, t1));
         let k_twist = normal.dot(bodies[a].inverse_inertia * normal)
             + normal.dot(bodies[b].inverse_inertia * normal);
         let k_twist_inv = if k_twist > 0.0 && k_twist.is_finite() {
@@ -184,16 +189,19 @@ impl ContactPatch {
             a,
             b,
             friction: contacts[points[0]].friction,
+            rolling_resistance_m: contacts[points[0]].rolling_resistance_m,
             points,
             normal,
             anchor_m,
             tangent_impulse,
             twist_impulse,
+            rolling_impulse: DVec3::ZERO,
             ra,
             rb,
             tangents: [t0, t1],
             k_t_inv,
             k_twist_inv,
+            k_roll_inv,
             block,
         }
     }
@@ -286,5 +294,44 @@ impl ContactPatch {
             self.twist_impulse = total;
             apply_twist(bodies, a, b, self.normal * delta);
         }
+        if self.rolling_resistance_m > 0.0 && self.k_roll_inv != [0.0; 4] {
+            // Rolling resistance: a couple in the tangent plane against the relative rolling,
+            // at most b Σ P_n (the lever-arm form of rolling friction; Box2D v3's rolling
+            // resistance).
+            let w = bodies[b].omega_rad_s - bodies[a].omega_rad_s;
+            let (x, y) = (w.dot(self.tangents[0]), w.dot(self.tangents[1]));
+            let k = self.k_roll_inv;
+            let d = -(self.tangents[0] * (k[0] * x + k[1] * y)
+                + self.tangents[1] * (k[2] * x + k[3] * y));
+            let mut total = self.rolling_impulse + d;
+            let max = self.rolling_resistance_m
+                * self
+                    .points
+                    .iter()
+                    .map(|&i| contacts[i].normal_impulse)
+                    .sum::<f64>();
+            let len = total.length();
+            if len > max {
+                total = if max > 0.0 {
+                    total * (max / len)
+                } else {
+                    DVec3::ZERO
+                };
+            }
+            let delta = total - self.rolling_impulse;
+            self.rolling_impulse = total;
+            apply_twist(bodies, a, b, delta);
+        }
+    }
+}
+
+/// The inverse of the symmetric 2×2 matrix [[k00, k01], [k01, k11]], row-major; zero when it
+/// is singular or not finite.
+fn inverse_2x2(k00: f64, k01: f64, k11: f64) -> [f64; 4] {
+    let det = k00 * k11 - k01 * k01;
+    if det > 1e-12 * (k00 * k11).max(f64::MIN_POSITIVE) && det.is_finite() {
+        [k11 / det, -k01 / det, -k01 / det, k00 / det]
+    } else {
+        [0.0; 4]
     }
 }

@@ -129,6 +129,9 @@ pub struct ContactPoint {
     pub restitution: f64,
     /// Coulomb friction μ of the pair (infinite: no sliding).
     pub friction: f64,
+    /// Rolling resistance b of the pair (m): its patch resists rolling with a couple of at most
+    /// b times its normal impulse.
+    pub rolling_resistance_m: f64,
     /// Accumulated normal impulse on B (N s); warm-start value on entry.
     pub normal_impulse: f64,
     /// This point's share of its patch's tangential impulse on B (N s), in proportion to its
@@ -349,6 +352,7 @@ mod tests {
             normal_impulse: 0.0,
             tangent_impulse: DVec3::ZERO,
             twist_impulse: 0.0,
+            rolling_resistance_m: 0.0,
         }
     }
 
@@ -584,6 +588,42 @@ mod tests {
                 (load - expected).abs() < 1e-3 * expected,
                 "box {k}: {load} {expected}"
             );
+        }
+    }
+
+    #[test]
+    fn rolling_resistance_slows_a_rolling_ball_at_five_sevenths_g_b_over_r() {
+        // A 1 kg ball of radius 0.5 m (I = 2/5 m R² = 0.1 kg m²) rolling at 1 m/s on the
+        // ground, one contact below its COM, b = 0.05 m: a = b m g R / (I + m R²) =
+        // (5/7) g b / R = 0.7007 m/s², and it keeps rolling (v = ω R). Without b it keeps its
+        // speed.
+        let (radius, g, dt) = (0.5, 9.81, 1e-3);
+        for b in [0.05, 0.0] {
+            let mut bodies = [SolverBody::immovable(DVec3::ZERO), ball(radius, 0.0)];
+            bodies[1].velocity_m_s.x = 1.0;
+            bodies[1].omega_rad_s.y = 1.0 / radius;
+            let mut settings = SolverSettings {
+                resting_speed_m_s: 2.0 * g * dt,
+                ..SolverSettings::default()
+            };
+            settings.push_iterations = 0;
+            for _ in 0..200 {
+                bodies[1].velocity_m_s.z -= g * dt;
+                let mut c = vec![ContactPoint {
+                    point_m: DVec3::new(bodies[1].com_m.x, 0.0, 0.0),
+                    rolling_resistance_m: b,
+                    ..ground_contact(0.0, 0.0)
+                }];
+                solve(&mut bodies, &mut c, dt, &settings);
+                bodies[1].com_m.x += bodies[1].velocity_m_s.x * dt;
+            }
+            let v = bodies[1].velocity_m_s.x;
+            let expected = 1.0 - 5.0 / 7.0 * g * b / radius * 0.2;
+            assert!(
+                (v - expected).abs() < 1e-3,
+                "b = {b}: {v} against {expected}"
+            );
+            assert!((bodies[1].omega_rad_s.y * radius - v).abs() < 1e-6);
         }
     }
 }

@@ -491,6 +491,12 @@ fn object(
         format!("{key}.friction"),
         "must be >= 0",
     )?;
+    let rolling_resistance_m = o.rolling_resistance_m.unwrap_or(0.0);
+    ctx.check(
+        (0.0..=MAX_ROLLING_RESISTANCE_M).contains(&rolling_resistance_m),
+        format!("{key}.rolling_resistance_m"),
+        format!("must be in [0, {MAX_ROLLING_RESISTANCE_M}] m"),
+    )?;
     ctx.finite3(o.velocity_m_s, format!("{key}.velocity_m_s"))?;
     let gaussians = match (&o.select, &o.shape) {
         (Some(_), Some(_)) => {
@@ -584,6 +590,7 @@ fn object(
         material: mat,
         restitution,
         friction,
+        rolling_resistance_m,
         velocity_m_s: o.velocity_m_s,
         gaussians,
         visible,
@@ -594,6 +601,9 @@ fn object(
         surface: o.surface.unwrap_or(super::model::Surface::Separate),
     })
 }
+
+/// Largest rolling resistance an object may have (m): a lever arm longer than any object.
+pub const MAX_ROLLING_RESISTANCE_M: f32 = 1.0;
 
 /// Most Gaussians the automatic support plane is fitted to (an even stride over the rest).
 const AUTO_PLANE_SAMPLE: usize = 50_000;

@@ -247,6 +247,7 @@ impl ObjectBuilder {
                 material: None,
                 restitution: None,
                 friction: None,
+                rolling_resistance_m: None,
                 surface: None,
                 velocity_m_s: [0.0; 3],
                 fill: None,
@@ -289,6 +290,13 @@ impl ObjectBuilder {
     /// Coulomb friction coefficient (>= 0). Default 0.3.
     pub fn friction(mut self, friction: f32) -> Self {
         self.toml.friction = Some(friction);
+        self
+    }
+
+    /// Rolling resistance b (m, >= 0): a contact resists rolling with a couple of at most b
+    /// times its normal force. Default 0.
+    pub fn rolling_resistance_m(mut self, b_m: f32) -> Self {
+        self.toml.rolling_resistance_m = Some(b_m);
         self
     }
 

@@ -157,6 +157,9 @@ pub struct SceneObject {
     pub restitution: f32,
     /// Coulomb friction coefficient (>= 0). Default 0.3.
     pub friction: f32,
+    /// Rolling resistance b, m (>= 0): a contact's couple against rolling is at most b times
+    /// its normal force (the lever arm of rolling friction). Default 0.
+    pub rolling_resistance_m: f32,
     /// Initial velocity, m/s.
     pub velocity_m_s: [f32; 3],
     /// Its particles as Gaussians, world frame (m, z up). `[N]`.

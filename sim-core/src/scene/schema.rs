@@ -239,6 +239,8 @@ pub struct ObjectToml {
     pub restitution: Option<f32>,
     /// Coulomb friction coefficient.
     pub friction: Option<f32>,
+    /// Rolling resistance b, m: the resisting couple is at most b times the normal force.
+    pub rolling_resistance_m: Option<f32>,
     /// Boundary rule a static or rigid object imposes on deformable objects' grids.
     pub surface: Option<super::model::Surface>,
     /// Initial velocity, m/s.

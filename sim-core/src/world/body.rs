@@ -239,6 +239,8 @@ pub struct Body {
     pub restitution: f32,
     /// Coulomb friction coefficient.
     pub friction: f32,
+    /// Rolling resistance b (m): the couple against rolling is at most b times the normal force.
+    pub rolling_resistance_m: f32,
     /// Particles (world frame); `material` indexes `materials`.
     pub particles: Particles,
     /// The object's material table (one entry).
@@ -350,6 +352,7 @@ impl Body {
             kind: o.kind,
             restitution: o.restitution.clamp(0.0, 1.0),
             friction: o.friction.max(0.0),
+            rolling_resistance_m: o.rolling_resistance_m.max(0.0),
             particles,
             materials: vec![material],
             solver: MpmSolver::new(dx_m),

@@ -179,6 +179,14 @@ pub fn enforce(body: &mut Body, target_p: DVec3, target_l: DVec3, com: DVec3) {
     rigid_field(body, dv, dw, s.com_m);
 }
 
+/// Adds the rigid rotation field of `dw` (rad/s) about `com` (m) to `body`'s particles
+/// (v += dw × (x − com), C += `[dw]×`) and updates its largest particle speed.
+pub fn spin(body: &mut Body, dw: DVec3, com: DVec3) {
+    if let Some(sums) = rigid_field(body, DVec3::ZERO, dw, com) {
+        body.max_speed_m_s = sums.max_speed_m_s;
+    }
+}
+
 /// Velocity sums over every particle after a [`rigid_field`], about the COM it was given.
 struct VelocitySums {
     mass_kg: f64,

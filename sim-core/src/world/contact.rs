@@ -266,6 +266,12 @@ impl World {
                         ba.restitution as f64,
                     ),
                 };
+                let rolling_resistance_m = match other {
+                    Other::Object(j) => ba
+                        .rolling_resistance_m
+                        .max(self.bodies[*j as usize].rolling_resistance_m),
+                    Other::Collider(_) | Other::Background => ba.rolling_resistance_m,
+                } as f64;
                 let warm = cache.take(
                     (*a as u32, *other),
                     local(*a, c.point_m),
@@ -284,6 +290,7 @@ impl World {
                     normal_impulse: p_n,
                     tangent_impulse: p_t,
                     twist_impulse: twist,
+                    rolling_resistance_m,
                 }
             })
             .collect();

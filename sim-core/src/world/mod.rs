@@ -6,7 +6,7 @@
 //!    with grid colliders, static and rigid objects and the captured background as boundary
 //!    nodes ([`crate::contact::boundary`]; the background's surface in [`background`]);
 //! 2. the restitution law where a deformable object's grid contact with a solid ends
-//!    (`impact.rs`);
+//!    (`impact.rs`), and rolling resistance while it lasts (`rolling.rs`);
 //! 3. rigid objects' velocity half: gravity and the grids' reactions ([`rigid`]);
 //! 4. deformable pairs: the COM-level impulse law per contact patch (`deformable_pair/`,
 //!    [`coherence`]);
@@ -46,6 +46,7 @@ mod mpm_step;
 mod output;
 pub mod overlap;
 pub mod rigid;
+mod rolling;
 mod sleep;
 
 use std::sync::Arc;
@@ -607,7 +608,7 @@ impl World {
         if self.settings.method == Method::Com {
             self.warm_start_deformable_pairs(dt as f64);
         }
-        let reactions = match self.settings.method {
+        let mut reactions = match self.settings.method {
             Method::Mpm => self.mpm_shared_substep(dt)?,
             Method::MultiField => self.multi_field_substep(dt)?,
             Method::Com => self.mpm_per_object_substep(dt)?,
@@ -615,6 +616,7 @@ impl World {
         let t1 = Instant::now();
         let touches = std::mem::take(&mut self.boundary_touches);
         self.boundary_restitution(&touches);
+        self.rolling_resistance(&touches, &mut reactions);
         self.rigid_velocities(dt as f64, &reactions);
         self.resolve_deformable_pairs(dt as f64);
         self.solve_contacts(dt as f64);

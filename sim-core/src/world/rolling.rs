@@ -1,0 +1,119 @@
+//! Rolling resistance where a deformable object meets a solid on its grid.
+//!
+//! A soft ball on a table stops rolling because the material entering its contact region is
+//! compressed and the material leaving it recovers with a loss (hysteresis). On practical grids
+//! the contact region is a cell or less wide, so MPM does not resolve that loss, and nothing
+//! else slows a rolling or rocking object: a jelly ball dropped on a table rocks on for seconds.
+//! The sub-grid model is Coulomb's rolling friction (the lever-arm form used by MuJoCo's
+//! rolling friction and Box2D v3's rolling resistance): a couple against the rolling of at most
+//! b N, b the pair's rolling resistance (m, the larger of the two objects'; grid colliders and
+//! the background have none of their own) and N the contact's normal force.
+//!
+//! Per substep and per solid a deformable object touched on its grid:
+//! - N dt = |J_n|, the normal impulse the grid gave the object there (`touches`), and n = J_n / |J_n|;
+//! - ω_r: the object's angular velocity (ω = I⁻¹ L of its particles) relative to the solid's,
+//!   without its part along n (a spin about the normal is the boundary's friction's);
+//! - the couple's angular impulse is I Δω with Δω = −s ω_r, s = min(1, b |J_n| / |I ω_r|): it
+//!   never reverses the rolling, and it is skipped if it would add kinetic energy.
+//!
+//! The change is a rigid rotation field about the COM (no strain rate, so the material's own
+//! state is untouched); the grid's friction then brings the contact point back to rolling in
+//! the next substeps, so the object slows as a whole: a rolling ball decelerates at
+//! (5/7) g b / R. A rigid solid receives the opposite couple; a static one, a collider or the
+//! background takes it.
+
+use glam::DVec3;
+
+use super::World;
+use super::body::measure;
+use super::coherence;
+use super::impact::SolidOf;
+use crate::contact::boundary::Reaction;
+use crate::scene::ObjectKind;
+
+impl World {
+    /// The solid's rolling resistance (m) and angular velocity (rad/s).
+    fn solid_rolling(&self, solid: SolidOf) -> (f32, DVec3) {
+        match solid {
+            SolidOf::Object(o) => {
+                let b = &self.bodies[o];
+                let omega = if b.moves_rigidly() {
+                    b.rigid.omega_rad_s
+                } else {
+                    DVec3::ZERO
+                };
+                (b.rolling_resistance_m, omega)
+            }
+            SolidOf::Collider(_) | SolidOf::Background => (0.0, DVec3::ZERO),
+        }
+    }
+
+    /// Applies rolling resistance for this substep's `touches` (deformable, solid, normal
+    /// impulse the grid gave the deformable in N s; module docs); a rigid solid's couple is
+    /// added to its entry of `reactions`.
+    pub(super) fn rolling_resistance(
+        &mut self,
+        touches: &[(usize, SolidOf, DVec3)],
+        reactions: &mut [Reaction],
+    ) {
+        let mut touches = touches.to_vec();
+        touches.sort_by_key(|t| t.0);
+        let mut k_first = 0;
+        while k_first < touches.len() {
+            let k = touches[k_first].0;
+            let end = touches[k_first..]
+                .iter()
+                .position(|t| t.0 != k)
+                .map_or(touches.len(), |n| k_first + n);
+            let own = &touches[k_first..end];
+            k_first = end;
+            let b = &self.bodies[k];
+            if b.kind != ObjectKind::Deformable || b.sleeping || !self.stepping(k) {
+                continue;
+            }
+            let pairs: Vec<(f64, SolidOf, DVec3, DVec3)> = own
+                .iter()
+                .filter_map(|&(_, solid, j)| {
+                    let (b_solid, omega) = self.solid_rolling(solid);
+                    let arm = f64::from(b.rolling_resistance_m.max(b_solid));
+                    (arm > 0.0 && j.is_finite() && j != DVec3::ZERO)
+                        .then_some((arm, solid, j, omega))
+                })
+                .collect();
+            if pairs.is_empty() {
+                continue;
+            }
+            let s = measure(&b.particles, b.dx_m());
+            if s.mass_kg <= 0.0 {
+                continue;
+            }
+            let mut omega = s.angular_velocity();
+            let mut total = DVec3::ZERO;
+            for (arm, solid, j, omega_solid) in pairs {
+                let n = j.normalize();
+                let relative = omega - omega_solid;
+                let rolling = relative - n * relative.dot(n);
+                let wanted = s.inertia * rolling;
+                if !(wanted.length() > 0.0 && wanted.is_finite()) {
+                    continue;
+                }
+                let share = (arm * j.length() / wanted.length()).min(1.0);
+                let dw = -rolling * share;
+                // Kinetic energy change of the rotation, ω·IΔω + ½ ΔωᵀIΔω: never positive.
+                if omega.dot(s.inertia * dw) + 0.5 * dw.dot(s.inertia * dw) > 0.0 {
+                    continue;
+                }
+                omega += dw;
+                total += dw;
+                if let SolidOf::Object(o) = solid
+                    && self.bodies[o].kind == ObjectKind::Rigid
+                {
+                    reactions[o].angular_impulse_n_m_s -= s.inertia * dw;
+                }
+            }
+            if total != DVec3::ZERO {
+                coherence::spin(&mut self.bodies[k], total, s.com_m);
+            }
+        }
+    }
+}

@@ -1,0 +1,97 @@
+//! Rolling resistance (release build): a couple of at most b N against rolling, for rigid
+//! objects in the contact solver and for deformable objects on their grids. The closed form
+//! (a rolling ball slows at (5/7) g b / R) is tested on the solver alone in
+//! `contact::solver`'s unit tests; here the outcomes in whole scenes: what rolls on without it
+//! comes to rest with it.
+
+use splatphys_core::material::MaterialSpec;
+use splatphys_core::scene::{ObjectBuilder, ObjectKind, Scene, SceneObject, Surface};
+use splatphys_core::world::World;
+
+/// The static table, top at z = 0, its surface rule `surface`.
+fn table(surface: Surface) -> ObjectBuilder {
+    SceneObject::cuboid("table", [-1.0, -0.5, -0.1], [1.0, 0.5, 0.0])
+        .kind(ObjectKind::Static)
+        .surface(surface)
+        .restitution(0.0)
+        .friction(0.5)
+}
+
+/// The ball's COM velocity at every frame (50 frames/s, 1 cm grid) over `duration_s`.
+fn velocities(ball: ObjectBuilder, surface: Surface, duration_s: f64) -> Vec<[f64; 3]> {
+    let scene = Scene::builder()
+        .frame_rate_hz(50.0)
+        .grid_dx_m(0.01)
+        .duration_s(duration_s)
+        .sleep(false)
+        .object(ball)
+        .object(table(surface))
+        .build()
+        .expect("scene");
+    let mut w = World::from_scene(&scene).expect("world");
+    let mut out = Vec::new();
+    while !w.is_finished() {
+        w.advance_frame().expect("step");
+        out.push(w.objects()[0].velocity_m_s);
+    }
+    out
+}
+
+#[test]
+fn a_rigid_ball_rolls_on_without_rolling_resistance_and_stops_with_it() {
+    // A rigid 5 cm ball thrown along the table at 0.5 m/s: friction turns its slide into
+    // rolling at 5/7 of that within 0.03 s. With b = 5 mm the couple takes
+    // (5/7) g b / R = 0.70 m/s², so it stops within 0.6 s; without, it still rolls after 0.8 s.
+    let ball = |b: f32| {
+        SceneObject::sphere("ball", [0.0, 0.0, 0.052], 0.05)
+            .kind(ObjectKind::Rigid)
+            .spacing_m(0.005)
+            .restitution(0.0)
+            .friction(0.5)
+            .rolling_resistance_m(b)
+            .velocity([0.5, 0.0, 0.0])
+    };
+    let free = velocities(ball(0.0), Surface::Separate, 0.8);
+    let resisted = velocities(ball(0.005), Surface::Separate, 0.8);
+    let (v_free, v_resisted) = (free[39][0], resisted[39][0]);
+    println!("rigid ball after 0.8 s: {v_free:.4} m/s free, {v_resisted:.4} m/s with b = 5 mm");
+    assert!(v_free > 0.15, "the free ball stopped: {v_free} m/s");
+    assert!(
+        v_resisted.abs() < 0.01,
+        "with b = 5 mm it still rolls at {v_resisted} m/s"
+    );
+}
+
+#[test]
+fn a_jelly_ball_dropped_on_a_table_stops_rocking_with_rolling_resistance() {
+    // The paper's dropped jelly ball (r = 4 cm, E = 2e5 Pa) on a sticky table: its lattice
+    // leaves the first bounce slightly sideways, and without rolling resistance it rolls and
+    // rocks on (a rigid motion on its flattened base that its material cannot damp). With
+    // b = 2 mm its horizontal motion drops below the 1 cm/s of "at rest" (what is left, a few
+    // mm/s, is its undamped vertical ringing coupled sideways). Largest horizontal COM speed
+    // over the last 0.5 s of 3 s.
+    let ball = |b: f32| {
+        SceneObject::sphere("ball", [0.0, 0.0, 0.2], 0.04)
+            .spacing_m(0.005)
+            .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
+            .restitution(0.5)
+            .friction(0.3)
+            .rolling_resistance_m(b)
+    };
+    let horizontal = |v: &[[f64; 3]]| {
+        v[v.len() - 25..]
+            .iter()
+            .map(|v| v[0].hypot(v[1]))
+            .fold(0.0, f64::max)
+    };
+    let free = horizontal(&velocities(ball(0.0), Surface::Sticky, 3.0));
+    let resisted = horizontal(&velocities(ball(0.002), Surface::Sticky, 3.0));
+    println!(
+        "jelly ball, horizontal speed over 2.5-3 s: {free:.4} m/s free, {resisted:.4} m/s with b = 2 mm"
+    );
+    assert!(free > 0.03, "the free ball stopped rocking: {free} m/s");
+    assert!(
+        resisted < 0.01,
+        "with b = 2 mm it still moves at {resisted} m/s"
+    );
+}
