@@ -2,9 +2,9 @@
 //! `playcanvas_playbot.ply` (500k Gaussians, SH degree 2, y-down, placed with
 //! rotation_deg = [-90, 0, 0]) hovers ~0.18 m above a patch of rocky ground. Selected with a box
 //! and dropped with no collider typed in, as a rigid and as a deformable object, it lands on the
-//! ground and stays on it; as a rigid object it comes to rest and no opaque Gaussian of it ends
-//! more than 1 cm below the ground, measured on the background Gaussians themselves rather than
-//! on the collision field.
+//! ground and comes to rest; as a rigid object no opaque Gaussian of it ends more than 1 cm
+//! below the ground, measured on the background Gaussians themselves rather than on the
+//! collision field.
 
 use std::path::Path;
 
@@ -93,13 +93,15 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
                 );
             }
             // The jelly robot (E = 1e5 Pa, thin limbs; its own 4 cm grid, two of its 2 cm
-            // spacings) keeps its shape on the captured grass with its COM about 0.1 m lower
-            // than the rigid robot's and still rocks at a few cm/s (jelly has no damping), and
-            // some of its Gaussians end below the tallest blade within 1 cm. Ruled out here:
-            // falling through the ground (the patch lies at z ≈ 0 to 0.1 m; on a 2 cm grid with
-            // one particle per cell the robot flowed through it, COM 0.07 m at 2 s and falling).
+            // spacings; the scene's damping 300 Pa·s and rolling resistance 1 cm) keeps its
+            // shape on the captured grass with its COM about 0.1 m lower than the rigid
+            // robot's (a 1 m jelly sags) and comes to rest. Some of its Gaussians end below
+            // the tallest grass Gaussian within 1 cm (its grid meets the ground every 4 cm):
+            // up to 7 cm; not asserted. Ruled out here: falling through the ground (the patch
+            // lies at z ≈ 0 to 0.1 m; on a 2 cm grid with one particle per cell the robot
+            // flowed through it, COM 0.07 m at 2 s and falling).
             _ => {
-                assert!(speed < 0.05, "{kind:?} still moving at {speed} m/s");
+                assert!(speed < 0.01, "{kind:?} still moving at {speed} m/s");
                 assert!(o.com_m[2] > 0.1, "{kind:?} sank into the ground");
             }
         }
