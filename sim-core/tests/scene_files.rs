@@ -283,6 +283,14 @@ fn invalid_values_name_the_key() {
             ),
             "object[0].material.damping_viscosity_pa_s",
         ),
+        (
+            format!("{base}rolling_resistance_m = -0.001\n"),
+            "object[0].rolling_resistance_m",
+        ),
+        (
+            format!("{base}rolling_resistance_m = nan\n"),
+            "object[0].rolling_resistance_m",
+        ),
     ];
     for (text, key) in cases {
         match scene::load_scene_str(&text, Path::new(".")) {
