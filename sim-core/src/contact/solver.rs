@@ -16,6 +16,8 @@
 //! resistance. Per-point friction would follow each point's share of the normal load, and that
 //! split is statically indeterminate when more than three points carry a flat face: an uneven
 //! split gives a sliding box a spurious spin about the normal, and a spinning box brakes less.
+//! A pair with rolling resistance b (`rolling_resistance_m`) also gets, per patch, a couple in
+//! the tangent plane against the relative rolling, clamped to b Σ P_n.
 //!
 //! Normal targets:
 //! - impact (−v_n above the resting speed, the surfaces touching within the substep, e > 0):
