@@ -11,12 +11,22 @@
 //! returned with its moment about the solid's COM so a rigid object receives the reaction and the
 //! pair conserves momentum. Sums run per grid block in parallel and are added in block order, so
 //! the result does not depend on the thread count.
+//!
+//! Grid nodes sample a solid's surface only every cell, so on a rough solid (captured ground,
+//! whose surface varies within a cell) particles can sink between nodes well inside it. After
+//! G2P, [`project_particles`] therefore removes the velocity into the solid (relative to the
+//! solid's, along its normal) of every particle that lies inside one, a particle-level collision
+//! (Jiang et al. 2016, course notes, section 12); its momentum change is part of the solid's
+//! reaction. Positions are left alone: moving a particle out without its deformation gradient
+//! feeds energy back every substep (a jelly robot on captured grass, pushed out, never came to
+//! rest).
 
 use glam::{DVec3, IVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::manifold::Placed;
 use crate::collider::{Surface, apply_surface};
+use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};
 use crate::mpm::grid::SparseGrid;
 
@@ -133,6 +143,61 @@ pub fn apply(
     let mut total = vec![Reaction::default(); n];
     for block in &per_block {
         for (t, r) in total.iter_mut().zip(block) {
+            t.add(r);
+        }
+    }
+    total
+}
+
+/// Particles per parallel chunk of [`project_particles`] (fixed, so sums do not depend on the
+/// thread count).
+const PROJECTION_CHUNK: usize = 4096;
+
+/// Removes the velocity into the solid of every particle of `particles` that lies inside one of
+/// `obstacles` (module docs); returns each obstacle's reaction, in order.
+pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> Vec<Reaction> {
+    let n = obstacles.len();
+    if n == 0 {
+        return Vec::new();
+    }
+    let Particles { x, v, mass_kg, .. } = particles;
+    let per_chunk: Vec<Vec<Reaction>> = x
+        .par_chunks(PROJECTION_CHUNK)
+        .zip(v.par_chunks_mut(PROJECTION_CHUNK))
+        .zip(mass_kg.par_chunks(PROJECTION_CHUNK))
+        .map(|((x, v), m)| {
+            let mut out = vec![Reaction::default(); n];
+            for i in 0..x.len() {
+                for (k, o) in obstacles.iter().enumerate() {
+                    let (lo, hi) = o.placed.bounds_m;
+                    if !(x[i].cmpge(lo).all() && x[i].cmple(hi).all()) {
+                        continue;
+                    }
+                    let pose = o.placed.pose;
+                    let (phi, n0) = o.placed.geometry.distance(pose.to_rest(x[i]));
+                    let normal = pose.rotation * n0;
+                    if !(phi < 0.0 && phi.is_finite() && normal.is_finite()) {
+                        continue;
+                    }
+                    let r = x[i] - pose.com_m;
+                    let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
+                    let into = (v[i] - solid_v).dot(normal);
+                    if into < 0.0 {
+                        v[i] -= normal * into;
+                        let dp = (normal * -into * m[i]).as_dvec3();
+                        let reaction = &mut out[k];
+                        reaction.impulse_n_s -= dp;
+                        reaction.angular_impulse_n_m_s -= r.as_dvec3().cross(dp);
+                        reaction.normal_impulse_n_s -= dp;
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let mut total = vec![Reaction::default(); n];
+    for chunk in &per_chunk {
+        for (t, r) in total.iter_mut().zip(chunk) {
             t.add(r);
         }
     }

@@ -188,6 +188,35 @@ impl World {
         touched
     }
 
+    /// Removes the velocity into solids of `particles` that lie inside them, after G2P
+    /// ([`boundary::project_particles`]), and adds the momentum this takes to the solids'
+    /// `reactions`.
+    fn project_out_of_solids(
+        &self,
+        particles: &mut Particles,
+        friction: f32,
+        dx_m: f32,
+        reactions: &mut [Reaction],
+    ) {
+        if particles.is_empty() {
+            return;
+        }
+        let mut lo = Vec3A::splat(f32::INFINITY);
+        let mut hi = Vec3A::splat(f32::NEG_INFINITY);
+        for x in &particles.x {
+            lo = lo.min(*x);
+            hi = hi.max(*x);
+        }
+        let (obstacles, of) = self.obstacles((lo, hi), friction, dx_m);
+        let r = boundary::project_particles(particles, &obstacles);
+        for (r, k) in r.iter().zip(of) {
+            if let ObstacleOf::Object(k) = k {
+                reactions[k].impulse_n_s += r.impulse_n_s;
+                reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
+            }
+        }
+    }
+
     /// Method `com`: every awake deformable object runs a whole substep on its own grid, with
     /// the solids as boundaries.
     pub(super) fn mpm_per_object_substep(
@@ -219,6 +248,9 @@ impl World {
                 touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
             }
             let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
+            if r.is_ok() {
+                self.project_out_of_solids(&mut particles, friction, dx, &mut reactions);
+            }
             let b = &mut self.bodies[k];
             b.solver = solver;
             b.particles = particles;
@@ -276,9 +308,18 @@ impl World {
             b.solver = solver;
             b.particles = particles;
         }
-        for b in self.bodies.iter_mut().filter(|b| simulated(b)) {
+        for k in 0..self.bodies.len() {
+            if !simulated(&self.bodies[k]) {
+                continue;
+            }
+            let b = &mut self.bodies[k];
             let r = b.solver.gather(&mut b.particles, &step.input(&b.materials));
-            step.finish(&mut self.stats, b, r)?;
+            if r.is_ok() {
+                let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
+                self.project_out_of_solids(&mut particles, friction, dx_m, &mut reactions);
+                self.bodies[k].particles = particles;
+            }
+            step.finish(&mut self.stats, &mut self.bodies[k], r)?;
         }
         self.boundary_touches = touches;
         Ok(reactions)
