@@ -1,8 +1,7 @@
 //! Rolling resistance (release build): a couple of at most b N against rolling, for rigid
-//! objects in the contact solver and for deformable objects on their grids. The closed form
-//! (a rolling ball slows at (5/7) g b / R) is tested on the solver alone in
-//! `contact::solver`'s unit tests; here the outcomes in whole scenes: what rolls on without it
-//! comes to rest with it.
+//! objects in the contact solver and for deformable objects on their grids. A rolling ball
+//! slows at (5/7) g b / R: a rigid ball in a whole scene here (and the solver alone in
+//! `contact::solver`'s unit tests); a jelly ball that rocks on without it comes to rest with it.
 
 use splatphys_core::material::MaterialSpec;
 use splatphys_core::scene::{ObjectBuilder, ObjectKind, Scene, SceneObject, Surface};
@@ -38,10 +37,12 @@ fn velocities(ball: ObjectBuilder, surface: Surface, duration_s: f64) -> Vec<[f6
 }
 
 #[test]
-fn a_rigid_ball_rolls_on_without_rolling_resistance_and_stops_with_it() {
+fn a_rigid_ball_rolls_on_without_rolling_resistance_and_slows_at_the_closed_form_with_it() {
     // A rigid 5 cm ball thrown along the table at 0.5 m/s: friction turns its slide into
-    // rolling at 5/7 of that within 0.03 s. With b = 5 mm the couple takes
-    // (5/7) g b / R = 0.70 m/s², so it stops within 0.6 s; without, it still rolls after 0.8 s.
+    // rolling at 5/7 of that within 0.03 s, and then it keeps that speed (to 1 %: its contact
+    // is one point from the table's exact surface). With b = 2 mm the couple takes
+    // a = (5/7) g b / R = 0.280 m/s²; measured between 0.2 s and 0.6 s, to 3 % (the ball is a
+    // particle cloud, its inertia within a few % of 2/5 m R²).
     let ball = |b: f32| {
         SceneObject::sphere("ball", [0.0, 0.0, 0.052], 0.05)
             .kind(ObjectKind::Rigid)
@@ -51,14 +52,22 @@ fn a_rigid_ball_rolls_on_without_rolling_resistance_and_stops_with_it() {
             .rolling_resistance_m(b)
             .velocity([0.5, 0.0, 0.0])
     };
-    let free = velocities(ball(0.0), Surface::Separate, 0.8);
-    let resisted = velocities(ball(0.005), Surface::Separate, 0.8);
-    let (v_free, v_resisted) = (free[39][0], resisted[39][0]);
-    println!("rigid ball after 0.8 s: {v_free:.4} m/s free, {v_resisted:.4} m/s with b = 5 mm");
-    assert!(v_free > 0.15, "the free ball stopped: {v_free} m/s");
+    let rolling = 5.0 / 7.0 * 0.5;
+    let free = velocities(ball(0.0), Surface::Separate, 0.6);
+    let resisted = velocities(ball(0.002), Surface::Separate, 0.6);
+    let expected = 5.0 / 7.0 * 9.81 * 0.002 / 0.05;
+    let a = (resisted[9][0] - resisted[29][0]) / 0.4;
+    println!(
+        "rigid ball: free {:.4} -> {:.4} m/s (rolling speed {rolling:.4}); with b = 2 mm \
+         {a:.4} m/s² against {expected:.4}",
+        free[9][0], free[29][0]
+    );
+    for v in [free[9][0], free[29][0]] {
+        assert!((v / rolling - 1.0).abs() < 0.01, "free ball at {v} m/s");
+    }
     assert!(
-        v_resisted.abs() < 0.01,
-        "with b = 5 mm it still rolls at {v_resisted} m/s"
+        (a / expected - 1.0).abs() < 0.03,
+        "{a} m/s² against {expected}"
     );
 }
 
