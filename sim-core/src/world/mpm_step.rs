@@ -89,6 +89,14 @@ fn collider_touches(
         .map(move |(c, j)| (k, ObstacleOf::Collider(c), *j))
 }
 
+/// The box around `particles`' positions (m).
+fn bounds(particles: &Particles) -> (Vec3A, Vec3A) {
+    particles.x.iter().fold(
+        (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY)),
+        |(lo, hi), x| (lo.min(*x), hi.max(*x)),
+    )
+}
+
 /// Which solid an obstacle is.
 type ObstacleOf = super::impact::SolidOf;
 
@@ -160,13 +168,7 @@ impl World {
         if particles.is_empty() {
             return Vec::new();
         }
-        let mut lo = Vec3A::splat(f32::INFINITY);
-        let mut hi = Vec3A::splat(f32::NEG_INFINITY);
-        for x in &particles.x {
-            lo = lo.min(*x);
-            hi = hi.max(*x);
-        }
-        let (obstacles, of) = self.obstacles((lo, hi), friction, solver.dx_m);
+        let (obstacles, of) = self.obstacles(bounds(particles), friction, solver.dx_m);
         if obstacles.is_empty() {
             return Vec::new();
         }
@@ -201,13 +203,7 @@ impl World {
         if particles.is_empty() {
             return;
         }
-        let mut lo = Vec3A::splat(f32::INFINITY);
-        let mut hi = Vec3A::splat(f32::NEG_INFINITY);
-        for x in &particles.x {
-            lo = lo.min(*x);
-            hi = hi.max(*x);
-        }
-        let (obstacles, of) = self.obstacles((lo, hi), friction, dx_m);
+        let (obstacles, of) = self.obstacles(bounds(particles), friction, dx_m);
         let r = boundary::project_particles(particles, &obstacles);
         for (r, k) in r.iter().zip(of) {
             if let ObstacleOf::Object(k) = k {
