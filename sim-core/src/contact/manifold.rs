@@ -9,9 +9,9 @@
 //! patches (a donut on a post, a box on two supports) each get their own points. A pair keeps at
 //! most [`MAX_POINTS`] spanning the contact's area, in a fixed order.
 //!
-//! A procedural sphere against an exact surface (another procedural shape or a grid collider)
-//! is one point instead, from the other's signed distance at the sphere's centre, as rigid-body
-//! engines do: the sphere's surface points are a polyhedron of the lattice's spacing, and a
+//! A procedural sphere against an exact convex surface (another procedural shape, a plane or box
+//! collider) is one point instead, from the other's signed distance at the sphere's centre, as
+//! rigid-body engines do: the sphere's surface points are a polyhedron of the lattice's spacing, and a
 //! polyhedron rolling on its vertices brakes (a 5 cm rigid ball rolling at 0.3 m/s slowed at
 //! about 0.15 m/s² on its points).
 
@@ -280,7 +280,11 @@ pub fn against_collider(
     time_s: f64,
     margin_m: f32,
 ) -> Vec<RawContact> {
-    if let Some(s) = sphere(a.geometry) {
+    // The domain's bound is the inside of a box: a sphere in its corner touches two walls.
+    let convex = !matches!(collider.shape, crate::collider::Shape::DomainBound(_));
+    if let Some(s) = sphere(a.geometry)
+        && convex
+    {
         return sphere_contact(s, a.pose, |x| collider.signed_distance(x, time_s), margin_m);
     }
     let mut out = Vec::new();
