@@ -19,8 +19,8 @@
 //! The change is a rigid rotation field about the COM (no strain rate, so the material's own
 //! state is untouched); the grid's friction then brings the contact point back to rolling in
 //! the next substeps, so the object slows as a whole: a rolling ball decelerates at
-//! (5/7) g b / R. A rigid solid receives the opposite couple; a static one, a collider or the
-//! background takes it.
+//! (5/7) g b / R. A solid object receives the opposite couple (a rigid one turns with it, any
+//! one publishes it in its contact torque); a collider or the background takes it.
 
 use glam::DVec3;
 
@@ -49,8 +49,8 @@ impl World {
     }
 
     /// Applies rolling resistance for this substep's `touches` (deformable, solid, normal
-    /// impulse the grid gave the deformable in N s; module docs); a rigid solid's couple is
-    /// added to its entry of `reactions`.
+    /// impulse the grid gave the deformable in N s; module docs); the couple a solid object
+    /// receives is added to its entry of `reactions`.
     pub(super) fn rolling_resistance(
         &mut self,
         touches: &[(usize, SolidOf, DVec3)],
@@ -105,9 +105,8 @@ impl World {
                 }
                 omega += dw;
                 total += dw;
-                if let SolidOf::Object(o) = solid
-                    && self.bodies[o].kind == ObjectKind::Rigid
-                {
+                // A rigid solid turns with it; any solid publishes it in its contact torque.
+                if let SolidOf::Object(o) = solid {
                     reactions[o].angular_impulse_n_m_s -= s.inertia * dw;
                 }
             }
