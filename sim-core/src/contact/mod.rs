@@ -12,9 +12,10 @@
 //! [`level_set::LevelSet`] built from particles or opaque Gaussians otherwise.
 //!
 //! Pair coefficients (one rule everywhere): friction μ = √(μ_A μ_B), restitution
-//! e = max(e_A, e_B) (Box2D's mixing rules). Grid colliders and the captured background have a
-//! friction coefficient and no restitution of their own (e = the object's); a sticky collider
-//! acts on a rigid object as infinite friction.
+//! e = max(e_A, e_B) (Box2D's mixing rules), rolling resistance b = max(b_A, b_B). Grid
+//! colliders and the captured background have a friction coefficient and no restitution or
+//! rolling resistance of their own (the object's applies); a sticky collider acts on a rigid
+//! object as infinite friction.
 
 pub mod block;
 pub mod boundary;
