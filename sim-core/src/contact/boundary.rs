@@ -140,9 +140,15 @@ pub fn apply(
             out
         })
         .collect();
+    sum_in_order(&per_block, n)
+}
+
+/// The `n` obstacles' reactions summed over `parts` in their order (so the sums do not depend
+/// on how the parts were scheduled).
+fn sum_in_order(parts: &[Vec<Reaction>], n: usize) -> Vec<Reaction> {
     let mut total = vec![Reaction::default(); n];
-    for block in &per_block {
-        for (t, r) in total.iter_mut().zip(block) {
+    for part in parts {
+        for (t, r) in total.iter_mut().zip(part) {
             t.add(r);
         }
     }
@@ -195,11 +201,5 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
             out
         })
         .collect();
-    let mut total = vec![Reaction::default(); n];
-    for chunk in &per_chunk {
-        for (t, r) in total.iter_mut().zip(chunk) {
-            t.add(r);
-        }
-    }
-    total
+    sum_in_order(&per_chunk, n)
 }

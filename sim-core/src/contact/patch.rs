@@ -36,7 +36,7 @@ pub struct ContactPatch {
     /// Torsional impulse on B about `normal` (N m s).
     pub twist_impulse: f64,
     /// Rolling-resistance angular impulse on B, in the tangent plane (N m s).
-    pub rolling_impulse: DVec3,
+    rolling_impulse: DVec3,
     /// Coulomb friction μ of the pair.
     friction: f64,
     /// Rolling resistance b of the pair (m).
@@ -268,20 +268,8 @@ impl ContactPatch {
         };
         if self.k_t_inv != [0.0; 4] {
             let vt = relative(bodies, a, b, self.ra, self.rb);
-            let (x, y) = (vt.dot(self.tangents[0]), vt.dot(self.tangents[1]));
-            let k = self.k_t_inv;
-            let d = -(self.tangents[0] * (k[0] * x + k[1] * y)
-                + self.tangents[1] * (k[2] * x + k[3] * y));
-            let mut total = self.tangent_impulse + d;
-            let max = limit(&|_| 1.0);
-            let len = total.length();
-            if len > max {
-                total = if max > 0.0 {
-                    total * (max / len)
-                } else {
-                    DVec3::ZERO
-                };
-            }
+            let d = self.tangent_step(self.k_t_inv, vt);
+            let total = clamp_length(self.tangent_impulse + d, limit(&|_| 1.0));
             let delta = total - self.tangent_impulse;
             self.tangent_impulse = total;
             apply_pair(bodies, a, b, self.ra, self.rb, delta);
@@ -299,29 +287,41 @@ impl ContactPatch {
             // at most b Σ P_n (the lever-arm form of rolling friction; Box2D v3's rolling
             // resistance).
             let w = bodies[b].omega_rad_s - bodies[a].omega_rad_s;
-            let (x, y) = (w.dot(self.tangents[0]), w.dot(self.tangents[1]));
-            let k = self.k_roll_inv;
-            let d = -(self.tangents[0] * (k[0] * x + k[1] * y)
-                + self.tangents[1] * (k[2] * x + k[3] * y));
-            let mut total = self.rolling_impulse + d;
-            let max = self.rolling_resistance_m
-                * self
-                    .points
-                    .iter()
-                    .map(|&i| contacts[i].normal_impulse)
-                    .sum::<f64>();
-            let len = total.length();
-            if len > max {
-                total = if max > 0.0 {
-                    total * (max / len)
-                } else {
-                    DVec3::ZERO
-                };
-            }
+            let d = self.tangent_step(self.k_roll_inv, w);
+            let load: f64 = self
+                .points
+                .iter()
+                .map(|&i| contacts[i].normal_impulse)
+                .sum();
+            let total = clamp_length(self.rolling_impulse + d, self.rolling_resistance_m * load);
             let delta = total - self.rolling_impulse;
             self.rolling_impulse = total;
             apply_twist(bodies, a, b, delta);
         }
+    }
+}
+
+impl ContactPatch {
+    /// The impulse in the tangent plane that cancels the tangential part of `w` (a relative
+    /// velocity or angular velocity) through `k_inv`, the inverse of that part's 2×2
+    /// effective mass: −(K⁻¹ (w·t0, w·t1)) in the tangents' basis.
+    fn tangent_step(&self, k_inv: [f64; 4], w: DVec3) -> DVec3 {
+        let [t0, t1] = self.tangents;
+        let (x, y) = (w.dot(t0), w.dot(t1));
+        -(t0 * (k_inv[0] * x + k_inv[1] * y) + t1 * (k_inv[2] * x + k_inv[3] * y))
+    }
+}
+
+/// `v` shortened to length `max` when longer (zero when `max` is not positive): a cone's or a
+/// disc's clamp of an accumulated impulse.
+fn clamp_length(v: DVec3, max: f64) -> DVec3 {
+    let len = v.length();
+    if len <= max {
+        v
+    } else if max > 0.0 {
+        v * (max / len)
+    } else {
+        DVec3::ZERO
     }
 }
 

@@ -604,11 +604,11 @@ mod tests {
             let mut bodies = [SolverBody::immovable(DVec3::ZERO), ball(radius, 0.0)];
             bodies[1].velocity_m_s.x = 1.0;
             bodies[1].omega_rad_s.y = 1.0 / radius;
-            let mut settings = SolverSettings {
+            let settings = SolverSettings {
                 resting_speed_m_s: 2.0 * g * dt,
+                push_iterations: 0,
                 ..SolverSettings::default()
             };
-            settings.push_iterations = 0;
             for _ in 0..200 {
                 bodies[1].velocity_m_s.z -= g * dt;
                 let mut c = vec![ContactPoint {

@@ -97,6 +97,52 @@ fn bounds(particles: &Particles) -> (Vec3A, Vec3A) {
     )
 }
 
+/// Applies `solids` (obstacles and which solid each is) as boundaries on `solver`'s grid, adds
+/// their reactions to `reactions` and returns the solids touched with the normal impulse the
+/// grid gave the deformable there (N s).
+fn apply_obstacles(
+    solver: &mut MpmSolver,
+    (obstacles, of): &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
+    reactions: &mut [Reaction],
+) -> Vec<(ObstacleOf, DVec3)> {
+    if obstacles.is_empty() {
+        return Vec::new();
+    }
+    let v_ref = solver.reference_velocity_m_s();
+    let dx = solver.dx_m;
+    let r = boundary::apply(solver.grid_mut(), dx, v_ref, obstacles);
+    let mut touched = Vec::new();
+    for (r, &k) in r.iter().zip(of) {
+        if r.nodes > 0 {
+            // The grid's normal impulse on the deformable is the solid's reversed.
+            touched.push((k, -r.normal_impulse_n_s));
+        }
+        if let ObstacleOf::Object(k) = k {
+            reactions[k].impulse_n_s += r.impulse_n_s;
+            reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
+            reactions[k].nodes += r.nodes;
+        }
+    }
+    touched
+}
+
+/// Removes the velocity into `solids` of `particles` that lie inside them, after G2P
+/// ([`boundary::project_particles`]), and adds the momentum this takes to the solids'
+/// `reactions`.
+fn project_out_of_solids(
+    particles: &mut Particles,
+    (obstacles, of): &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
+    reactions: &mut [Reaction],
+) {
+    let r = boundary::project_particles(particles, obstacles);
+    for (r, &k) in r.iter().zip(of) {
+        if let ObstacleOf::Object(k) = k {
+            reactions[k].impulse_n_s += r.impulse_n_s;
+            reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
+        }
+    }
+}
+
 /// Which solid an obstacle is.
 type ObstacleOf = super::impact::SolidOf;
 
@@ -156,61 +202,19 @@ impl World {
         (out, of)
     }
 
-    /// Applies the solids near `particles` as boundaries on `solver`'s grid and adds their
-    /// reactions to `reactions`.
-    fn apply_obstacles(
+    /// The solids near `particles` as boundaries for a deformable of friction `friction` on a
+    /// grid of cell `dx_m` (m), with which solid each is; none for no particles. Found once per
+    /// substep: the obstacles' margin (two cells) covers how far G2P then moves the particles.
+    fn obstacles_near(
         &self,
-        solver: &mut MpmSolver,
         particles: &Particles,
         friction: f32,
-        reactions: &mut [Reaction],
-    ) -> Vec<(ObstacleOf, DVec3)> {
-        if particles.is_empty() {
-            return Vec::new();
-        }
-        let (obstacles, of) = self.obstacles(bounds(particles), friction, solver.dx_m);
-        if obstacles.is_empty() {
-            return Vec::new();
-        }
-        let v_ref = solver.reference_velocity_m_s();
-        let dx = solver.dx_m;
-        let r = boundary::apply(solver.grid_mut(), dx, v_ref, &obstacles);
-        let mut touched = Vec::new();
-        for (r, k) in r.iter().zip(of) {
-            if r.nodes > 0 {
-                // The grid's normal impulse on the deformable is the solid's reversed.
-                touched.push((k, -r.normal_impulse_n_s));
-            }
-            if let ObstacleOf::Object(k) = k {
-                reactions[k].impulse_n_s += r.impulse_n_s;
-                reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
-                reactions[k].nodes += r.nodes;
-            }
-        }
-        touched
-    }
-
-    /// Removes the velocity into solids of `particles` that lie inside them, after G2P
-    /// ([`boundary::project_particles`]), and adds the momentum this takes to the solids'
-    /// `reactions`.
-    fn project_out_of_solids(
-        &self,
-        particles: &mut Particles,
-        friction: f32,
         dx_m: f32,
-        reactions: &mut [Reaction],
-    ) {
+    ) -> (Vec<Obstacle<'_>>, Vec<ObstacleOf>) {
         if particles.is_empty() {
-            return;
+            return (Vec::new(), Vec::new());
         }
-        let (obstacles, of) = self.obstacles(bounds(particles), friction, dx_m);
-        let r = boundary::project_particles(particles, &obstacles);
-        for (r, k) in r.iter().zip(of) {
-            if let ObstacleOf::Object(k) = k {
-                reactions[k].impulse_n_s += r.impulse_n_s;
-                reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
-            }
-        }
+        self.obstacles(bounds(particles), friction, dx_m)
     }
 
     /// Method `com`: every awake deformable object runs a whole substep on its own grid, with
@@ -237,15 +241,16 @@ impl World {
             let friction = b.friction;
             let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
             let materials = &self.bodies[k].materials;
+            let solids = self.obstacles_near(&particles, friction, dx);
             let r = solver.scatter_and_update(&particles, &step.input(materials));
             if r.is_ok() {
                 touches.extend(collider_touches(k, &solver));
-                let t = self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
+                let t = apply_obstacles(&mut solver, &solids, &mut reactions);
                 touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
             }
             let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
             if r.is_ok() {
-                self.project_out_of_solids(&mut particles, friction, dx, &mut reactions);
+                project_out_of_solids(&mut particles, &solids, &mut reactions);
             }
             let b = &mut self.bodies[k];
             b.solver = solver;
@@ -298,7 +303,8 @@ impl World {
             let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx_m));
             let friction = b.friction;
             let particles = std::mem::take(&mut b.particles);
-            let t = self.apply_obstacles(&mut solver, &particles, friction, &mut reactions);
+            let solids = self.obstacles_near(&particles, friction, dx_m);
+            let t = apply_obstacles(&mut solver, &solids, &mut reactions);
             touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
             let b = &mut self.bodies[k];
             b.solver = solver;
@@ -312,7 +318,8 @@ impl World {
             let r = b.solver.gather(&mut b.particles, &step.input(&b.materials));
             if r.is_ok() {
                 let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
-                self.project_out_of_solids(&mut particles, friction, dx_m, &mut reactions);
+                let solids = self.obstacles_near(&particles, friction, dx_m);
+                project_out_of_solids(&mut particles, &solids, &mut reactions);
                 self.bodies[k].particles = particles;
             }
             step.finish(&mut self.stats, &mut self.bodies[k], r)?;
@@ -345,7 +352,8 @@ impl World {
         let r = shared.scatter_and_update(&all, &step.input(&materials));
         if r.is_ok() {
             // One grid for every object: no per-object impacts to follow.
-            let _ = self.apply_obstacles(&mut shared, &all, friction, &mut reactions);
+            let solids = self.obstacles_near(&all, friction, dx);
+            let _ = apply_obstacles(&mut shared, &solids, &mut reactions);
         }
         let r = r.and_then(|()| shared.gather(&mut all, &step.input(&materials)));
         self.shared = shared;

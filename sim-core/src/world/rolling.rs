@@ -56,31 +56,24 @@ impl World {
         touches: &[(usize, SolidOf, DVec3)],
         reactions: &mut [Reaction],
     ) {
-        let mut touches = touches.to_vec();
-        touches.sort_by_key(|t| t.0);
-        let mut k_first = 0;
-        while k_first < touches.len() {
-            let k = touches[k_first].0;
-            let end = touches[k_first..]
-                .iter()
-                .position(|t| t.0 != k)
-                .map_or(touches.len(), |n| k_first + n);
-            let own = &touches[k_first..end];
-            k_first = end;
+        // The substep functions list each object's touches together, in object order.
+        for own in touches.chunk_by(|x, y| x.0 == y.0) {
+            let k = own[0].0;
             let b = &self.bodies[k];
             if b.kind != ObjectKind::Deformable || b.sleeping || !self.stepping(k) {
                 continue;
             }
-            let pairs: Vec<(f64, SolidOf, DVec3, DVec3)> = own
-                .iter()
-                .filter_map(|&(_, solid, j)| {
-                    let (b_solid, omega) = self.solid_rolling(solid);
-                    let arm = f64::from(b.rolling_resistance_m.max(b_solid));
-                    (arm > 0.0 && j.is_finite() && j != DVec3::ZERO)
-                        .then_some((arm, solid, j, omega))
-                })
-                .collect();
-            if pairs.is_empty() {
+            // The pair's lever arm b for each touch (0: no rolling resistance there).
+            let arm = |&(_, solid, j): &(usize, SolidOf, DVec3)| {
+                let b_solid = self.solid_rolling(solid).0;
+                let arm = f64::from(b.rolling_resistance_m.max(b_solid));
+                if j.is_finite() && j != DVec3::ZERO {
+                    arm
+                } else {
+                    0.0
+                }
+            };
+            if !own.iter().any(|t| arm(t) > 0.0) {
                 continue;
             }
             let s = measure(&b.particles, b.dx_m());
@@ -89,7 +82,12 @@ impl World {
             }
             let mut omega = s.angular_velocity();
             let mut total = DVec3::ZERO;
-            for (arm, solid, j, omega_solid) in pairs {
+            for touch @ &(_, solid, j) in own {
+                let arm = arm(touch);
+                if arm <= 0.0 {
+                    continue;
+                }
+                let omega_solid = self.solid_rolling(solid).1;
                 let n = j.normalize();
                 let relative = omega - omega_solid;
                 let rolling = relative - n * relative.dot(n);
