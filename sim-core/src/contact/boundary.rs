@@ -14,12 +14,16 @@
 //!
 //! Grid nodes sample a solid's surface only every cell, so on a rough solid (captured ground,
 //! whose surface varies within a cell) particles can sink between nodes well inside it. After
-//! G2P, [`project_particles`] therefore removes the velocity into the solid (relative to the
-//! solid's, along its normal) of every particle that lies inside one, a particle-level collision
-//! (Jiang et al. 2016, course notes, section 12); its momentum change is part of the solid's
-//! reaction. Positions are left alone: moving a particle out without its deformation gradient
-//! feeds energy back every substep (a jelly robot on captured grass, pushed out, never came to
-//! rest).
+//! G2P, [`project_particles`] therefore gives every particle that lies inside a solid, at depth
+//! d, a normal velocity relative to the solid of at least the push-out speed
+//! min(d / [`PUSH_OUT_TIME_S`], [`MAX_PUSH_OUT_M_S`]): a particle-level collision (Jiang et al.
+//! 2016, course notes, section 12) with a Baumgarte-style bias (Baumgarte 1972; Catto 2005,
+//! "Iterative dynamics with temporal coherence") that relaxes the depth over the push-out time.
+//! The velocity reaches the grid at the next P2G, so the material around the particle moves out
+//! with it and its deformation gradient follows; its momentum change is part of the solid's
+//! reaction. Positions are never moved directly: moving a particle out without its deformation
+//! gradient feeds energy back every substep (a jelly robot on captured grass, pushed out that
+//! way, never came to rest).
 
 use glam::{DVec3, IVec3, Vec3A};
 use rayon::prelude::*;
@@ -159,8 +163,19 @@ fn sum_in_order(parts: &[Vec<Reaction>], n: usize) -> Vec<Reaction> {
 /// thread count).
 const PROJECTION_CHUNK: usize = 4096;
 
-/// Removes the velocity into the solid of every particle of `particles` that lies inside one of
-/// `obstacles` (module docs); returns each obstacle's reaction, in order.
+/// Time over which [`project_particles`] relaxes a particle's depth in a solid (s): the push-out
+/// speed is depth / this. Long against a substep (the push acts through the grid over many
+/// substeps, so it does not ring), short against settling: a particle 1 cm deep leaves at
+/// 0.2 m/s. A jelly robot on captured grass (4 cm grid) comes to rest with it at 0.05 s; at
+/// 0.01 s it kept bouncing.
+pub const PUSH_OUT_TIME_S: f32 = 0.05;
+/// Largest push-out speed of [`project_particles`] (m/s): bounds the kinetic energy the
+/// push-out can give a particle, ½ m (0.3 m/s)², whatever its depth.
+pub const MAX_PUSH_OUT_M_S: f32 = 0.3;
+
+/// Gives every particle of `particles` that lies inside one of `obstacles` a normal velocity
+/// relative to the solid of at least its push-out speed, so it stops sinking and leaves over
+/// [`PUSH_OUT_TIME_S`] (module docs); returns each obstacle's reaction, in order.
 pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> Vec<Reaction> {
     let n = obstacles.len();
     if n == 0 {
@@ -187,7 +202,8 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
                     }
                     let r = x[i] - pose.com_m;
                     let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
-                    let into = (v[i] - solid_v).dot(normal);
+                    let push = (-phi / PUSH_OUT_TIME_S).min(MAX_PUSH_OUT_M_S);
+                    let into = (v[i] - solid_v).dot(normal) - push;
                     if into < 0.0 {
                         v[i] -= normal * into;
                         let dp = (normal * -into * m[i]).as_dvec3();
@@ -202,4 +218,73 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
         })
         .collect();
     sum_in_order(&per_chunk, n)
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Quat;
+
+    use super::*;
+    use crate::contact::Geometry;
+    use crate::procedural::Shape;
+
+    /// A static slab with its top face at z = 0 (m).
+    fn slab() -> Geometry {
+        Geometry::Analytic(Shape::Box {
+            min_m: [-1.0, -1.0, -0.5],
+            max_m: [1.0, 1.0, 0.0],
+        })
+    }
+
+    fn obstacle(g: &Geometry) -> Obstacle<'_> {
+        Obstacle {
+            placed: Placed {
+                geometry: g,
+                points: &[],
+                pose: crate::contact::Pose {
+                    rest_com_m: Vec3A::ZERO,
+                    com_m: Vec3A::ZERO,
+                    rotation: Quat::IDENTITY,
+                },
+                bounds_m: (Vec3A::new(-1.0, -1.0, -0.5), Vec3A::new(1.0, 1.0, 0.0)),
+            },
+            velocity_m_s: Vec3A::ZERO,
+            omega_rad_s: Vec3A::ZERO,
+            friction: 0.5,
+            surface: Surface::Separate,
+        }
+    }
+
+    #[test]
+    fn a_particle_inside_a_solid_leaves_at_its_push_out_speed_and_the_solid_takes_the_momentum() {
+        let g = slab();
+        let obstacles = [obstacle(&g)];
+        let mut p = Particles::default();
+        // Sinking 1 mm deep (push-out 0.02 m/s), sinking 5 cm deep (capped at 0.3 m/s), leaving
+        // faster than its push-out (kept), sliding above the surface (kept).
+        let cases = [
+            (-0.001, Vec3A::new(0.1, 0.0, -0.5), 0.001 / PUSH_OUT_TIME_S),
+            (-0.05, Vec3A::new(0.0, 0.0, -0.5), MAX_PUSH_OUT_M_S),
+            (-0.001, Vec3A::new(0.0, 0.0, 1.0), 1.0),
+            (0.001, Vec3A::new(0.0, 0.0, -0.5), -0.5),
+        ];
+        for (z, v, _) in cases {
+            p.push(Vec3A::new(0.0, 0.0, z), v, 2.0, 1e-3, 0, 0, 0.0);
+        }
+        let r = project_particles(&mut p, &obstacles);
+        let mut gained = DVec3::ZERO;
+        for (i, (_, v0, vz)) in cases.iter().enumerate() {
+            assert!(
+                (p.v[i].z - vz).abs() < 1e-6,
+                "particle {i}: v_z {}",
+                p.v[i].z
+            );
+            // The tangential velocity is the grid's business, not the push-out's.
+            assert_eq!((p.v[i].x, p.v[i].y), (v0.x, v0.y));
+            gained += ((p.v[i] - *v0) * 2.0).as_dvec3();
+        }
+        // Momentum conservation: what the particles gained, the solid received reversed.
+        assert!((r[0].impulse_n_s + gained).length() < 1e-9);
+        assert!((r[0].normal_impulse_n_s - r[0].impulse_n_s).length() < 1e-12);
+    }
 }
