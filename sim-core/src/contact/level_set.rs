@@ -35,6 +35,10 @@ pub struct LevelSet {
     phi_m: Vec<f32>,
     /// Boundary face centres (m), one per solid cell face that borders an empty cell.
     faces: Vec<Vec3A>,
+    /// `[faces]` the axis each face is normal to (0, 1, 2).
+    axes: Vec<u8>,
+    /// The face centres for range queries ([`Self::faces_near`]); `None` without faces.
+    tree: Option<Box<ImmutableKdTree<f32, u32, 3, 32>>>,
 }
 
 /// Solid cells of a point set on a cell grid: `dims` cells from `origin_m`, spacing `h_m`.
@@ -208,6 +212,7 @@ impl LevelSet {
         let dims = cells.dims.map(|d| d + 1);
         let [nx, ny, nz] = dims;
         let mut phi_m = vec![f32::INFINITY; nx * ny * nz];
+        let mut kept_tree = None;
         if !faces.is_empty() {
             let points: Vec<[f32; 3]> = faces.iter().map(|f| f.to_array()).collect();
             let tree: ImmutableKdTree<f32, u32, 3, 32> = ImmutableKdTree::new_from_slice(&points);
@@ -231,6 +236,7 @@ impl LevelSet {
                     }
                 }
             }
+            kept_tree = Some(Box::new(tree));
         }
         Self {
             origin_m: cells.origin_m,
@@ -238,7 +244,35 @@ impl LevelSet {
             dims,
             phi_m,
             faces,
+            axes: axes.into_iter().map(|a| a as u8).collect(),
+            tree: kept_tree,
         }
+    }
+
+    /// The boundary faces within `reach_m` of `x` (m), each as its index into
+    /// [`Self::surface_points`], the point of the face (a square of side h) closest to `x`, and
+    /// whether that point is `x`'s projection onto the face's plane (not clipped to its edges).
+    /// The union of the faces is the surface the level set's distance is measured to, so the
+    /// nearest of these points is the surface point nearest `x` (in no particular order).
+    pub fn faces_near(&self, x: Vec3A, reach_m: f32) -> Vec<(u32, Vec3A, bool)> {
+        let Some(tree) = &self.tree else {
+            return Vec::new();
+        };
+        // A face's points lie within h/√2 of its centre.
+        let r = reach_m + self.h_m * std::f32::consts::FRAC_1_SQRT_2;
+        let half = Vec3A::splat(0.5 * self.h_m);
+        tree.within_unsorted::<SquaredEuclidean>(&x.to_array(), r * r)
+            .into_iter()
+            .filter_map(|nn| {
+                let f = nn.item as usize;
+                let (c, axis) = (self.faces[f], self.axes[f] as usize);
+                let mut offset = x - c;
+                offset[axis] = 0.0;
+                let projected = offset.abs().cmple(half).all();
+                let q = c + offset.clamp(-half, half);
+                ((x - q).length() <= reach_m).then_some((nn.item, q, projected))
+            })
+            .collect()
     }
 
     /// Node spacing h (m).

@@ -13,7 +13,8 @@
 //! collider) is one point instead, from the other's signed distance at the sphere's centre, as
 //! rigid-body engines do: the sphere's surface points are a polyhedron of the lattice's spacing, and a
 //! polyhedron rolling on its vertices brakes (a 5 cm rigid ball rolling at 0.3 m/s slowed at
-//! about 0.15 m/s² on its points).
+//! about 0.15 m/s² on its points). Against a sampled surface (a level set) a sphere touches the
+//! level set's faces at their points nearest its centre ([`sphere_on_sampled`]).
 
 use glam::Vec3A;
 
@@ -236,6 +237,70 @@ fn sphere_contact(
     }]
 }
 
+/// The contacts of sphere `s` (centre in its rest frame, radius) posed by `pose` with a sampled
+/// surface `into` (a level set): for each boundary face of the level set within the margin of the
+/// sphere, the face's point nearest the centre, with the normal from the centre to it (from the
+/// sphere into the surface) and its distance minus the radius as the separation, the way engines
+/// touch a sphere to a mesh, face by face. The faces tile the surface, so on a flat surface the
+/// deepest point is the one below the centre and moves with it, and a ball rolls on as on a
+/// plane; on the sphere's own sampled points it would roll on a polyhedron's vertices, each a
+/// small inelastic impact. Features carry `flag` and the face index. `None` when `into` is not
+/// sampled or the centre lies inside it (then the points decide).
+fn sphere_on_sampled(
+    (centre, radius): (Vec3A, f32),
+    pose: Pose,
+    into: &Placed,
+    margin_m: f32,
+    flag: u32,
+) -> Option<Vec<RawContact>> {
+    let Geometry::Sampled(ls) = into.geometry else {
+        return None;
+    };
+    let c = into.pose.to_rest(pose.to_world(centre));
+    let phi = ls.sample(c).0;
+    if phi.is_nan() || phi < 0.0 {
+        return None;
+    }
+    let mut near = ls.faces_near(c, radius + margin_m);
+    near.sort_unstable_by(|(fa, qa, _), (fb, qb, _)| {
+        (qa - c)
+            .length_squared()
+            .total_cmp(&(qb - c).length_squared())
+            .then(fa.cmp(fb))
+    });
+    // Where the distance from the centre has a minimum: the nearest point of all (on an edge or
+    // a corner when the ball hangs over one), and every face the centre projects into (the
+    // floor below it, a wall beside it). A face whose nearest point is clipped to its edge
+    // merely borders a nearer one: its point would be a second contact of the same surface with
+    // a tilted normal. Faces meeting at the same point count once.
+    let mut kept: Vec<(u32, Vec3A)> = Vec::new();
+    for (k, &(face, q, projected)) in near.iter().enumerate() {
+        let distinct = kept
+            .iter()
+            .all(|(_, p)| (*p - q).length() > 1e-3 * ls.spacing_m());
+        if (k == 0 || projected) && distinct {
+            kept.push((face, q));
+        }
+    }
+    let mut out = Vec::new();
+    for (face, q) in kept {
+        let d = (q - c).length();
+        let Some(n0) = (q - c).try_normalize() else {
+            continue;
+        };
+        let normal = into.pose.rotation * n0;
+        let separation = d - radius;
+        out.push(RawContact {
+            point_m: into.pose.to_world(c) + normal * (radius + 0.5 * separation),
+            normal,
+            separation_m: separation,
+            feature: face | flag,
+        });
+    }
+    out.sort_unstable_by_key(|c| c.feature);
+    Some(reduce(out, margin_m))
+}
+
 /// `into`'s signed distance (m) and outward normal (world frame) at world point `x`.
 fn surface_at(into: &Placed, x: Vec3A) -> (f32, Vec3A) {
     let (phi, n0) = into.geometry.distance(into.pose.to_rest(x));
@@ -257,6 +322,19 @@ pub fn between(a: &Placed, b: &Placed, margin_m: f32) -> Vec<RawContact> {
         for c in &mut out {
             c.normal = -c.normal;
             c.feature = FEATURE_OF_B;
+        }
+        return out;
+    }
+    if let Some(s) = sphere(a.geometry)
+        && let Some(out) = sphere_on_sampled(s, a.pose, b, margin_m, 0)
+    {
+        return out;
+    }
+    if let Some(s) = sphere(b.geometry)
+        && let Some(mut out) = sphere_on_sampled(s, b.pose, a, margin_m, FEATURE_OF_B)
+    {
+        for c in &mut out {
+            c.normal = -c.normal;
         }
         return out;
     }
@@ -386,6 +464,52 @@ mod tests {
             assert!((c[0].point_m - expected).length() < 1e-6, "{c:?}");
         }
         assert!(between(&b, &t, 5e-4).is_empty());
+    }
+
+    #[test]
+    fn a_sphere_on_a_sampled_surface_touches_each_part_of_it_once() {
+        // A level set (1 cm cells) of a floor, top at z = 0, and of a wall whose face is at
+        // x = 0.06; a 5 cm sphere 0.5 mm above the floor and 0.5 mm into the wall: one point
+        // below its centre on the floor, one level with it on the wall, normals from the sphere
+        // into each, whichever way round the pair is given.
+        let mut points = Vec::new();
+        for i in 0..40 {
+            for j in 0..40 {
+                let (x, y) = (
+                    -0.2 + 0.01 * i as f32 + 0.005,
+                    -0.2 + 0.01 * j as f32 + 0.005,
+                );
+                points.push(Vec3A::new(x, y, -0.005));
+                points.push(Vec3A::new(0.065, y, 0.005 + 0.005 * i as f32));
+            }
+        }
+        let ls = crate::contact::LevelSet::from_points(&points, 0.01, 1 << 22).unwrap();
+        let scene = Geometry::Sampled(ls);
+        let ball = Geometry::Analytic(Shape::Sphere {
+            center_m: [0.0105, 0.0, 0.0505],
+            radius_m: 0.05,
+        });
+        let (pb, ps) = (ball.surface_points(0.01), scene.surface_points(0.01));
+        let (b, t) = (
+            placed(&ball, &pb, Pose::IDENTITY),
+            placed(&scene, &ps, Pose::IDENTITY),
+        );
+        for (mut c, sign) in [(between(&b, &t, 0.01), 1.0), (between(&t, &b, 0.01), -1.0)] {
+            c.sort_by(|p, q| p.normal.z.total_cmp(&q.normal.z));
+            assert_eq!(c.len(), 2, "{c:?}");
+            let (floor, wall) = (
+                c[if sign > 0.0 { 0 } else { 1 }],
+                c[if sign > 0.0 { 1 } else { 0 }],
+            );
+            assert!(
+                (floor.normal - sign * -Vec3A::Z).length() < 1e-5,
+                "{floor:?}"
+            );
+            assert!((floor.separation_m - 5e-4).abs() < 1e-5, "{floor:?}");
+            assert!((floor.point_m - Vec3A::new(0.0105, 0.0, 0.00025)).length() < 1e-5);
+            assert!((wall.normal - sign * Vec3A::X).length() < 1e-5, "{wall:?}");
+            assert!((wall.separation_m + 5e-4).abs() < 1e-5, "{wall:?}");
+        }
     }
 
     #[test]
