@@ -14,7 +14,7 @@
 //! rigid-body engines do: the sphere's surface points are a polyhedron of the lattice's spacing, and a
 //! polyhedron rolling on its vertices brakes (a 5 cm rigid ball rolling at 0.3 m/s slowed at
 //! about 0.15 m/s² on its points). Against a sampled surface (a level set) a sphere touches the
-//! level set's faces at their points nearest its centre ([`sphere_on_sampled`]).
+//! level set's faces at their points nearest its centre (`sphere_on_sampled`).
 
 use glam::Vec3A;
 
