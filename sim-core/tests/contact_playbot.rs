@@ -98,9 +98,10 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
             // robot's (a 1 m jelly sags) and comes to rest. Some of its Gaussians end below
             // the tallest grass Gaussian within 1 cm, up to 5 cm (not asserted): up to 1 cm
             // inside the collision surface (its grid meets the ground every 4 cm), the rest
-            // between sparse blades that stand above the collision surface. Ruled out here: falling through the ground (the patch
-            // lies at z ≈ 0 to 0.1 m; on a 2 cm grid with one particle per cell the robot
-            // flowed through it, COM 0.07 m at 2 s and falling).
+            // between sparse blades that stand above the collision surface. Ruled out here:
+            // falling through the ground (the patch lies at z ≈ 0 to 0.1 m; on a 2 cm grid
+            // with one particle per cell the robot flowed through it, COM 0.07 m at 2 s and
+            // falling).
             _ => {
                 assert!(speed < 0.01, "{kind:?} still moving at {speed} m/s");
                 assert!(o.com_m[2] > 0.1, "{kind:?} sank into the ground");

@@ -1,7 +1,8 @@
 //! Rolling resistance (release build): a couple of at most b N against rolling, for rigid
 //! objects in the contact solver and for deformable objects on their grids. A rolling ball
-//! slows at (5/7) g b / R: a rigid ball in a whole scene here (and the solver alone in
-//! `contact::solver`'s unit tests); a jelly ball that rocks on without it comes to rest with it.
+//! slows at (5/7) g b / R: a rigid ball in a whole scene here, on a procedural and on a captured
+//! table (and the solver alone in `contact::solver`'s unit tests); a jelly ball that rocks on
+//! without it comes to rest with it.
 
 use splatphys_core::formats::ply::write_ply;
 use splatphys_core::gaussians::GaussianCloud;
