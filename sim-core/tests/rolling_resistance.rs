@@ -32,7 +32,12 @@ fn velocities(ball: ObjectBuilder, surface: Surface, duration_s: f64) -> Vec<[f6
         .object(table(surface))
         .build()
         .expect("scene");
-    let mut w = World::from_scene(&scene).expect("world");
+    frame_velocities(&scene)
+}
+
+/// Object 0's COM velocity at the end of every frame of `scene`.
+fn frame_velocities(scene: &Scene) -> Vec<[f64; 3]> {
+    let mut w = World::from_scene(scene).expect("world");
     let mut out = Vec::new();
     while !w.is_finished() {
         w.advance_frame().expect("step");
@@ -76,11 +81,9 @@ fn a_rigid_ball_rolls_on_without_rolling_resistance_and_slows_at_the_closed_form
     );
 }
 
-/// The rigid 5 cm ball's COM velocity at every frame (50 frames/s, 1 cm grid, 0.6 s), thrown
-/// at 0.5 m/s along a captured table: the background of a PLY written to `dir`, 1 m × 0.3 m of
-/// opaque Gaussians 5 mm apart in two layers, top layer at z = −2.5 mm (so the level set's top
-/// face is z = 0).
-fn on_a_captured_table(dir: &std::path::Path, b: f32) -> Vec<[f64; 3]> {
+/// Writes `table.ply` to `dir`: a captured table, 1 m × 0.3 m of opaque Gaussians 5 mm apart in
+/// two layers, top layer at z = −2.5 mm (so its level set's top face is z = 0).
+fn write_captured_table(dir: &std::path::Path) {
     let h = 0.005f32;
     let mut table = GaussianCloud::with_capacity(0, 0);
     for i in 0..200 {
@@ -99,6 +102,12 @@ fn on_a_captured_table(dir: &std::path::Path, b: f32) -> Vec<[f64; 3]> {
         }
     }
     write_ply(dir.join("table.ply"), &table, &[]).expect("ply");
+}
+
+/// The rigid 5 cm ball's COM velocity at every frame (50 frames/s, 1 cm grid, 0.6 s), thrown
+/// at 0.5 m/s along the captured table of [`write_captured_table`] in `dir` (the scene's
+/// background), with rolling resistance `b` (m).
+fn on_a_captured_table(dir: &std::path::Path, b: f32) -> Vec<[f64; 3]> {
     let text = format!(
         r#"
 [simulation]
@@ -122,14 +131,7 @@ rolling_resistance_m = {b}
 velocity_m_s = [0.5, 0.0, 0.0]
 "#
     );
-    let scene = load_scene_str(&text, dir).expect("scene");
-    let mut w = World::from_scene(&scene).expect("world");
-    let mut out = Vec::new();
-    while !w.is_finished() {
-        w.advance_frame().expect("step");
-        out.push(w.objects()[0].velocity_m_s);
-    }
-    out
+    frame_velocities(&load_scene_str(&text, dir).expect("scene"))
 }
 
 #[test]
@@ -141,6 +143,7 @@ fn a_rigid_ball_rolls_on_a_captured_table_as_on_an_exact_one() {
     // b = 2 mm slows it at (5/7) g b / R to 5 % (the free ball's own slowing, about 0.01 m/s²,
     // is 4 % of that).
     let dir = tempfile::tempdir().expect("tempdir");
+    write_captured_table(dir.path());
     let rolling = 5.0 / 7.0 * 0.5;
     let free = on_a_captured_table(dir.path(), 0.0);
     let resisted = on_a_captured_table(dir.path(), 0.002);
