@@ -72,15 +72,19 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
             .map(|g| robot.gaussian_pose(g).0.to_array())
             .collect();
         let ground = ground_heights(&w, &points, 0.01);
-        let worst = points
+        let depths: Vec<f32> = points
             .iter()
             .zip(&ground)
             .filter_map(|(p, g)| g.map(|g| g - p[2]))
-            .fold(f32::NEG_INFINITY, f32::max);
+            .collect();
+        let worst = depths.iter().copied().fold(f32::NEG_INFINITY, f32::max);
         println!(
-            "{kind:?}: COM z {:.4} m, speed {speed:.4} m/s, deepest Gaussian {:.1} mm below the ground",
+            "{kind:?}: COM z {:.4} m, speed {speed:.4} m/s, deepest Gaussian {:.1} mm below the \
+             ground, {} of {} opaque Gaussians more than 1 cm below it",
             o.com_m[2],
-            worst * 1e3
+            worst * 1e3,
+            depths.iter().filter(|&&d| d > 0.01).count(),
+            points.len()
         );
         assert!(o.com_m[2] < 0.6, "{kind:?} did not fall");
         match kind {

@@ -307,31 +307,36 @@ fn surface_at(into: &Placed, x: Vec3A) -> (f32, Vec3A) {
     (phi, into.pose.rotation * n0)
 }
 
+/// The contacts of sphere `s` posed by `pose` with `other` (normals from the sphere into it,
+/// features carrying `flag`): one exact point against an exact surface ([`sphere_contact`]), the
+/// nearest face points against a level set ([`sphere_on_sampled`]); `None` when the centre lies
+/// inside the level set (then the points decide).
+fn sphere_against(
+    s: (Vec3A, f32),
+    pose: Pose,
+    other: &Placed,
+    margin_m: f32,
+    flag: u32,
+) -> Option<Vec<RawContact>> {
+    if matches!(other.geometry, Geometry::Sampled(_)) {
+        return sphere_on_sampled(s, pose, other, margin_m, flag);
+    }
+    let mut out = sphere_contact(s, pose, |x| Some(surface_at(other, x)), margin_m);
+    for c in &mut out {
+        c.feature = flag;
+    }
+    Some(out)
+}
+
 /// Contact points of `a` and `b` (normals from A to B) closer than `margin_m`.
 pub fn between(a: &Placed, b: &Placed, margin_m: f32) -> Vec<RawContact> {
-    let exact = |g: &Geometry| !matches!(g, Geometry::Sampled(_));
     if let Some(s) = sphere(a.geometry)
-        && exact(b.geometry)
-    {
-        return sphere_contact(s, a.pose, |x| Some(surface_at(b, x)), margin_m);
-    }
-    if let Some(s) = sphere(b.geometry)
-        && exact(a.geometry)
-    {
-        let mut out = sphere_contact(s, b.pose, |x| Some(surface_at(a, x)), margin_m);
-        for c in &mut out {
-            c.normal = -c.normal;
-            c.feature = FEATURE_OF_B;
-        }
-        return out;
-    }
-    if let Some(s) = sphere(a.geometry)
-        && let Some(out) = sphere_on_sampled(s, a.pose, b, margin_m, 0)
+        && let Some(out) = sphere_against(s, a.pose, b, margin_m, 0)
     {
         return out;
     }
     if let Some(s) = sphere(b.geometry)
-        && let Some(mut out) = sphere_on_sampled(s, b.pose, a, margin_m, FEATURE_OF_B)
+        && let Some(mut out) = sphere_against(s, b.pose, a, margin_m, FEATURE_OF_B)
     {
         for c in &mut out {
             c.normal = -c.normal;
