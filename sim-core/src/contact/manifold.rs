@@ -11,10 +11,10 @@
 //!
 //! A procedural sphere against an exact convex surface (another procedural shape, a plane or box
 //! collider) is one point instead, from the other's signed distance at the sphere's centre, as
-//! rigid-body engines do: the sphere's surface points are a polyhedron of the lattice's spacing, and a
-//! polyhedron rolling on its vertices brakes (a 5 cm rigid ball rolling at 0.3 m/s slowed at
-//! about 0.15 m/s² on its points). Against a sampled surface (a level set) a sphere touches the
-//! level set's faces at their points nearest its centre (`sphere_on_sampled`).
+//! rigid-body engines do: the sphere's surface points are a polyhedron of the lattice's spacing,
+//! and a polyhedron rolling on its vertices brakes (each vertex arriving is a small inelastic
+//! impact). Against a sampled surface (a level set) a sphere touches the level set's faces at
+//! their points nearest its centre (`sphere_on_sampled`).
 
 use glam::Vec3A;
 
