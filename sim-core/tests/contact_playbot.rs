@@ -100,9 +100,10 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
             // spacings; the scene's damping 300 Pa·s and rolling resistance 1 cm) keeps its
             // shape on the captured grass with its COM about 0.1 m lower than the rigid
             // robot's (a 1 m jelly sags) and comes to rest. Some of its Gaussians end below
-            // the tallest grass Gaussian within 1 cm, up to 5 cm (not asserted): up to 1 cm
-            // inside the collision surface (its grid meets the ground every 4 cm), the rest
-            // between sparse blades that stand above the collision surface. Ruled out here:
+            // the tallest grass Gaussian within 1 cm, up to 5 cm (not asserted): the deepest
+            // lie inside a tuft of grass ~2 cm across and 9 cm tall, solid in the collision
+            // surface but narrower than the robot's 4 cm grid cell, which the jelly closes
+            // around. Ruled out here:
             // falling through the ground (the patch lies at z ≈ 0 to 0.1 m; on a 2 cm grid
             // with one particle per cell the robot flowed through it, COM 0.07 m at 2 s and
             // falling).
