@@ -5,9 +5,10 @@
 //! Broad phase: bounding spheres (eq. 3: |c_i - c_j| <= r_i + r_j) and boxes. Narrow phase
 //! ([`narrow`]): the overlap of the two objects' occupied grid cells, grouped into patches of at
 //! most 5 cells across. Each patch has its own contact zone (each object's particles in its
-//! cells), contact point (the midpoint of the two zones' centroids) and normal n (from A to B:
-//! the difference of the objects' outward normals there, each the least-variance direction of
-//! that object's particles within 3 cells of the point). So a plank across a trough, a peg
+//! cells), contact point and normal n (from A to B): from the midpoint of the two zones'
+//! centroids, each object's outward normal there (the least-variance direction of its particles
+//! within 3 cells) and curvature, combined so that the flatter surface decides the normal and
+//! the point lies where the two surfaces' osculating spheres touch. So a plank across a trough, a peg
 //! against both sides of a hole, or any non-convex pair gets one normal per place of contact
 //! rather than one for the whole pair; a head-on impact of two spheres is one patch on the axis.
 //!

@@ -227,14 +227,14 @@ pub fn narrow_phase(
 ) -> Option<Manifold> {
     let inv_h = 1.0 / cell_m;
     // Only particles inside the boxes' overlap (grown by a cell) can share a cell, and the
-    // normal below looks 3 cells around each contact point (which lies in that grown overlap):
-    // one pass per body keeps the particles of the overlap grown by 4 cells, and everything
-    // after works on those.
+    // normal below looks 3 cells around each contact point (which lies in that grown overlap)
+    // and around points a cell to either side of it: one pass per body keeps the particles of
+    // the overlap grown by 5 cells, and everything after works on those.
     let lo = sa.aabb_m.0.max(sb.aabb_m.0) - DVec3::splat(cell_m as f64);
     let hi = sa.aabb_m.1.min(sb.aabb_m.1) + DVec3::splat(cell_m as f64);
     let (lo3, hi3) = (
-        (lo - DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
-        (hi + DVec3::splat(3.0 * cell_m as f64)).as_vec3a(),
+        (lo - DVec3::splat(4.0 * cell_m as f64)).as_vec3a(),
+        (hi + DVec3::splat(4.0 * cell_m as f64)).as_vec3a(),
     );
     let near = |body: &Body| -> Vec<u32> {
         (0..body.particles.len() as u32)
@@ -303,23 +303,33 @@ pub fn narrow_phase(
         }
         mx / m.max(f64::MIN_POSITIVE)
     };
-    // Each patch's outward surface normals from the particles within 3 cells of its point
-    // ([`surface_normal`]): robust even when its zones hold a handful of particles (zone
-    // centroids alone are not).
+    // Each patch's normal and point from the two surfaces near the zones' midpoint: robust even
+    // when its zones hold a handful of particles (zone centroids alone are not). Groups, which
+    // only need to know which way they face, take the difference of the two outward normals
+    // ([`surface_normal`]); the patches they make, the full [`contact_frame`].
     let reach_m = 3.0 * cell_m as f64;
-    let patch = |zone_a: Vec<u32>, zone_b: Vec<u32>, seeds: Vec<IVec3>| {
+    let patch = |zone_a: Vec<u32>, zone_b: Vec<u32>, seeds: Vec<IVec3>, refine: bool| {
         let (ca, cb) = (centroid(a, &zone_a), centroid(b, &zone_b));
         let point = (ca + cb) * 0.5;
-        let outward = |body: &Body, near: &[u32]| surface_normal(body, near, point, reach_m);
-        let normal = match (outward(a, &near_a), outward(b, &near_b)) {
-            (Some(na), Some(nb)) => (na - nb).try_normalize(),
-            (Some(na), None) => Some(na),
-            (None, Some(nb)) => Some(-nb),
-            (None, None) => None,
-        }
-        .or_else(|| (cb - ca).try_normalize())
-        .or_else(|| (sb.com_m - sa.com_m).try_normalize())
-        .unwrap_or(DVec3::Z);
+        let frame = if refine {
+            contact_frame([a, b], [&near_a, &near_b], point, cell_m as f64)
+        } else {
+            let outward = |body: &Body, near: &[u32]| surface_normal(body, near, point, reach_m);
+            match (outward(a, &near_a), outward(b, &near_b)) {
+                (Some(na), Some(nb)) => (na - nb).try_normalize(),
+                (Some(na), None) => Some(na),
+                (None, Some(nb)) => Some(-nb),
+                (None, None) => None,
+            }
+            .map(|n| (n, point))
+        };
+        let (normal, point) = frame.unwrap_or_else(|| {
+            let n = (cb - ca)
+                .try_normalize()
+                .or_else(|| (sb.com_m - sa.com_m).try_normalize())
+                .unwrap_or(DVec3::Z);
+            (n, point)
+        });
         Patch {
             normal,
             point_m: point,
@@ -333,7 +343,7 @@ pub fn narrow_phase(
         .zip(zones_b)
         .zip(seeds)
         .filter(|((za, zb), _)| !za.is_empty() && !zb.is_empty())
-        .map(|((za, zb), seed)| patch(za, zb, vec![seed]))
+        .map(|((za, zb), seed)| patch(za, zb, vec![seed], false))
         .collect();
     // Groups that face the same way are one smooth contact (two spheres, two flat faces, a
     // plank on two supports): merged, they get one point and one normal from all their
@@ -341,16 +351,13 @@ pub fn narrow_phase(
     let patches = merge_smooth(groups)
         .into_iter()
         .map(|members| {
-            if members.len() == 1 {
-                return members.into_iter().next().expect("one member");
-            }
             let mut merged = (Vec::new(), Vec::new(), Vec::new());
             for m in members {
                 merged.0.extend(m.zone_a);
                 merged.1.extend(m.zone_b);
                 merged.2.extend(m.seeds);
             }
-            patch(merged.0, merged.1, merged.2)
+            patch(merged.0, merged.1, merged.2, true)
         })
         .collect::<Vec<_>>();
     (!patches.is_empty()).then_some(Manifold {
@@ -374,45 +381,127 @@ pub fn narrow_phase(
 /// or a spread with no clear thin direction (smallest variance above half the middle one: a
 /// point deep inside, a line of particles), fall back to the direction from the centroid.
 pub fn surface_normal(body: &Body, near: &[u32], point: DVec3, reach_m: f64) -> Option<DVec3> {
+    let mut moments = Moments::default();
+    for &i in near {
+        moments.add_within(body, i, point, reach_m * reach_m);
+    }
+    moments.normal()
+}
+
+/// Mass moments of particles about a sample point, for [`surface_normal`] there.
+#[derive(Debug, Clone, Copy, Default)]
+struct Moments {
+    count: usize,
+    /// Σ m (kg).
+    m_kg: f64,
+    /// Σ m d, d the offset from the sample point (kg m).
+    first: DVec3,
+    /// Σ m d dᵀ (kg m²).
+    second: DMat3,
+}
+
+impl Moments {
+    /// Adds particle `i` of `body` when it lies within √`reach2` (m) of `point`.
+    fn add_within(&mut self, body: &Body, i: u32, point: DVec3, reach2: f64) {
+        let d = body.particles.x[i as usize].as_dvec3() - point;
+        if d.length_squared() <= reach2 {
+            let m = body.particles.mass_kg[i as usize] as f64;
+            self.count += 1;
+            self.m_kg += m;
+            self.first += d * m;
+            self.second += outer(d, d) * m;
+        }
+    }
+
+    /// The outward normal at the sample point ([`surface_normal`]).
+    fn normal(&self) -> Option<DVec3> {
+        if self.m_kg <= 0.0 || !self.m_kg.is_finite() {
+            return None;
+        }
+        let centroid = self.first / self.m_kg;
+        let from_centroid = (-centroid).try_normalize();
+        if self.count < 4 {
+            return from_centroid;
+        }
+        let cov = self.second * (1.0 / self.m_kg) - outer(centroid, centroid);
+        let svd = crate::math::svd3(glam::Mat3A::from(cov.as_mat3()));
+        let (s1, s2) = (svd.sigma.y as f64, svd.sigma.z as f64);
+        let thin = s2 <= 0.5 * s1; // false for NaN too
+        if !thin {
+            return from_centroid;
+        }
+        let n = svd.v.z_axis.as_dvec3().try_normalize()?;
+        let out = from_centroid.unwrap_or(n);
+        Some(if n.dot(out) < 0.0 { -n } else { n })
+    }
+}
+
+/// The normal (from A to B) and point of a patch whose zones' midpoint is `point` (m), from
+/// the two objects' particles `near` (cells of `cell_m`); `None` when neither has particles
+/// within 3 cells of it.
+///
+/// Each side's surface near the point is taken as a sphere of the curvature that its
+/// [`surface_normal`] shows a cell to either side of the point, along two directions in the
+/// contact plane (signed: convex positive; a flat face about 0, a ball of radius R about 1/R).
+/// A side's normal errs by κ δ for a point δ off its true place, so the normals are combined
+/// with inverse-variance weights 1/κ²: the flatter side decides (a ball on a slab: the slab's
+/// normal), equal sides share it. The point then moves, by at most two cells, to where each side's
+/// normal would match the contact normal, weighted by κ² (a ball touching first with a particle
+/// off its axis: to below its centre). On an osculating-sphere model of each surface this is
+/// the point where the two touch.
+fn contact_frame(
+    bodies: [&Body; 2],
+    near: [&[u32]; 2],
+    point: DVec3,
+    cell_m: f64,
+) -> Option<(DVec3, DVec3)> {
+    let reach_m = 3.0 * cell_m;
     let reach2 = reach_m * reach_m;
-    let close: Vec<(DVec3, f64)> = near
-        .iter()
-        .map(|&i| {
-            let i = i as usize;
-            (
-                body.particles.x[i].as_dvec3(),
-                body.particles.mass_kg[i] as f64,
-            )
-        })
-        .filter(|(x, _)| (*x - point).length_squared() <= reach2)
-        .collect();
-    let (mut m, mut mx) = (0.0, DVec3::ZERO);
-    for &(x, mi) in &close {
-        m += mi;
-        mx += x * mi;
+    let (na, nb) = match [0, 1].map(|k| surface_normal(bodies[k], near[k], point, reach_m)) {
+        [Some(na), Some(nb)] => (na, nb),
+        [Some(na), None] => return Some((na, point)),
+        [None, Some(nb)] => return Some((-nb, point)),
+        [None, None] => return None,
+    };
+    let first = (na - nb).try_normalize().unwrap_or(na);
+    let t1 = first.any_orthonormal_vector();
+    let tangents = [t1, first.cross(t1)];
+    // κ[side][direction] (1/m), from the normals a cell to either side, in one pass per side.
+    let beside = [tangents[0], -tangents[0], tangents[1], -tangents[1]].map(|t| point + t * cell_m);
+    let mut kappa = [[0.0_f64; 2]; 2];
+    for (k, row) in kappa.iter_mut().enumerate() {
+        let mut moments = [Moments::default(); 4];
+        for &i in near[k] {
+            for (m, at) in moments.iter_mut().zip(&beside) {
+                m.add_within(bodies[k], i, *at, reach2);
+            }
+        }
+        for (j, (t, kt)) in tangents.iter().zip(row.iter_mut()).enumerate() {
+            if let (Some(plus), Some(minus)) =
+                (moments[2 * j].normal(), moments[2 * j + 1].normal())
+            {
+                *kt = (plus - minus).dot(*t) / (2.0 * cell_m);
+            }
+        }
     }
-    if m <= 0.0 || !m.is_finite() {
-        return None;
+    let floor2 = (0.1 / reach_m).powi(2);
+    let weight = |row: [f64; 2]| 1.0 / (row[0] * row[0] + row[1] * row[1] + floor2);
+    let normal = (na * weight(kappa[0]) - nb * weight(kappa[1])).try_normalize()?;
+    // The same directions, turned into the plane of the contact normal.
+    let Some(t1) = (tangents[0] - normal * tangents[0].dot(normal)).try_normalize() else {
+        return Some((normal, point));
+    };
+    let mut shift = DVec3::ZERO;
+    for (j, t) in [t1, normal.cross(t1)].iter().enumerate() {
+        let (ka, kb) = (kappa[0][j], kappa[1][j]);
+        shift -= *t * ((ka * na.dot(*t) + kb * nb.dot(*t)) / (ka * ka + kb * kb + floor2));
     }
-    let centroid = mx / m;
-    let from_centroid = (point - centroid).try_normalize();
-    if close.len() < 4 {
-        return from_centroid;
-    }
-    let mut cov = DMat3::ZERO;
-    for &(x, mi) in &close {
-        let d = x - centroid;
-        cov += outer(d, d) * (mi / m);
-    }
-    let svd = crate::math::svd3(glam::Mat3A::from(cov.as_mat3()));
-    let (s1, s2) = (svd.sigma.y as f64, svd.sigma.z as f64);
-    let thin = s2 <= 0.5 * s1; // false for NaN too
-    if !thin {
-        return from_centroid;
-    }
-    let n = svd.v.z_axis.as_dvec3().try_normalize()?;
-    let out = from_centroid.unwrap_or(n);
-    Some(if n.dot(out) < 0.0 { -n } else { n })
+    let shift = if shift.length() > 2.0 * cell_m {
+        shift.normalize_or_zero() * (2.0 * cell_m)
+    } else {
+        shift
+    };
+    Some((normal, point + shift))
 }
 
 #[cfg(test)]
