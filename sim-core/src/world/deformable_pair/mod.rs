@@ -17,8 +17,9 @@
 //! accumulated, clamped normal impulse (λ >= 0) and Coulomb friction in an isotropic cone
 //! (|j_t| <= μ λ). A patch approaching faster than 2 g dt is an impact and its target is the
 //! restitution law's separation speed −e v_n (for a single patch this is the impulse law
-//! j_n = −(1 + e) v_n / k_n); a slower one is resting contact with target 0 and a couple that
-//! keeps the relative spin at zero with its pressure centre inside the patch's footprint. Every
+//! j_n = −(1 + e) v_n / k_n); a slower one is resting contact with target 0 and, where the
+//! patch's footprint is flat (two faces, not a ball on a slab, which rolls), a couple that keeps
+//! the relative spin at zero with its pressure centre inside the footprint. Every
 //! patch's impulse J (on B, −J on A) acts at its point, so linear and angular momentum are both
 //! conserved; the particles receive all of a body's patch impulses at once through
 //! [`super::coherence::apply_contact_impulses`], each patch's zone kick on its own particles.

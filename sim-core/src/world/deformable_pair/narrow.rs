@@ -49,10 +49,11 @@ impl Manifold {
     pub fn footprints(&self, a: &Body, b: &Body) -> Vec<Footprint> {
         let (lo, hi) = self.overlap_m;
         let inv_h = self.inv_cell;
-        let mut touching: Vec<(DVec3, IVec3)> = Vec::new();
-        for (body, near, other) in [
-            (a, &self.near[0], &self.cells[1]),
-            (b, &self.near[1], &self.cells[0]),
+        // (position, cell, whether the particle is B's).
+        let mut touching: Vec<(DVec3, IVec3, bool)> = Vec::new();
+        for (body, near, other, is_b) in [
+            (a, &self.near[0], &self.cells[1], false),
+            (b, &self.near[1], &self.cells[0], true),
         ] {
             touching.extend(near.iter().filter_map(|&i| {
                 let x = body.particles.x[i as usize];
@@ -65,26 +66,46 @@ impl Manifold {
                     let d = IVec3::new(k % 3 - 1, (k / 3) % 3 - 1, k / 9 - 1);
                     other.binary_search(&(c + d).to_array()).is_ok()
                 });
-                touches.then_some((xd, c))
+                touches.then_some((xd, c, is_b))
             }));
         }
+        let cell_m = 1.0 / f64::from(inv_h);
         self.patches
             .iter()
             .map(|p| {
                 let (point, n) = (p.point_m, p.normal);
-                let offsets_m = touching
+                // Each touching particle's offset in the contact plane and its height away
+                // from the plane, growing away from the other object.
+                let here: Vec<(DVec3, f64, bool)> = touching
                     .iter()
-                    .filter(|(_, c)| {
+                    .filter(|(_, c, _)| {
                         p.seeds
                             .iter()
                             .any(|s| (*c - *s).abs().max_element() <= PATCH_RADIUS_CELLS + 1)
                     })
-                    .map(|(x, _)| {
-                        let d = *x - point;
-                        d - n * d.dot(n)
+                    .map(|&(x, _, is_b)| {
+                        let d = x - point;
+                        let h = if is_b { d.dot(n) } else { -d.dot(n) };
+                        (d - n * d.dot(n), h, is_b)
                     })
                     .collect();
-                Footprint::new(offsets_m)
+                // How fast the gap between the two surfaces opens away from the point: the sum
+                // of their curvatures (1/m).
+                let curvature: f64 = [false, true]
+                    .into_iter()
+                    .map(|side| {
+                        let points: Vec<(DVec3, f64)> = here
+                            .iter()
+                            .filter(|h| h.2 == side)
+                            .map(|h| (h.0, h.1))
+                            .collect();
+                        surface_curvature(&points, n)
+                    })
+                    .sum();
+                let offsets_m: Vec<DVec3> = here.iter().map(|h| h.0).collect();
+                let radius_m = offsets_m.iter().map(|d| d.length()).fold(0.0, f64::max);
+                let flat = curvature * radius_m * radius_m / 2.0 <= FLAT_GAP_CELLS * cell_m;
+                Footprint::new(offsets_m, flat)
             })
             .collect()
     }
@@ -98,10 +119,42 @@ impl Manifold {
 pub struct Footprint {
     offsets_m: Vec<DVec3>,
     mean_arm_m: f64,
+    /// Whether the two surfaces stay within [`FLAT_GAP_CELLS`] of each other across it.
+    flat: bool,
+}
+
+/// A footprint is flat when the gap between the two surfaces, from their fitted curvatures,
+/// opens by at most this many cells out to its edge (two faces, a box on a box); a curved one
+/// (a ball on a slab) presses at its point only, so the ball rolls.
+pub const FLAT_GAP_CELLS: f64 = 0.25;
+
+/// The curvature κ (1/m) of a surface whose points lie at in-plane offsets `d` (m, normal to
+/// `n`) and heights h (m, growing away from the contact), from the least-squares fit
+/// h = a + g·d + κ |d|²/2 (a tilt g is a tipped flat face, not a curved one); 0 when the points
+/// do not determine it (fewer than five, or all on a line).
+fn surface_curvature(points: &[(DVec3, f64)], n: DVec3) -> f64 {
+    if points.len() < 5 {
+        return 0.0;
+    }
+    let t1 = n.any_orthonormal_vector();
+    let t2 = n.cross(t1);
+    let mut m = glam::DMat4::ZERO;
+    let mut rhs = glam::DVec4::ZERO;
+    for &(d, h) in points {
+        let (u, v) = (d.dot(t1), d.dot(t2));
+        let phi = glam::DVec4::new(1.0, u, v, 0.5 * (u * u + v * v));
+        m += glam::DMat4::from_cols(phi * phi.x, phi * phi.y, phi * phi.z, phi * phi.w);
+        rhs += phi * h;
+    }
+    if m.determinant().abs() <= 1e-30 {
+        return 0.0;
+    }
+    let k = (m.inverse() * rhs).w;
+    if k.is_finite() { k } else { 0.0 }
 }
 
 impl Footprint {
-    fn new(offsets_m: Vec<DVec3>) -> Self {
+    fn new(offsets_m: Vec<DVec3>, flat: bool) -> Self {
         let mean_arm_m = if offsets_m.is_empty() {
             0.0
         } else {
@@ -110,11 +163,16 @@ impl Footprint {
         Self {
             offsets_m,
             mean_arm_m,
+            flat,
         }
     }
 
-    /// How far the footprint reaches from the point along unit `u` (m, >= 0).
+    /// How far the pressure centre may move from the point along unit `u` (m, >= 0): the
+    /// footprint's extent for a flat contact, none for a curved one (a ball rolls).
     pub fn reach_m(&self, u: DVec3) -> f64 {
+        if !self.flat {
+            return 0.0;
+        }
         self.offsets_m.iter().map(|d| d.dot(u)).fold(0.0, f64::max)
     }
 
