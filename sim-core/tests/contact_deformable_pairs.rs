@@ -178,7 +178,8 @@ fn a_jelly_ball_thrown_along_a_jelly_slab_rolls_on() {
         let ball = &w.objects()[1];
         let (v, omega) = (ball.velocity_m_s, ball.angular_velocity_rad_s);
         println!(
-            "rolling jelly ball at t = {:.2} s: v {v:.3?} m/s, ω {omega:.2?} rad/s, ω_y R {:.3} m/s",
+            "rolling jelly ball at t = {:.2} s: v {v:.3?} m/s, ω {omega:.2?} rad/s, \
+             ω_y R {:.3} m/s",
             w.time_s,
             omega[1] * 0.04
         );

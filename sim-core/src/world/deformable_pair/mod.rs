@@ -8,9 +8,10 @@
 //! cells), contact point and normal n (from A to B): from the midpoint of the two zones'
 //! centroids, each object's outward normal there (the least-variance direction of its particles
 //! within 3 cells) and curvature, combined so that the flatter surface decides the normal and
-//! the point lies where the two surfaces' osculating spheres touch. So a plank across a trough, a peg
-//! against both sides of a hole, or any non-convex pair gets one normal per place of contact
-//! rather than one for the whole pair; a head-on impact of two spheres is one patch on the axis.
+//! the point lies where the two surfaces' osculating spheres touch. So a plank across a trough,
+//! a peg against both sides of a hole, or any non-convex pair gets one normal per place of
+//! contact rather than one for the whole pair; a head-on impact of two spheres is one patch on
+//! the axis.
 //!
 //! Response ([`law`]): the patches of a pair are solved together by sequential impulses (Catto
 //! 2005) on the two objects' rigid-level dynamics, 8 sweeps over the patches, each with an

@@ -542,6 +542,8 @@ fn contact_frame(
             }
         }
     }
+    // A floor under κ² (a tenth of 1/reach, squared) keeps the weights finite for two flat
+    // faces, which then share the normal.
     let floor2 = (0.1 / reach_m).powi(2);
     let weight = |row: [f64; 2]| 1.0 / (row[0] * row[0] + row[1] * row[1] + floor2);
     let normal = (na * weight(kappa[0]) - nb * weight(kappa[1])).try_normalize()?;
