@@ -103,10 +103,9 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
             // the tallest grass Gaussian within 1 cm, up to 5 cm (not asserted): the deepest
             // lie inside a tuft of grass ~2 cm across and 9 cm tall, solid in the collision
             // surface but narrower than the robot's 4 cm grid cell, which the jelly closes
-            // around. Ruled out here:
-            // falling through the ground (the patch lies at z ≈ 0 to 0.1 m; on a 2 cm grid
-            // with one particle per cell the robot flowed through it, COM 0.07 m at 2 s and
-            // falling).
+            // around. Ruled out here: falling through the ground (the patch lies at z ≈ 0 to
+            // 0.1 m; on a 2 cm grid with one particle per cell the robot flowed through it, COM
+            // 0.07 m at 2 s and falling).
             _ => {
                 assert!(speed < 0.01, "{kind:?} still moving at {speed} m/s");
                 assert!(o.com_m[2] > 0.1, "{kind:?} sank into the ground");

@@ -94,12 +94,8 @@ impl Manifold {
                 let curvature: f64 = [false, true]
                     .into_iter()
                     .map(|side| {
-                        let points: Vec<(DVec3, f64)> = here
-                            .iter()
-                            .filter(|h| h.2 == side)
-                            .map(|h| (h.0, h.1))
-                            .collect();
-                        surface_curvature(&points, n)
+                        let points = here.iter().filter(|h| h.2 == side).map(|h| (h.0, h.1));
+                        surface_curvature(points, n)
                     })
                     .sum();
                 let offsets_m: Vec<DVec3> = here.iter().map(|h| h.0).collect();
@@ -132,21 +128,20 @@ pub const FLAT_GAP_CELLS: f64 = 0.25;
 /// `n`) and heights h (m, growing away from the contact), from the least-squares fit
 /// h = a + g·d + κ |d|²/2 (a tilt g is a tipped flat face, not a curved one); 0 when the points
 /// do not determine it (fewer than five, or all on a line).
-fn surface_curvature(points: &[(DVec3, f64)], n: DVec3) -> f64 {
-    if points.len() < 5 {
-        return 0.0;
-    }
+fn surface_curvature(points: impl Iterator<Item = (DVec3, f64)>, n: DVec3) -> f64 {
     let t1 = n.any_orthonormal_vector();
     let t2 = n.cross(t1);
     let mut m = glam::DMat4::ZERO;
     let mut rhs = glam::DVec4::ZERO;
-    for &(d, h) in points {
+    let mut count = 0;
+    for (d, h) in points {
+        count += 1;
         let (u, v) = (d.dot(t1), d.dot(t2));
         let phi = glam::DVec4::new(1.0, u, v, 0.5 * (u * u + v * v));
         m += glam::DMat4::from_cols(phi * phi.x, phi * phi.y, phi * phi.z, phi * phi.w);
         rhs += phi * h;
     }
-    if m.determinant().abs() <= 1e-30 {
+    if count < 5 || m.determinant().abs() <= 1e-30 {
         return 0.0;
     }
     let k = (m.inverse() * rhs).w;
@@ -396,28 +391,41 @@ pub fn narrow_phase(
             seeds,
         }
     };
-    let groups: Vec<Patch> = zones_a
+    let groups: Vec<(Vec<u32>, Vec<u32>, Vec<IVec3>)> = zones_a
         .into_iter()
         .zip(zones_b)
         .zip(seeds)
         .filter(|((za, zb), _)| !za.is_empty() && !zb.is_empty())
-        .map(|((za, zb), seed)| patch(za, zb, vec![seed], false))
+        .map(|((za, zb), seed)| (za, zb, vec![seed]))
         .collect();
     // Groups that face the same way are one smooth contact (two spheres, two flat faces, a
     // plank on two supports): merged, they get one point and one normal from all their
-    // particles, and a couple over their whole footprint holds a resting pair.
-    let patches = merge_smooth(groups)
+    // particles, and a couple over their whole footprint holds a resting pair. A single group
+    // needs no merging, nor the normal it takes.
+    let merged = if groups.len() < 2 {
+        groups
+    } else {
+        let faced = groups
+            .into_iter()
+            .map(|(za, zb, seeds)| patch(za, zb, seeds, false))
+            .collect();
+        merge_smooth(faced)
+            .into_iter()
+            .map(|members| {
+                let mut merged = (Vec::new(), Vec::new(), Vec::new());
+                for m in members {
+                    merged.0.extend(m.zone_a);
+                    merged.1.extend(m.zone_b);
+                    merged.2.extend(m.seeds);
+                }
+                merged
+            })
+            .collect()
+    };
+    let patches: Vec<Patch> = merged
         .into_iter()
-        .map(|members| {
-            let mut merged = (Vec::new(), Vec::new(), Vec::new());
-            for m in members {
-                merged.0.extend(m.zone_a);
-                merged.1.extend(m.zone_b);
-                merged.2.extend(m.seeds);
-            }
-            patch(merged.0, merged.1, merged.2, true)
-        })
-        .collect::<Vec<_>>();
+        .map(|(za, zb, seeds)| patch(za, zb, seeds, true))
+        .collect();
     (!patches.is_empty()).then_some(Manifold {
         patches,
         near: [near_a, near_b],
