@@ -67,18 +67,15 @@ fn live_renders_until_clean_shutdown() {
     assert!(s["frames_dropped"].as_u64().is_some(), "{s}");
     assert!(s["seconds"].as_f64().is_some_and(|t| t > 0.0), "{s}");
     // The final frame is rendered when it reached the renderer (a best-effort subscriber
-    // misses it when its buffer is full at that moment). The server counts the initial frame,
-    // published twice with `--wait-for-subscribers`, in `--frames`: the last step is FRAMES - 1.
+    // misses it when its buffer is full at that moment). `--frames` counts the frames after the
+    // initial one, which is published once, after the renderer subscribed.
     let last = s["last_step"].as_u64().expect("last_step");
     assert!((1..=FRAMES).contains(&last), "{s}\n{}", e.err);
     assert!(dir.path().join(format!("frame_{last:05}.png")).is_file());
     let files = pngs(dir.path());
-    // Step 0 may be rendered twice (published before and after the renderer subscribed).
+    // Every step is published once, so every frame rendered is a file of its own.
     let n = files.len() as u64;
-    assert!(
-        n == rendered || n + 1 == rendered,
-        "{rendered} rendered, {files:?}"
-    );
+    assert_eq!(n, rendered, "{files:?}");
     for f in &files {
         assert!(lit_pixels(f) > 0, "{} is blank", f.display());
     }

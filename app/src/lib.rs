@@ -7,8 +7,10 @@
 //!   detail);
 //! - [`plan`]: what the parent of `splatphys run` reads from the scene, once;
 //! - [`report`]: `server.json` and `summary.json` as typed reports;
-//! - [`view`]: the browser viewer as a child process (`--view`).
+//! - [`view`]: the browser viewer as a child process (`--view`);
+//! - [`child_args`]: the arguments of every child process, built in one place.
 
+pub mod child_args;
 pub mod level_of_detail;
 pub mod plan;
 pub mod report;

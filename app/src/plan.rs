@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use splatphys_core::scene::{CameraSpec, Scene, load_named};
 
+use crate::child_args::{opt, vec3};
+
 /// The plan of one `splatphys run`.
 #[derive(Debug, Clone)]
 pub struct RunPlan {
@@ -60,23 +62,20 @@ impl RunPlan {
     }
 }
 
-/// The camera flags of `splatphys-render` and `splatphys-web` for `camera` (none for `None`).
+/// The camera flags of `splatphys-render` and `splatphys-web` for `camera` (none for `None`),
+/// one `--flag=value` word each.
 pub fn camera_args(camera: Option<&CameraSpec>) -> Vec<OsString> {
     let Some(cam) = camera else {
         return Vec::new();
     };
-    let v = |a: [f32; 3]| format!("{},{},{}", a[0], a[1], a[2]);
-    [
-        ("--camera-pos", v(cam.position_m)),
-        ("--look-at", v(cam.look_at_m)),
-        ("--up", v(cam.up)),
-        ("--fov-deg", cam.fov_y_deg.to_string()),
-        ("--width", cam.width_px.to_string()),
-        ("--height", cam.height_px.to_string()),
+    vec![
+        opt("--camera-pos", vec3(cam.position_m)),
+        opt("--look-at", vec3(cam.look_at_m)),
+        opt("--up", vec3(cam.up)),
+        opt("--fov-deg", cam.fov_y_deg),
+        opt("--width", cam.width_px),
+        opt("--height", cam.height_px),
     ]
-    .into_iter()
-    .flat_map(|(flag, value)| [flag.into(), value.into()])
-    .collect()
 }
 
 #[cfg(test)]
@@ -95,6 +94,6 @@ mod tests {
         assert!(!plan.object_names.is_empty());
         assert_eq!(plan.prefix, "p");
         let args = plan.camera_args();
-        assert_eq!(args.len(), if plan.camera.is_some() { 12 } else { 0 });
+        assert_eq!(args.len(), if plan.camera.is_some() { 6 } else { 0 });
     }
 }

@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use splatphys::child_args::{opt, opt_path};
 use splatphys::level_of_detail::{self, LodArgs};
 use splatphys::plan::RunPlan;
 use splatphys::report::{RunSummary, ServerJson, read_json, write_json};
@@ -195,6 +196,10 @@ fn sibling(name: &str) -> Result<PathBuf> {
     }
     Ok(path)
 }
+
+/// How long the server waits for the recorder to be ready (and the recorder and the renderer
+/// for the server): a scene of millions of Gaussians takes seconds to build and to send.
+const RECORDER_READY_TIMEOUT_S: u32 = 60;
 
 /// How long a child has to exit after SIGTERM (a server removes its services, a recorder
 /// finishes its file) before it is killed.
@@ -379,26 +384,24 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     if let Some(s) = &plan.scene_path {
         server_cmd.arg(s);
     }
-    // The recorder and the renderer (and the viewer) subscribe before the first step.
-    let subscribers = if args.view.view { "3" } else { "2" };
+    // The recorder is the run's one lossless subscriber: the server publishes the first frame
+    // once it is ready and stops once it took the last (the renderer and the viewer take what
+    // they can; skipped frames are rendered from the recording afterwards).
     server_cmd
-        .args([
-            "--prefix",
-            &plan.prefix,
-            "--wait-for-subscribers",
-            subscribers,
-            "--report",
-        ])
-        .arg(&server_json)
+        .arg(opt("--prefix", &plan.prefix))
+        .arg(opt("--wait-for-recorders", 1))
+        .arg(opt("--wait-timeout-s", RECORDER_READY_TIMEOUT_S))
+        .arg("--exit-at-end")
+        .arg(opt_path("--report", &server_json))
         .stdout(Stdio::null());
     if let Some(d) = plan.duration_s {
-        server_cmd.args(["--duration-s", &d.to_string()]);
+        server_cmd.arg(opt("--duration-s", d));
     }
     if let Some(r) = &lod {
         // The server uses the level of detail chosen here rather than calibrating again.
         let path = args.out.join("level_of_detail.json");
         level_of_detail::write(&path, &r.chosen)?;
-        server_cmd.arg("--spacing-from").arg(path);
+        server_cmd.arg(opt_path("--spacing-from", &path));
     }
     let mut server = Proc::spawn("server", server_cmd, &logs.join("server.log"), args.threads)?;
     let viewer = if args.view.view {
@@ -411,32 +414,21 @@ fn multi_process(args: &RunArgs) -> Result<()> {
 
     let mut rec_cmd = Command::new(&record_bin);
     rec_cmd
-        .args([
-            "record",
-            "--prefix",
-            &plan.prefix,
-            "--connect-timeout-s",
-            "30",
-            "--out",
-        ])
-        .arg(args.out.join("run.mcap"))
+        .arg("record")
+        .arg(opt("--prefix", &plan.prefix))
+        .arg(opt("--connect-timeout-s", RECORDER_READY_TIMEOUT_S))
+        .arg(opt_path("--out", &args.out.join("run.mcap")))
         .stdout(Stdio::null());
     let mut recorder = Proc::spawn("recorder", rec_cmd, &logs.join("recorder.log"), None)?;
 
     let camera_args = plan.camera_args();
     let mut ren_cmd = Command::new(&render_bin);
     ren_cmd
-        .args([
-            "live",
-            "--prefix",
-            &plan.prefix,
-            "--timeout-s",
-            "30",
-            "--out-dir",
-        ])
-        .arg(&frames)
-        .arg("--gif")
-        .arg(args.out.join("animation.gif"))
+        .arg("live")
+        .arg(opt("--prefix", &plan.prefix))
+        .arg(opt("--timeout-s", RECORDER_READY_TIMEOUT_S))
+        .arg(opt_path("--out-dir", &frames))
+        .arg(opt_path("--gif", &args.out.join("animation.gif")))
         .args(&camera_args)
         .stdout(Stdio::piped());
     let mut renderer = Proc::spawn(
@@ -497,18 +489,19 @@ fn multi_process(args: &RunArgs) -> Result<()> {
             &mut out,
         )?)
     })();
-    // The live renderer shows the newest frame and skips when it is slower than the simulation;
-    // the animation left behind should hold every step, so re-render any skipped ones from the
-    // lossless recording (the live figure stays in the summary).
+    // The live renderer shows the newest frame and skips when it is slower than the simulation
+    // (or starts after the first frames); the animation left behind should hold every step, so
+    // re-render from the lossless recording when it has frames the renderer did not draw (the
+    // live figure stays in the summary).
     let mut rerendered = false;
-    if recorder_ok && live.frames_dropped > 0 {
+    if recorder_ok
+        && (live.frames_dropped > 0 || live.frames_rendered < steps_in_file.len() as u64)
+    {
         let status = Command::new(&render_bin)
             .arg("mcap")
             .arg(&mcap)
-            .arg("--out-dir")
-            .arg(&frames)
-            .arg("--gif")
-            .arg(args.out.join("animation.gif"))
+            .arg(opt_path("--out-dir", &frames))
+            .arg(opt_path("--gif", &args.out.join("animation.gif")))
             .args(&camera_args)
             .stdout(Stdio::null())
             .stderr(File::create(logs.join("render-mcap.log"))?)

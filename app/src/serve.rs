@@ -18,6 +18,11 @@ use splatphys_ipc::validate::Limits;
 
 /// Arguments of `splatphys serve`.
 #[derive(Args, Debug)]
+#[command(after_help = "Examples:
+  splatphys serve scenes/donut_drop.toml --view         # watch it in the browser; holds the last frame at the end
+  splatphys serve scenes/donut_push_finger.toml --realtime --prefix splatphys/finger
+  splatphys serve scenes/guitar_topple.toml --exit-at-end --wait-for-recorders=1 &
+  splatphys-record record --prefix splatphys/guitar_topple --out run.mcap   # every step, none twice")]
 pub struct ServeArgs {
     /// Scene file (TOML).
     pub scene: Option<PathBuf>,
@@ -42,9 +47,24 @@ pub struct ServeArgs {
     /// Override the scene's duration, seconds.
     #[arg(long)]
     pub duration_s: Option<f64>,
-    /// Hold stepping until this many frame subscribers are connected (the main job uses 2).
+    /// Exit when the scene's duration has been simulated. Without it the server holds the last
+    /// frame, paused (status flag "finished"), and keeps answering: `step N`, `resume` (one
+    /// more duration), `reset`, until Ctrl-C or `shutdown`.
+    #[arg(long)]
+    pub exit_at_end: bool,
+    /// Publish no frame until this many lossless subscribers (recorders) are ready: every port
+    /// connected and the scene taken. The recording then holds every step, the first once; the
+    /// server fails if they are not ready within --wait-timeout-s. At the end it waits for them
+    /// to take the last frame.
+    #[arg(long, default_value_t = 0)]
+    pub wait_for_recorders: usize,
+    /// Publish no frame until this many frame subscribers of any kind (renderers, viewers) are
+    /// connected; past --wait-timeout-s the server starts anyway.
     #[arg(long, default_value_t = 0)]
     pub wait_for_subscribers: usize,
+    /// Longest wait for --wait-for-recorders and --wait-for-subscribers, seconds.
+    #[arg(long, default_value_t = 10.0)]
+    pub wait_timeout_s: f64,
     /// Write a JSON report (counts, wall time, diagnostics) here when the server stops.
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -98,8 +118,12 @@ pub fn run(args: &ServeArgs) -> Result<()> {
             ..Limits::default()
         },
         max_frames: args.frames,
+        exit_when_finished: args.exit_at_end,
         start_paused: args.paused,
+        wait_for_lossless: args.wait_for_recorders,
         wait_for_subscribers: args.wait_for_subscribers,
+        wait_timeout: Duration::try_from_secs_f64(args.wait_timeout_s)
+            .with_context(|| format!("--wait-timeout-s {}", args.wait_timeout_s))?,
         ..ServerConfig::default()
     };
     if !args.fake {

@@ -9,6 +9,8 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 
+use crate::child_args::opt;
+
 /// Flags of the browser viewer, shared by `run` and `serve`.
 #[derive(Args, Debug, Clone)]
 pub struct ViewArgs {
@@ -50,13 +52,14 @@ impl Viewer {
             );
         }
         let mut cmd = Command::new(&bin);
-        cmd.args(["--prefix", prefix, "--host", &args.view_host])
-            .args(["--port", &args.view_port.to_string()])
+        cmd.arg(opt("--prefix", prefix))
+            .arg(opt("--host", &args.view_host))
+            .arg(opt("--port", args.view_port))
             .args(camera_args)
             .stdin(Stdio::null())
             .stdout(Stdio::piped());
         if let Some(t) = &args.view_token {
-            cmd.args(["--token", t]);
+            cmd.arg(opt("--token", t));
         }
         let mut child = cmd.spawn().context("starting splatphys-web")?;
         let mut line = String::new();

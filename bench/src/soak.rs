@@ -160,7 +160,7 @@ pub fn run(a: &SoakBenchArgs) -> Result<()> {
     }
     serve
         .args(["--prefix", &prefix, "--duration-s", "1e9"])
-        .args(["--wait-for-subscribers", "1", "--report"])
+        .args(["--wait-for-recorders=1", "--exit-at-end", "--report"])
         .arg(&report)
         .args(if a.fast { &[][..] } else { &["--realtime"][..] });
     let server = spawn(
@@ -246,9 +246,9 @@ pub fn run(a: &SoakBenchArgs) -> Result<()> {
     .context("parsing the server report")?;
     let published = server_json["frames_published"].as_u64().unwrap_or(0);
     let recorded = recorded_frames(&recorder_err);
-    // The server publishes its initial frame once before the recorder connects and once more
-    // when it has (`--wait-for-subscribers 1`): the recorder can have one frame fewer.
-    let not_recorded = recorded.map(|r| published.saturating_sub(1).saturating_sub(r));
+    // The server publishes its first frame once the recorder is ready (`--wait-for-recorders`)
+    // and waits for it to take the last: every published frame is in the recording.
+    let not_recorded = recorded.map(|r| published.saturating_sub(r));
     let recording_mb = std::fs::metadata(&recording).map_or(0.0, |m| m.len() as f64 / 1e6);
     if !a.keep_recording {
         let _ = std::fs::remove_file(&recording);

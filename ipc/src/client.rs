@@ -22,7 +22,9 @@ use iceoryx2::node::Node;
 use iceoryx2::pending_response::PendingResponse;
 use iceoryx2::port::backpressure_strategy::BackpressureStrategy;
 use iceoryx2::port::client::Client;
+use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::PortName;
 use iceoryx2::sample::Sample;
 
@@ -30,14 +32,15 @@ use crate::command::{Command, Reply};
 use crate::error::IpcError;
 use crate::services::{
     CommandLogService, CommandService, FrameService, HEARTBEAT_TIMEOUT, Iox, LOSSLESS_PORT_NAME,
-    MAX_FRAME_BUFFER, ObjectNamesService, ObjectsService, Role, SceneService, ServiceNames,
-    StatusService, command_log_service, command_service, create_node, frame_service,
-    object_names_service, objects_service, scene_service, status_service,
+    LosslessAckService, MAX_FRAME_BUFFER, ObjectNamesService, ObjectsService, Role, SceneService,
+    ServiceNames, StatusService, command_log_service, command_service, create_node,
+    frame_service, lossless_ack_service, object_names_service, objects_service, scene_service,
+    status_service,
 };
 use crate::wire::{
-    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, LAYOUT_VERSION, ObjectName,
-    ObjectState, ReplyMsg, STATUS_SHUTTING_DOWN, STATUS_STALLED, SceneGaussian, SceneHeader,
-    Status,
+    ACK_READY, ACK_TOOK_FRAME, CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader,
+    LAYOUT_VERSION, LosslessAck, ObjectName, ObjectState, ReplyMsg, STATUS_SHUTTING_DOWN,
+    STATUS_STALLED, SceneGaussian, SceneHeader, Status,
 };
 
 /// A received frame: `payload()` is `[N] FrameGaussian` viewing shared memory.
@@ -69,7 +72,10 @@ pub struct ClientOptions {
     /// Subscribe to `objects`.
     pub objects: bool,
     /// Ask for lossless delivery of frames and objects (the server waits for us, up to its
-    /// limit). Default false: best effort, take the newest.
+    /// limit). Default false: best effort, take the newest. A lossless client also opens
+    /// `lossless_ack` and must say when it is ready ([`Connection::announce_ready`]) and which
+    /// frames it took ([`Connection::acknowledge`]): the lossless contract of
+    /// `docs/protocol.md`.
     pub lossless: bool,
     /// Frames buffered by our subscriber, 1..=4. Default 2 (4 when lossless).
     pub frame_buffer: usize,
@@ -118,6 +124,8 @@ pub struct Connection {
     command_client: Option<Client<Iox, CommandMsg, (), ReplyMsg, ()>>,
     command_log_sub: Option<Subscriber<Iox, CommandLogEntry, ()>>,
     _command_log: Option<CommandLogService>,
+    /// Lossless clients only, and `None` when the server has no `lossless_ack` (a replay).
+    ack: Option<(LosslessAckService, Publisher<Iox, LosslessAck, ()>)>,
     _services: (
         StatusService,
         SceneService,
@@ -245,6 +253,17 @@ impl Connection {
                     .map_err(|e| IpcError::iox("create subscriber", &names.name("objects"), e))
             })
             .transpose()?;
+        let ack = opts
+            .lossless
+            .then(|| lossless_ack_service(&node, &names, Role::User).ok())
+            .flatten()
+            .map(|service| {
+                let publisher = service.publisher_builder().create().map_err(|e| {
+                    IpcError::iox("create publisher", &names.name("lossless_ack"), e)
+                })?;
+                Ok::<_, IpcError>((service, publisher))
+            })
+            .transpose()?;
         let command_client = command
             .as_ref()
             .map(|s| {
@@ -266,6 +285,7 @@ impl Connection {
             command_client,
             command_log_sub,
             _command_log: command_log,
+            ack,
             _services: (status, scene, frame, objects, command),
             last_beat: Instant::now(),
             last_status: None,
@@ -287,6 +307,47 @@ impl Connection {
     /// Whether the server announced its shutdown.
     pub fn server_shutting_down(&self) -> bool {
         self.shutting_down
+    }
+
+    /// Lossless clients: tells the server that every port is connected and the current scene
+    /// taken, so it may publish the first frame. Call it once, after taking the scene. Does
+    /// nothing for a best-effort client or a server without `lossless_ack`.
+    ///
+    /// # Errors
+    /// iceoryx2 failures.
+    pub fn announce_ready(&mut self) -> Result<(), IpcError> {
+        self.send_ack(ACK_READY, 0)
+    }
+
+    /// Lossless clients: tells the server that the frame and objects of `frame_index` (and
+    /// every earlier one received) have been taken, so it need not wait for them at its end.
+    ///
+    /// # Errors
+    /// iceoryx2 failures.
+    pub fn acknowledge(&mut self, frame_index: u64) -> Result<(), IpcError> {
+        self.send_ack(ACK_READY | ACK_TOOK_FRAME, frame_index)
+    }
+
+    fn send_ack(&mut self, flags: u32, frame_index: u64) -> Result<(), IpcError> {
+        let (Some((_, publisher)), Some(frame_sub)) = (&self.ack, &self.frame_sub) else {
+            return Ok(());
+        };
+        let id = frame_sub.id().value();
+        let ack = LosslessAck {
+            subscriber_id_lo: id as u64,
+            subscriber_id_hi: (id >> 64) as u64,
+            frame_index,
+            flags,
+            layout_version: LAYOUT_VERSION,
+        };
+        let name = self.names.name("lossless_ack");
+        publisher
+            .update_connections()
+            .map_err(|e| IpcError::iox("update connections", &name, e))?;
+        publisher
+            .send_copy(ack)
+            .map(|_| ())
+            .map_err(|e| IpcError::iox("send", &name, e))
     }
 
     /// Drains the status service and checks the heartbeat.

@@ -66,6 +66,19 @@ pub enum IpcError {
         /// The prefix.
         prefix: String,
     },
+    /// The lossless subscribers the server was told to wait for (recorders) did not all say
+    /// they were ready in time (the readiness handshake of `docs/protocol.md`).
+    #[error(
+        "waited {waited_ms} ms for {expected} lossless subscriber(s) (recorders) to connect every port and take the scene; {ready} did (is the recorder running, under the same service prefix and iceoryx2 file prefix?)"
+    )]
+    LosslessNotReady {
+        /// Lossless subscribers expected.
+        expected: usize,
+        /// Those that said they were ready.
+        ready: usize,
+        /// How long the server waited, ms.
+        waited_ms: u64,
+    },
     /// The server speaks another layout version.
     #[error("layout version mismatch: server {server}, this client {client}")]
     LayoutMismatch {

@@ -13,6 +13,7 @@
 //! | `status`  | publish-subscribe    | `Status`                            | history 1, overflow |
 //! | `command` | request-response     | `CommandMsg` -> `ReplyMsg`          | replies never block the server |
 //! | `command_log` | publish-subscribe | `CommandLogEntry`                  | buffer 256, overflow |
+//! | `lossless_ack` | publish-subscribe | `LosslessAck` (clients to server) | buffer 64, overflow |
 //!
 //! The iceoryx2 file prefix (default `iox2_`) can be changed with the environment variable
 //! [`IOX2_PREFIX_ENV`], which isolates test runs from each other.
@@ -29,8 +30,8 @@ use iceoryx2::service::port_factory::{publish_subscribe, request_response};
 
 use crate::error::IpcError;
 use crate::wire::{
-    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, ObjectName, ObjectState, ReplyMsg,
-    SceneGaussian, SceneHeader, Status,
+    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, LosslessAck, ObjectName, ObjectState,
+    ReplyMsg, SceneGaussian, SceneHeader, Status,
 };
 
 /// The iceoryx2 service flavour used everywhere (inter-process, single-threaded ports).
@@ -47,6 +48,8 @@ pub type ObjectsService = publish_subscribe::PortFactory<Iox, [ObjectState], Fra
 pub type StatusService = publish_subscribe::PortFactory<Iox, Status, ()>;
 /// `command_log` port factory.
 pub type CommandLogService = publish_subscribe::PortFactory<Iox, CommandLogEntry, ()>;
+/// `lossless_ack` port factory.
+pub type LosslessAckService = publish_subscribe::PortFactory<Iox, LosslessAck, ()>;
 /// `command` port factory.
 pub type CommandService = request_response::PortFactory<Iox, CommandMsg, (), ReplyMsg, ()>;
 
@@ -348,6 +351,27 @@ pub fn command_log_service(
         .max_publishers(1)
         .max_nodes(MAX_NODES);
     open_by_role!(b, role, names.name("command_log"))
+}
+
+/// The `lossless_ack` service: lossless subscribers (one publisher each) tell the server that
+/// they are ready and which frame they took last ([`LosslessAck`]); the server is its one
+/// subscriber. Acknowledgements are cumulative, so an overwritten one loses nothing.
+pub fn lossless_ack_service(
+    node: &Node<Iox>,
+    names: &ServiceNames,
+    role: Role,
+) -> Result<LosslessAckService, IpcError> {
+    let b = node
+        .service_builder(&names.service_name("lossless_ack")?)
+        .publish_subscribe::<LosslessAck>()
+        .enable_safe_overflow(true)
+        .history_size(0)
+        .subscriber_max_buffer_size(64)
+        .subscriber_max_borrowed_samples(1)
+        .max_subscribers(1)
+        .max_publishers(MAX_SUBSCRIBERS)
+        .max_nodes(MAX_NODES);
+    open_by_role!(b, role, names.name("lossless_ack"))
 }
 
 #[cfg(test)]

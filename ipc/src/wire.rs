@@ -16,7 +16,7 @@ use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::ZeroCopySend;
 
 /// Version of the byte layout of every type in this module. Bumped on any change.
-pub const LAYOUT_VERSION: u32 = 3;
+pub const LAYOUT_VERSION: u32 = 4;
 
 /// Maximum SH degree carried on the wire (degree 3: 16 coefficients per colour channel).
 pub const MAX_SH_DEGREE: u32 = 3;
@@ -320,6 +320,42 @@ pub struct SubscriberLag {
     pub lossless: u32,
 }
 const _: () = assert!(size_of::<SubscriberLag>() == 32);
+
+/// [`LosslessAck::flags`]: every port of this lossless subscriber is connected (`frame`,
+/// `objects`, `scene`, `object_names`, `command_log`) and it holds the current scene: the server
+/// may publish the first frame.
+pub const ACK_READY: u32 = 1;
+/// [`LosslessAck::flags`]: [`LosslessAck::frame_index`] is valid.
+pub const ACK_TOOK_FRAME: u32 = 2;
+
+/// What a lossless subscriber (a recorder) tells the server on `lossless_ack`: that it is ready
+/// before the first frame, and the newest frame it has taken (written) so far. The server waits
+/// for the first before stepping and for the second to reach its last frame before it shuts
+/// down (see `docs/protocol.md`, "The lossless contract").
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
+#[type_name("splatphys::LosslessAck")]
+pub struct LosslessAck {
+    /// Low 64 bits of the iceoryx2 id of the sender's `frame` subscriber port.
+    pub subscriber_id_lo: u64,
+    /// High 64 bits of that id.
+    pub subscriber_id_hi: u64,
+    /// [`FrameHeader::frame_index`] of the newest frame whose frame and objects the sender has
+    /// taken (valid with [`ACK_TOOK_FRAME`]).
+    pub frame_index: u64,
+    /// `ACK_*` flags.
+    pub flags: u32,
+    /// [`LAYOUT_VERSION`] of the sender.
+    pub layout_version: u32,
+}
+const _: () = assert!(size_of::<LosslessAck>() == 32);
+
+impl LosslessAck {
+    /// The sender's `frame` subscriber id as one number.
+    pub fn subscriber_id(&self) -> u128 {
+        u128::from(self.subscriber_id_lo) | (u128::from(self.subscriber_id_hi) << 64)
+    }
+}
 
 /// [`Status::flags`]: the server is shutting down; this is its last status.
 pub const STATUS_SHUTTING_DOWN: u32 = 1;

@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use splatphys_ipc::wire::{
-    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, ObjectName, ObjectState, ReplyMsg,
-    SceneGaussian, SceneHeader, Status, SubscriberLag,
+    CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader, LosslessAck, ObjectName, ObjectState,
+    ReplyMsg, SceneGaussian, SceneHeader, Status, SubscriberLag,
 };
 
 /// (field, offset) of every field of a struct, in declaration order.
@@ -48,6 +48,8 @@ fn rust_layout() -> Vec<(&'static str, usize, Fields)> {
         layout!(CommandLogEntry; received_step, received_time_s, effective_time_s, event,
             reserved, log_index, command, reply),
         layout!(SubscriberLag; id_lo, id_hi, frames_dropped, max_wait_ms, lossless),
+        layout!(LosslessAck; subscriber_id_lo, subscriber_id_hi, frame_index, flags,
+            layout_version),
         layout!(Status; heartbeat, step, time_s, frames_published, steps_per_s, substeps_per_s,
             frames_dropped, recorder_frames_lost, commands_received, commands_rejected, flags,
             scene_generation, subscriber_count, reported_subscribers, subscribers, progress,

@@ -22,6 +22,7 @@ from .wire import (
     CommandMsg,
     FrameGaussian,
     FrameHeader,
+    ObjectName,
     ObjectState,
     ReplyMsg,
     SceneGaussian,
@@ -326,6 +327,14 @@ class Client:
         self._scene_service = self._pubsub("scene", iox2.Slice[SceneGaussian], SceneHeader).open()
         self.status_sub = self._status_service.subscriber_builder().history_request(1).create()
         self.scene_sub = self._scene_service.subscriber_builder().history_request(1).create()
+        try:
+            self._names_service = self._pubsub("object_names", iox2.Slice[ObjectName], FrameHeader).open()
+            self.names_sub = self._names_service.subscriber_builder().history_request(1).create()
+        except iox2.PublishSubscribeOpenError:
+            # A server without `object_names` (a replay of an older recording): the scene
+            # header names the first 64 objects.
+            self.names_sub = None
+        self._object_names = {}  # scene generation -> every object's name
         self.frame_sub = self.objects_sub = self.command_client = None
         if frames:
             self._frame_service = self._pubsub("frame", iox2.Slice[FrameGaussian], FrameHeader).open()
@@ -356,7 +365,7 @@ class Client:
 
     def close(self) -> None:
         """Releases every port; the client cannot be used afterwards."""
-        for port in ("command_client", "objects_sub", "frame_sub", "scene_sub", "status_sub"):
+        for port in ("command_client", "objects_sub", "frame_sub", "names_sub", "scene_sub", "status_sub"):
             p = getattr(self, port, None)
             if p is not None:
                 p.delete()
@@ -411,7 +420,31 @@ class Client:
                 for i in range(min(h.object_count, wire.MAX_NAMED_OBJECTS))
             ],
         }
+        self._take_object_names()
         return view
+
+    def _take_object_names(self, timeout_s: float = 0.5) -> None:
+        """Every object's name from `object_names` into the scene info (the scene header holds
+        only the first 64). The server publishes them right after the scene; waits up to
+        `timeout_s` for those of the scene's generation."""
+        if self.names_sub is None or self._scene_info is None:
+            return
+        info = self._scene_info
+        deadline = time.monotonic() + timeout_s
+        while True:
+            s = self.names_sub.receive()
+            if s is not None:
+                with SampleView(s, FrameHeader, ObjectName, wire.OBJECT_NAME_DTYPE) as v:
+                    names = [wire.fixed_str(n) for n in v.array["name"]]
+                    self._object_names[v.header.scene_generation] = names
+                continue
+            names = self._object_names.get(info["generation"])
+            if names is not None and len(names) == info["object_count"]:
+                info["object_names"] = list(names)
+                return
+            if info["object_count"] <= wire.MAX_NAMED_OBJECTS or time.monotonic() > deadline:
+                return
+            time.sleep(0.001)
 
     def scene_info(self, timeout_s: float = 2.0) -> dict:
         """Scene name, counts, frame dt (s) and object names, waiting for the scene header."""

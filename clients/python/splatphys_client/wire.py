@@ -10,7 +10,7 @@ import ctypes
 
 import numpy as np
 
-LAYOUT_VERSION = 3
+LAYOUT_VERSION = 4
 SH_COEFFS_PER_CHANNEL = 16
 MAX_NAMED_OBJECTS = 64
 OBJECT_NAME_BYTES = 32
@@ -189,6 +189,18 @@ class SubscriberLag(_Wire):
     ]
 
 
+class LosslessAck(_Wire):
+    """A lossless subscriber's readiness and newest frame taken, on `lossless_ack` (32 B)."""
+
+    _fields_ = [
+        ("subscriber_id_lo", ctypes.c_uint64),
+        ("subscriber_id_hi", ctypes.c_uint64),
+        ("frame_index", ctypes.c_uint64),
+        ("flags", ctypes.c_uint32),
+        ("layout_version", ctypes.c_uint32),
+    ]
+
+
 class Status(_Wire):
     """Server heartbeat and statistics (600 B), 10 Hz."""
 
@@ -230,6 +242,7 @@ COMMAND_DTYPE = _dtype(CommandMsg)
 REPLY_DTYPE = _dtype(ReplyMsg)
 COMMAND_LOG_DTYPE = _dtype(CommandLogEntry)
 STATUS_DTYPE = _dtype(Status)
+OBJECT_NAME_DTYPE = _dtype(ObjectName)
 
 # Sizes of the Rust structs (compile-time asserted there); a mismatch here is a contract break.
 RUST_SIZES = {
@@ -243,6 +256,7 @@ RUST_SIZES = {
     ReplyMsg: 256,
     CommandLogEntry: 480,
     SubscriberLag: 32,
+    LosslessAck: 32,
     Status: 96 + 32 * MAX_REPORTED_SUBSCRIBERS + 24 + FAILURE_REASON_BYTES,
 }
 for _t, _size in RUST_SIZES.items():

@@ -74,6 +74,21 @@ def test_dtypes_match_the_rust_sizes():
 
 @needs_server
 @pytest.mark.parametrize(
+    "server", [["--fake-dt", "0.001", "--fake-objects", "70", "--fake-gaussians", "8"]],
+    indirect=True,
+)
+def test_every_object_name_is_read_beyond_the_64_in_the_scene_header(server):
+    prefix, _ = server
+    with sc.Client(prefix) as c:
+        info = c.scene_info()
+        assert info["object_count"] == 70
+        assert wire.MAX_NAMED_OBJECTS == 64
+        assert info["object_names"] == [f"cube{i}" for i in range(70)]
+        assert c.object_id("cube69") == 69
+
+
+@needs_server
+@pytest.mark.parametrize(
     "server", [["--fake-dt", "0.001", "--fake-objects", "3", "--fake-gaussians", "500"]],
     indirect=True,
 )

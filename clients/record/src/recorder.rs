@@ -55,6 +55,11 @@ pub enum RecordEnd {
 /// Records until the server shuts down (or dies, or a signal, or `max_frames`); the file is
 /// always finished with a summary.
 ///
+/// The recorder keeps its side of the lossless contract (`docs/protocol.md`): once every port
+/// is connected it takes the scene (from history) and writes it, then tells the server it is
+/// ready; after writing each frame with its objects it acknowledges it, so the server knows
+/// what was taken before it shuts down.
+///
 /// # Errors
 /// Connecting, iceoryx2 and file errors.
 pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCounts), RecordError> {
@@ -68,6 +73,9 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
     let mut last_flush = Instant::now();
     let mut last_heartbeat = 0;
     let mut held = Held::default();
+    take_initial_scene(&mut conn, &mut held, &mut w, opts.connect_timeout)?;
+    conn.announce_ready()?;
+    let mut acknowledged = None;
     let end = loop {
         let mut busy = false;
         // A new generation's scene and names are held until its first frame: a lagging
@@ -125,7 +133,7 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
                 }
                 held.write_before(&mut w, h.scene_generation, h.frame_index)?;
                 w.frame(h, f.payload())?;
-                held.write_before(&mut w, h.scene_generation, h.frame_index + 1)?;
+                held.last_frame = Some((h.scene_generation, h.frame_index));
                 busy = true;
                 opts.max_frames
                     .is_some_and(|n| w.counts.frames >= n)
@@ -137,6 +145,17 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
             Err(IpcError::Interrupted) => Some(RecordEnd::Interrupted),
             Err(e) => return Err(e.into()),
         };
+        // A frame's objects may come after it: write them as soon as they are there, and
+        // acknowledge what has been written whole.
+        if let Some((generation, frame_index)) = held.last_frame {
+            held.write_before(&mut w, generation, frame_index + 1)?;
+        }
+        if w.taken() > acknowledged {
+            acknowledged = w.taken();
+            if let Some(frame_index) = acknowledged {
+                conn.acknowledge(frame_index)?;
+            }
+        }
         if let Some(end) = end {
             break end;
         }
@@ -160,6 +179,35 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
     Ok((end, counts))
 }
 
+/// Takes the current scene and object names (the server keeps them in history, so they are
+/// there once the subscribers are) and writes them, waiting up to `timeout` for the scene: the
+/// first frame comes only after the recorder says it is ready, and a scene of 500k Gaussians
+/// then costs no frame. A server that publishes no scene in time (a replay of a recording
+/// without one) is recorded all the same.
+fn take_initial_scene(
+    conn: &mut Connection,
+    held: &mut Held,
+    w: &mut RunWriter,
+    timeout: Duration,
+) -> Result<(), RecordError> {
+    let start = Instant::now();
+    let generation = loop {
+        if let Some(s) = conn.recv_scene()? {
+            let h = *s.user_header();
+            held.scenes.push_back((h, s.payload().to_vec()));
+            break h.scene_generation;
+        }
+        // A signal ends the wait; the main loop sees it too and finishes the file.
+        if start.elapsed() >= timeout || conn.node().wait(Duration::from_millis(1)).is_err() {
+            return Ok(());
+        }
+    };
+    while let Some(n) = conn.recv_object_names()? {
+        held.names.push_back((*n.user_header(), n.payload().to_vec()));
+    }
+    held.write_before(w, generation, 0)
+}
+
 /// Messages taken from the services but not written yet, so that the file is in frame order:
 /// a generation's scene and object names just before its first frame, each frame's objects right
 /// after it.
@@ -167,6 +215,8 @@ pub fn record(out: &Path, opts: &RecordOptions) -> Result<(RecordEnd, WriteCount
 struct Held {
     /// The newest scene generation written.
     written: Option<u32>,
+    /// Generation and frame index of the newest frame written.
+    last_frame: Option<(u32, u64)>,
     scenes: VecDeque<(SceneHeader, Vec<SceneGaussian>)>,
     names: VecDeque<(FrameHeader, Vec<ObjectName>)>,
     objects: VecDeque<(FrameHeader, Vec<ObjectState>)>,

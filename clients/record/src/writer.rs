@@ -88,6 +88,9 @@ pub struct RunWriter {
     /// `log_index` of the first command-log entry received (those before it were logged before
     /// the recorder subscribed).
     log_base: Option<u64>,
+    /// Frame index of the newest frame / objects written.
+    last_frame: Option<u64>,
+    last_objects: Option<u64>,
     /// Messages written so far.
     pub counts: WriteCounts,
 }
@@ -170,6 +173,8 @@ impl RunWriter {
             colours: Vec::new(),
             opts,
             log_base: None,
+            last_frame: None,
+            last_objects: None,
             counts: WriteCounts::default(),
         })
     }
@@ -221,6 +226,7 @@ impl RunWriter {
     ) -> Result<(), RecordError> {
         self.write(FRAME, header.time_s, &concat(header, payload))?;
         self.counts.frames += 1;
+        self.last_frame = Some(header.frame_index);
         if self.opts.pointcloud_every > 0
             && header
                 .frame_index
@@ -231,6 +237,12 @@ impl RunWriter {
             self.counts.pointclouds += 1;
         }
         Ok(())
+    }
+
+    /// Frame index of the newest frame written with its objects (what a recorder acknowledges
+    /// to the server); `None` before the first.
+    pub fn taken(&self) -> Option<u64> {
+        Some(self.last_frame?.min(self.last_objects?))
     }
 
     /// Writes the objects of a frame.
@@ -244,6 +256,7 @@ impl RunWriter {
     ) -> Result<(), RecordError> {
         self.write(OBJECTS, header.time_s, &concat(header, payload))?;
         self.counts.objects += 1;
+        self.last_objects = Some(header.frame_index);
         Ok(())
     }
 

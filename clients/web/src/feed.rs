@@ -14,7 +14,7 @@ use splatphys_ipc::IpcError;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::services::create_node;
 use splatphys_ipc::wire::{
-    FrameGaussian, FrameHeader, STATUS_FAILED, STATUS_PAUSED, STATUS_STALLED, Status,
+    FrameGaussian, FrameHeader, STATUS_FAILED, STATUS_FINISHED, STATUS_PAUSED, STATUS_STALLED, Status,
     read_fixed_str,
 };
 use tokio::sync::watch;
@@ -57,6 +57,9 @@ pub struct StatusJson {
     pub steps_per_s: f64,
     /// Stepping is paused.
     pub paused: bool,
+    /// The scene's duration has been simulated: the server holds the last frame (resume runs
+    /// one more duration, reset starts over).
+    pub finished: bool,
     /// The last step failed; the server restored the frame before and paused.
     pub failed: bool,
     /// The server's main loop has made no progress for its stall threshold.
@@ -77,6 +80,7 @@ impl StatusJson {
             time_s: s.time_s,
             steps_per_s: s.steps_per_s,
             paused: s.flags & STATUS_PAUSED != 0,
+            finished: s.flags & STATUS_FINISHED != 0,
             failed: s.flags & STATUS_FAILED != 0,
             stalled: s.flags & STATUS_STALLED != 0,
             server_alive: true,

@@ -173,7 +173,8 @@ function setStatus() {
   const s = state.serverStatus;
   if (s) {
     if (s.server_alive === false) parts.push('server has stopped');
-    if (s.paused) parts.push('paused');
+    if (s.finished) parts.push('finished (resume runs on, reset starts over)');
+    else if (s.paused) parts.push('paused');
     if (s.failed) parts.push('failed' + (s.failure_reason ? ': ' + s.failure_reason : ''));
     if (s.stalled) parts.push('stalled');
   }

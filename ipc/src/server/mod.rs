@@ -8,8 +8,15 @@
 //! heartbeat ([`crate::heartbeat`]). Dead nodes (killed clients) are cleaned up every
 //! [`ServerConfig::cleanup_period`]. On a `Shutdown` command or the end of the simulation the
 //! server finishes the step; a signal or the stop flag is seen between substeps, so a step in
-//! progress is abandoned; it then publishes a last status with [`STATUS_SHUTTING_DOWN`] and
-//! drops its services (iceoryx2 removes them with their last user).
+//! progress is abandoned; it then waits for lossless subscribers to take the last frame
+//! ([`lossless`]), publishes a last status with [`STATUS_SHUTTING_DOWN`] and drops its services
+//! (iceoryx2 removes them with their last user). Without
+//! [`ServerConfig::exit_when_finished`] the end of the simulation does not stop the server: it
+//! holds the last frame, paused, with [`STATUS_FINISHED`], and keeps answering.
+//!
+//! The lossless contract: with [`ServerConfig::wait_for_lossless`] the server publishes nothing
+//! but the scene until that many lossless subscribers have said they are ready, then publishes
+//! the initial frame once; at the end it waits until each of them has taken the last frame.
 //!
 //! Nothing a client sends ends the server, and a failing step does not either: the simulation
 //! keeps a checkpoint of the last published frame; when a step fails (non-finite or unstable),
@@ -36,8 +43,8 @@ use crate::error::IpcError;
 use crate::heartbeat::Heartbeat;
 use crate::services::{
     CommandLogService, CommandService, Iox, ObjectNamesService, Role, SceneService, ServiceNames,
-    command_log_service, command_service, create_node, frame_service, object_names_service,
-    objects_service, scene_service,
+    command_log_service, command_service, create_node, frame_service, frame_subscribers,
+    object_names_service, objects_service, scene_service,
 };
 use crate::simulation::Simulation;
 use crate::simulation::SimulationError;
@@ -53,8 +60,11 @@ pub const MAX_COMMANDS_PER_ITERATION: usize = 64;
 /// Longest time spent answering commands per loop iteration.
 pub const COMMAND_DRAIN_BUDGET: Duration = Duration::from_millis(5);
 
+mod lossless;
 mod ports;
 pub mod shm;
+
+use lossless::LosslessAcks;
 
 use ports::{Ports, clean_dead_nodes, publish_frame, publish_object_names, publish_scene};
 pub use ports::{frame_publisher, objects_publisher};
@@ -77,17 +87,25 @@ pub struct ServerConfig {
     pub cleanup_period: Duration,
     /// Stop after publishing this many frames after the initial one.
     pub max_frames: Option<u64>,
-    /// Stop when the simulation reports it is finished (otherwise: idle like paused).
+    /// Stop when the simulation reports it is finished. Otherwise the server holds the last
+    /// frame, paused, with [`STATUS_FINISHED`] in `status`, and keeps answering: `step N` steps
+    /// past the end, `resume` runs one more scene duration, `reset` starts over. Default true
+    /// (a job); `splatphys serve` turns it off unless `--exit-at-end`.
     pub exit_when_finished: bool,
     /// Start paused.
     pub start_paused: bool,
     /// Set to stop the server from another thread.
     pub stop: Arc<AtomicBool>,
-    /// Hold stepping until this many frame subscribers are connected (0 = do not wait), then
-    /// publish the initial frame again so they all get it. The main job uses it so the recorder
-    /// and the renderer see every step.
+    /// Publish no frame until this many lossless subscribers (recorders) have said they are
+    /// ready: every port connected and the scene taken (0 = do not wait). Past
+    /// [`ServerConfig::wait_timeout`] the server fails with [`IpcError::LosslessNotReady`].
+    /// The main job uses it so the recording holds every step, the initial one once.
+    pub wait_for_lossless: usize,
+    /// Publish no frame until this many `frame` subscribers of any kind are connected (0 = do
+    /// not wait); past [`ServerConfig::wait_timeout`] the server says so and starts anyway.
+    /// For tools and tests whose best-effort clients should see the initial frame.
     pub wait_for_subscribers: usize,
-    /// Longest wait for those subscribers; the run then starts anyway. Default 10 s.
+    /// Longest wait for those subscribers. Default 10 s.
     pub wait_timeout: Duration,
 }
 
@@ -103,6 +121,7 @@ impl Default for ServerConfig {
             exit_when_finished: true,
             start_paused: false,
             stop: Arc::default(),
+            wait_for_lossless: 0,
             wait_for_subscribers: 0,
             wait_timeout: Duration::from_secs(10),
         }
@@ -139,7 +158,8 @@ pub struct ServerReport {
     pub commands_rejected: u64,
     /// Frames skipped by best-effort subscribers.
     pub frames_dropped: u64,
-    /// Frames lossless subscribers lost past the limit.
+    /// Frames lossless subscribers lost: dropped past the backpressure limit, or not taken
+    /// when the server stopped.
     pub recorder_frames_lost: u64,
     /// Steps that failed and were rolled back to the last good frame.
     pub step_failures: u64,
@@ -169,7 +189,7 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
             break reason;
         }
         server.republish_on_new_generation()?;
-        if let Some(reason) = server.end_reached() {
+        if let Some(reason) = server.end_reached()? {
             break reason;
         }
         if server.wait_for_subscribers()? {
@@ -190,8 +210,15 @@ struct LoopState {
     generation: u32,
     /// Stepping paused by a command or [`ServerConfig::start_paused`].
     paused: bool,
-    /// Still holding for [`ServerConfig::wait_for_subscribers`].
+    /// Still holding for [`ServerConfig::wait_for_lossless`] or
+    /// [`ServerConfig::wait_for_subscribers`]; the initial frame is not published yet.
     waiting: bool,
+    /// Holding at the end of the simulation (paused there once).
+    held_at_end: bool,
+    /// Steps past the simulation's end allowed by a `resume` there.
+    run_until_step: u64,
+    /// The step the simulation first ended at (the length of one more run).
+    end_step: Option<u64>,
     /// Frames still to step while paused (`step N`).
     pending_steps: u64,
     /// Wall instant and simulated time that pacing counts from.
@@ -226,6 +253,7 @@ pub struct Server<'a, S: Simulation> {
     object_names_pub: Publisher<Iox, [ObjectName], FrameHeader>,
     command_log_pub: Publisher<Iox, CommandLogEntry, ()>,
     command_server: CommandServer<Iox, CommandMsg, (), ReplyMsg, ()>,
+    acks: LosslessAcks,
     heartbeat: Heartbeat,
     ports: Ports,
     report: ServerReport,
@@ -297,6 +325,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             .backpressure_strategy(BackpressureStrategy::DiscardData)
             .create()
             .map_err(|e| IpcError::iox("create server", &names.name("command"), e))?;
+        let acks = owned(LosslessAcks::create(&node, &names), &prefix)?;
         // `status` last: a client connects once it opens, and sends commands at once. iceoryx2
         // delivers a request only to the servers connected when it is sent, so the command
         // server port must exist by then (regression: a `resume` sent right after connecting
@@ -313,9 +342,10 @@ impl<'a, S: Simulation> Server<'a, S> {
             objects_book,
             subscriber_counts: (usize::MAX, usize::MAX),
         };
+        let waiting = cfg.wait_for_lossless > 0 || cfg.wait_for_subscribers > 0;
         let report = ServerReport {
             reason: StopReason::StopFlag,
-            frames_published: 1,
+            frames_published: 0,
             step: sim.step(),
             commands_received: 0,
             commands_rejected: 0,
@@ -329,13 +359,15 @@ impl<'a, S: Simulation> Server<'a, S> {
         publish_scene(sim, &scene_pub)?;
         publish_object_names(sim, &object_names_pub)?;
         ports.refresh_subscribers(true);
-        publish_frame(sim, &ports, 0)?;
         sim.checkpoint();
         let now = Instant::now();
         let state = LoopState {
             generation: sim.scene_generation(),
             paused: cfg.start_paused,
-            waiting: cfg.wait_for_subscribers > 0,
+            waiting,
+            held_at_end: false,
+            run_until_step: 0,
+            end_step: None,
             pending_steps: 0,
             pace_origin: (now, sim.time_s()),
             wait_started: now,
@@ -346,7 +378,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             failure: None,
             log_index: 0,
         };
-        Ok(Self {
+        let mut server = Self {
             sim,
             cfg,
             node,
@@ -359,11 +391,18 @@ impl<'a, S: Simulation> Server<'a, S> {
             object_names_pub,
             command_log_pub,
             command_server,
+            acks,
             heartbeat,
             ports,
             report,
             state,
-        })
+        };
+        if !waiting {
+            // Nobody to wait for: the initial frame now (a client that connects later starts
+            // with the next one).
+            server.publish()?;
+        }
+        Ok(server)
     }
 
     /// A signal or the stop flag.
@@ -483,6 +522,12 @@ impl<'a, S: Simulation> Server<'a, S> {
                 accepted(step)
             }
             Command::Resume => {
+                if self.at_end() {
+                    // One more run of the scene's length past its end.
+                    let more = self.state.end_step.unwrap_or(0).max(1);
+                    self.state.run_until_step = step.saturating_add(more);
+                    self.state.held_at_end = false;
+                }
                 self.state.paused = false;
                 self.state.pending_steps = 0;
                 self.state.failure = None;
@@ -499,6 +544,8 @@ impl<'a, S: Simulation> Server<'a, S> {
                 Ok(step) => {
                     if other == Command::Reset {
                         self.state.failure = None;
+                        self.state.held_at_end = false;
+                        self.state.run_until_step = 0;
                     }
                     Reply::Accepted {
                         effective_step: step,
@@ -528,37 +575,83 @@ impl<'a, S: Simulation> Server<'a, S> {
         Ok(())
     }
 
-    /// The end of the simulation or [`ServerConfig::max_frames`].
-    fn end_reached(&self) -> Option<StopReason> {
-        if self.sim.is_finished() && self.cfg.exit_when_finished {
-            return Some(StopReason::Finished);
-        }
-        self.cfg
-            .max_frames
-            .is_some_and(|m| self.report.frames_published > m)
-            .then_some(StopReason::MaxFrames)
+    /// At the simulation's end, and not running past it after a `resume` there.
+    fn at_end(&self) -> bool {
+        self.sim.is_finished() && self.sim.step() >= self.state.run_until_step
     }
 
-    /// While holding for [`ServerConfig::wait_for_subscribers`]: `true` to go round again. Once
-    /// they are there (or the wait timed out) the current frame is published again so every one
-    /// of them gets it.
+    /// The end of the simulation (a stop with [`ServerConfig::exit_when_finished`], otherwise
+    /// the first time a hold: paused, [`STATUS_FINISHED`]) or [`ServerConfig::max_frames`].
+    fn end_reached(&mut self) -> Result<Option<StopReason>, IpcError> {
+        if self.at_end() && !self.state.held_at_end && !self.state.waiting {
+            if self.cfg.exit_when_finished {
+                return Ok(Some(StopReason::Finished));
+            }
+            self.state.held_at_end = true;
+            self.state.paused = true;
+            self.state.pending_steps = 0;
+            self.state.end_step.get_or_insert(self.sim.step());
+            eprintln!(
+                "splatphys server: finished at step {} (t = {:.3} s); holding the last frame \
+                 (resume, step N or reset go on; Ctrl-C or shutdown ends)",
+                self.sim.step(),
+                self.sim.time_s()
+            );
+            // Tell clients at once, not at the next period.
+            self.state.last_status = Instant::now() - crate::services::STATUS_PERIOD;
+            self.beat();
+        }
+        Ok(self
+            .cfg
+            .max_frames
+            .is_some_and(|m| self.report.frames_published > m)
+            .then_some(StopReason::MaxFrames))
+    }
+
+    /// While holding for [`ServerConfig::wait_for_lossless`] and
+    /// [`ServerConfig::wait_for_subscribers`]: `true` to go round again. Once they are there the
+    /// initial frame is published, once, so every one of them gets it.
+    ///
+    /// # Errors
+    /// [`IpcError::LosslessNotReady`] when the lossless subscribers are not all ready within
+    /// [`ServerConfig::wait_timeout`].
     fn wait_for_subscribers(&mut self) -> Result<bool, IpcError> {
         if !self.state.waiting {
             return Ok(false);
         }
         self.ports.refresh_subscribers(false);
-        let have = self.ports.subscriber_counts.0;
-        if have >= self.cfg.wait_for_subscribers
-            || self.state.wait_started.elapsed() >= self.cfg.wait_timeout
-        {
-            self.state.waiting = false;
-            self.publish()?;
-            self.state.pace_origin = (Instant::now(), self.sim.time_s());
-            Ok(false)
-        } else {
+        self.acks.poll()?;
+        let connected = frame_subscribers(&self.ports.frame_service);
+        let ready = self.acks.ready(&connected);
+        let lossless_ready = ready >= self.cfg.wait_for_lossless;
+        let subscribers_there = connected.len() >= self.cfg.wait_for_subscribers;
+        let waited = self.state.wait_started.elapsed();
+        if !(lossless_ready && subscribers_there) && waited < self.cfg.wait_timeout {
             std::thread::sleep(Duration::from_millis(2));
-            Ok(true)
+            return Ok(true);
         }
+        if !lossless_ready {
+            return Err(IpcError::LosslessNotReady {
+                expected: self.cfg.wait_for_lossless,
+                ready,
+                waited_ms: waited.as_millis() as u64,
+            });
+        }
+        if !subscribers_there {
+            eprintln!(
+                "splatphys server: {} of {} frame subscribers after {:.1} s; starting anyway",
+                connected.len(),
+                self.cfg.wait_for_subscribers,
+                waited.as_secs_f64()
+            );
+        }
+        self.state.waiting = false;
+        // The subscribers that came since the last refresh must be in the lossless book
+        // before the frame goes out.
+        self.ports.refresh_subscribers(true);
+        self.publish()?;
+        self.state.pace_origin = (Instant::now(), self.sim.time_s());
+        Ok(false)
     }
 
     /// Publishes the current frame and objects with the next frame index.
@@ -571,8 +664,7 @@ impl<'a, S: Simulation> Server<'a, S> {
     /// Advances one frame and publishes it when stepping (not paused, or `step N` pending),
     /// then paces; otherwise idles a millisecond. A signal during either wait stops.
     fn step_and_publish(&mut self) -> Result<Option<StopReason>, IpcError> {
-        let stepping =
-            !self.sim.is_finished() && (!self.state.paused || self.state.pending_steps > 0);
+        let stepping = self.state.pending_steps > 0 || (!self.state.paused && !self.at_end());
         if !stepping {
             let signalled = self.node.wait(Duration::from_millis(1)).is_err();
             return Ok(signalled.then_some(StopReason::Signal));
@@ -683,9 +775,9 @@ impl<'a, S: Simulation> Server<'a, S> {
     }
 
     /// Hands the heartbeat thread the current status, with `flags` and [`STATUS_FINISHED`]
-    /// when the simulation is.
+    /// when the simulation is at its end.
     fn update_status(&self, flags: u32) {
-        let finished = if self.sim.is_finished() {
+        let finished = if self.at_end() {
             STATUS_FINISHED
         } else {
             0
@@ -713,13 +805,55 @@ impl<'a, S: Simulation> Server<'a, S> {
         }
     }
 
-    /// Publishes the last status with [`STATUS_SHUTTING_DOWN`] and returns the report.
+    /// Waits until every ready lossless subscriber has taken the last published frame, as long
+    /// as each one that is behind keeps making progress: it ends when all are there, or when
+    /// none of those behind acknowledged a new frame for the lossless limit (1 s at most after
+    /// a signal, so SIGTERM still ends the server within 2 s), or on a signal during the wait.
+    /// Returns the frames not taken, summed over subscribers.
+    fn wait_for_lossless_to_take_the_last_frame(&mut self, reason: StopReason) -> u64 {
+        let Some(last) = self.report.frames_published.checked_sub(1) else {
+            return 0;
+        };
+        let signalled = matches!(reason, StopReason::Signal | StopReason::StopFlag);
+        let limit = if signalled {
+            self.cfg.lossless_limit.min(Duration::from_secs(1))
+        } else {
+            self.cfg.lossless_limit
+        };
+        let since = Instant::now();
+        loop {
+            self.heartbeat.tick();
+            if self.acks.poll().is_err() {
+                return 0;
+            }
+            let connected = frame_subscribers(&self.ports.frame_service);
+            let behind = self.acks.behind(last, &connected, since);
+            let frames = behind.iter().map(|b| b.frames).sum();
+            if behind.is_empty() || behind.iter().all(|b| b.idle >= limit) {
+                return frames;
+            }
+            if signalled {
+                std::thread::sleep(Duration::from_millis(1));
+            } else if self.node.wait(Duration::from_millis(1)).is_err() {
+                return frames;
+            }
+        }
+    }
+
+    /// Waits for lossless subscribers to take the last frame, publishes the last status with
+    /// [`STATUS_SHUTTING_DOWN`] and returns the report.
     fn finish(mut self, reason: StopReason) -> Result<ServerReport, IpcError> {
+        let not_taken = self.wait_for_lossless_to_take_the_last_frame(reason);
+        if not_taken > 0 {
+            eprintln!(
+                "splatphys server: lossless subscribers had not taken the last {not_taken} frame(s) when the server stopped"
+            );
+        }
         self.report.reason = reason;
         self.report.step = self.sim.step();
         let totals = self.ports.frame_book.totals();
         self.report.frames_dropped = totals.best_effort_dropped;
-        self.report.recorder_frames_lost = totals.lossless_lost;
+        self.report.recorder_frames_lost = totals.lossless_lost + not_taken;
         self.update_status(0);
         self.heartbeat.finish(STATUS_SHUTTING_DOWN)?;
         Ok(self.report)
@@ -742,7 +876,7 @@ fn status<S: Simulation>(
         steps_per_s: rates.0,
         substeps_per_s: rates.1,
         frames_dropped: totals.best_effort_dropped,
-        recorder_frames_lost: totals.lossless_lost,
+        recorder_frames_lost: totals.lossless_lost.max(report.recorder_frames_lost),
         commands_received: report.commands_received,
         commands_rejected: report.commands_rejected,
         flags: flags
