@@ -43,8 +43,7 @@ fn mcap_topics(path: &Path) -> HashMap<String, usize> {
 
 /// The checks every run's objects.csv passes: header, one row per object per frame, the names
 /// of the objects in their id order, steps increasing, and `objects_csv_rows` in the summary.
-/// `from_step_0`: the first frame is the initial one (in process; a recording can start later,
-/// see the note in `check_multi_process`).
+/// `from_step_0`: the first frame is the initial one.
 fn check_objects_csv(
     out: &Path,
     summary: &serde_json::Value,
@@ -104,11 +103,15 @@ fn check_multi_process(out: &Path, s: &serde_json::Value, names: &[&str]) {
     let recorded_frames = topics.get("/frame").copied().unwrap_or(0);
     assert!(recorded_frames > 0, "no frame in the recording: {topics:?}");
     assert_eq!(topics.get("/scene"), Some(&1), "{topics:?}");
-    // objects.csv is written from the recording: one block of rows per recorded objects message.
-    // Under load the recorder can miss the first frames (its objects port may connect after the
-    // server stops waiting for subscribers) without the server counting them as lost, so the
-    // recording is not required to start at step 0 here.
-    let csv_frames = check_objects_csv(out, s, names, false);
+    // The lossless contract: the server publishes its first frame once the recorder is ready and
+    // stops once it took the last, so the recording holds every published step, each once,
+    // from step 0 (objects.csv is written from it: one block of rows per objects message).
+    assert_eq!(
+        Some(recorded_frames as u64),
+        s["frames"].as_u64(),
+        "every published frame recorded once: {topics:?}"
+    );
+    let csv_frames = check_objects_csv(out, s, names, true);
     assert_eq!(Some(&csv_frames), topics.get("/objects"), "{topics:?}");
 }
 
@@ -194,4 +197,49 @@ fn captured_guitar_scene_runs_end_to_end() {
     );
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     check_multi_process(&out, &s, &names);
+}
+
+#[test]
+fn scene_cameras_at_negative_zero_and_exponent_coordinates_reach_the_renderer() {
+    // Regression: a camera at x = -0.7 was forwarded as `--camera-pos -0.7,...`, which the
+    // renderer's parser read as an unknown flag `-0`.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("cameras.toml");
+    std::fs::write(
+        &scene,
+        r#"[simulation]
+duration_s = 0.05
+frame_rate_hz = 60.0
+grid_dx_m = 0.02
+gravity_m_s2 = [0.0, 0.0, -9.81]
+domain_m = [[-0.5, -0.5, -0.1], [0.5, 0.5, 0.5]]
+
+[[object]]
+name = "ball"
+shape = { sphere = { center_m = [0.0, 0.0, 0.1], radius_m = 0.08 } }
+spacing_m = 0.01
+color = [0.9, 0.2, 0.2]
+material = { model = "jelly", youngs_modulus_pa = 1e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }
+
+[[camera]]
+name = "negative"
+position_m = [-0.7, -0.5, 0.35]
+look_at_m = [-0.0, 1e-3, -2.5e-2]
+up = [-0.0, 0.0, 1.0]
+fov_y_deg = 4.5e1
+width_px = 160
+height_px = 120
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let s = run(
+        "run_cameras",
+        &[scene.to_str().unwrap(), "--duration-s", "5e-2"],
+        &out,
+    );
+    check_multi_process(&out, &s, &["ball"]);
+    let frames = pngs(&out.join("frames"));
+    let (w, h) = image::image_dimensions(&frames[0]).unwrap();
+    assert_eq!((w, h), (160, 120), "the scene camera's image size");
 }

@@ -451,3 +451,55 @@ material = {{ model = "jelly", youngs_modulus_pa = 1e5, poisson_ratio = 0.3, den
     drop(web);
     drop(server);
 }
+
+#[test]
+fn serve_view_holds_the_last_frame_for_a_page_opened_after_the_end() {
+    require_browser();
+    let iox = iox();
+    let prefix = service_prefix("web-end");
+    // `splatphys serve --view` as a user types it (the viewer on any free port), its stderr
+    // read as lines: the viewer's URL, then the end of the scene.
+    let mut server = Proc::spawn(
+        Command::new("sh")
+            .args(["-c", "exec \"$0\" \"$@\" 2>&1"])
+            .arg(bin("splatphys"))
+            .arg("serve")
+            .arg(workspace().join("scenes/validation_two_spheres.toml"))
+            .args(["--duration-s=0.5", "--view", "--view-port=0", "--prefix"])
+            .arg(&prefix)
+            .env(IOX_PREFIX_ENV, &iox)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null()),
+    );
+    let lines = server.stdout_lines();
+    let url = splatphys_tests::wait_for(&lines, "watch it live at", Duration::from_secs(60));
+    let url = url.rsplit(' ').next().expect("a URL").to_owned();
+    let end = splatphys_tests::wait_for(&lines, "finished at step", Duration::from_secs(120));
+    std::thread::spawn(move || lines.iter().for_each(drop));
+    let final_step: u64 = end
+        .split("finished at step ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no step in {end:?}"));
+    // The page is opened 5 s after the end.
+    std::thread::sleep(Duration::from_secs(5));
+    let (w, h) = (WIDTH.to_string(), HEIGHT.to_string());
+    let page = node(&["finished", &url, &w, &h]);
+    assert_eq!(
+        page["finalStep"].as_u64(),
+        Some(final_step),
+        "the last frame: {page}"
+    );
+    assert!(page["litPixels"].as_u64() > Some(500), "drawn: {page}");
+    let status = page["statusText"].as_str().unwrap_or_default();
+    assert!(status.contains("finished"), "{page}");
+    assert_eq!(page["stepAfterReset"].as_u64(), Some(0), "{page}");
+    assert!(page["stepAfterResume"].as_u64() > Some(2), "{page}");
+    // SIGTERM still ends it (and its viewer) within 2 s.
+    let t0 = std::time::Instant::now();
+    let e = server.terminate(Duration::from_secs(30));
+    let took = t0.elapsed();
+    assert_eq!(e.code, Some(0));
+    assert!(took < Duration::from_secs(2), "SIGTERM took {took:?}");
+}

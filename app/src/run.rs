@@ -494,8 +494,7 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     // re-render from the lossless recording when it has frames the renderer did not draw (the
     // live figure stays in the summary).
     let mut rerendered = false;
-    if recorder_ok
-        && (live.frames_dropped > 0 || live.frames_rendered < steps_in_file.len() as u64)
+    if recorder_ok && (live.frames_dropped > 0 || live.frames_rendered < steps_in_file.len() as u64)
     {
         let status = Command::new(&render_bin)
             .arg("mcap")

@@ -33,9 +33,8 @@ use crate::error::IpcError;
 use crate::services::{
     CommandLogService, CommandService, FrameService, HEARTBEAT_TIMEOUT, Iox, LOSSLESS_PORT_NAME,
     LosslessAckService, MAX_FRAME_BUFFER, ObjectNamesService, ObjectsService, Role, SceneService,
-    ServiceNames, StatusService, command_log_service, command_service, create_node,
-    frame_service, lossless_ack_service, object_names_service, objects_service, scene_service,
-    status_service,
+    ServiceNames, StatusService, command_log_service, command_service, create_node, frame_service,
+    lossless_ack_service, object_names_service, objects_service, scene_service, status_service,
 };
 use crate::wire::{
     ACK_READY, ACK_TOOK_FRAME, CommandLogEntry, CommandMsg, FrameGaussian, FrameHeader,

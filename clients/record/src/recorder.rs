@@ -203,7 +203,8 @@ fn take_initial_scene(
         }
     };
     while let Some(n) = conn.recv_object_names()? {
-        held.names.push_back((*n.user_header(), n.payload().to_vec()));
+        held.names
+            .push_back((*n.user_header(), n.payload().to_vec()));
     }
     held.write_before(w, generation, 0)
 }

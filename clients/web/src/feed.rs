@@ -14,8 +14,8 @@ use splatphys_ipc::IpcError;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::services::create_node;
 use splatphys_ipc::wire::{
-    FrameGaussian, FrameHeader, STATUS_FAILED, STATUS_FINISHED, STATUS_PAUSED, STATUS_STALLED, Status,
-    read_fixed_str,
+    FrameGaussian, FrameHeader, STATUS_FAILED, STATUS_FINISHED, STATUS_PAUSED, STATUS_STALLED,
+    Status, read_fixed_str,
 };
 use tokio::sync::watch;
 

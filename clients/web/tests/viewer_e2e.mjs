@@ -5,6 +5,7 @@
 //   node viewer_e2e.mjs interact URL WIDTH HEIGHT          -> JSON line on stdout
 //   node viewer_e2e.mjs perf URL WIDTH HEIGHT SECONDS      -> JSON line on stdout
 //   node viewer_e2e.mjs stopped URL WIDTH HEIGHT OUT_JSON  -> "READY" on stdout, JSON to OUT_JSON
+//   node viewer_e2e.mjs finished URL WIDTH HEIGHT          -> JSON line on stdout
 //
 // capture: the step counter must advance while the server runs; then `pause` is clicked and the
 // paused frame's pixels (RGB8, top row first) are written to OUT_RGB for the PSNR check against
@@ -13,7 +14,8 @@
 // apply E = 1e39 in the material panel and report the refusal text. perf: frames drawn per
 // second and publish-to-draw latency while the server runs. stopped: says READY once a frame is
 // drawn, then waits for the caller to stop the server and reports the banner and that the last
-// frame is still drawn.
+// frame is still drawn. finished: opened after the server reached the end of its scene, the
+// page draws the last frame and says "finished"; reset goes back to step 0, resume runs on.
 import fs from 'node:fs';
 import { launch } from './browser.mjs';
 
@@ -105,6 +107,20 @@ try {
     out.statusText = await page.textContent('#status');
     const rgb = Buffer.from(await sp(() => window.splatphys.readPixels()), 'base64');
     out.litPixels = rgb.reduce((n, _, i) => n + (i % 3 === 0 && (rgb[i] | rgb[i + 1] | rgb[i + 2]) > 8 ? 1 : 0), 0);
+  } else if (mode === 'finished') {
+    await waitFor(() => window.splatphys.serverStatus && window.splatphys.serverStatus.finished);
+    await waitFor(() => window.splatphys.lastStep === window.splatphys.serverStatus.step);
+    await page.waitForTimeout(300);
+    out.finalStep = await sp(() => window.splatphys.lastStep);
+    out.statusText = await page.textContent('#status');
+    const rgb = Buffer.from(await sp(() => window.splatphys.readPixels()), 'base64');
+    out.litPixels = rgb.reduce((n, _, i) => n + (i % 3 === 0 && (rgb[i] | rgb[i + 1] | rgb[i + 2]) > 8 ? 1 : 0), 0);
+    await page.click('#reset');
+    await waitFor(() => window.splatphys.lastStep === 0, null, 30000);
+    out.stepAfterReset = await sp(() => window.splatphys.lastStep);
+    await page.click('#resume');
+    await waitFor(() => window.splatphys.lastStep > 2, null, 60000);
+    out.stepAfterResume = await sp(() => window.splatphys.lastStep);
   } else if (mode === 'perf') {
     await page.waitForTimeout(2000);
     const f0 = await sp(() => [window.splatphys.framesDrawn, performance.now()]);

@@ -14,7 +14,11 @@ use iceoryx2::node::Node;
 use iceoryx2::port::subscriber::Subscriber;
 
 use crate::error::IpcError;
-use crate::services::{Iox, LosslessAckService, Role, ServiceNames, lossless_ack_service};
+use crate::heartbeat::Heartbeat;
+use crate::services::{
+    FrameService, Iox, LosslessAckService, Role, ServiceNames, frame_subscribers,
+    lossless_ack_service,
+};
 use crate::wire::{ACK_READY, ACK_TOOK_FRAME, LAYOUT_VERSION, LosslessAck};
 
 /// What one lossless subscriber said last.
@@ -29,11 +33,11 @@ struct Acked {
 
 /// A lossless subscriber still behind the last published frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct Behind {
+struct Behind {
     /// Frames it has not acknowledged.
-    pub(super) frames: u64,
+    frames: u64,
     /// Time since it last acknowledged a new frame.
-    pub(super) idle: Duration,
+    idle: Duration,
 }
 
 /// The `lossless_ack` subscriber and what each lossless subscriber said, by the id of its
@@ -79,8 +83,7 @@ impl LosslessAcks {
                 progressed: now,
             });
             entry.ready |= ack.flags & ACK_READY != 0;
-            if ack.flags & ACK_TOOK_FRAME != 0 && entry.taken.is_none_or(|t| ack.frame_index > t)
-            {
+            if ack.flags & ACK_TOOK_FRAME != 0 && entry.taken.is_none_or(|t| ack.frame_index > t) {
                 entry.taken = Some(ack.frame_index);
                 entry.progressed = now;
             }
@@ -97,14 +100,46 @@ impl LosslessAcks {
             .count()
     }
 
+    /// Waits until every ready lossless subscriber has taken frame `last` (the last published),
+    /// as long as each one that is behind keeps making progress: the wait ends when all are
+    /// there, when none of those behind acknowledged a new frame for `limit`, or on a signal.
+    /// `node` is looked at for that signal; `None` after one (the wait is then 1 s at most, so
+    /// SIGTERM still ends the server within 2 s). Returns the frames not taken, summed over
+    /// subscribers.
+    pub(super) fn wait_for_last_frame(
+        &mut self,
+        last: u64,
+        frame_service: &FrameService,
+        limit: Duration,
+        node: Option<&Node<Iox>>,
+        heartbeat: &Heartbeat,
+    ) -> u64 {
+        let limit = match node {
+            Some(_) => limit,
+            None => limit.min(Duration::from_secs(1)),
+        };
+        let since = Instant::now();
+        loop {
+            heartbeat.tick();
+            if self.poll().is_err() {
+                return 0;
+            }
+            let behind = self.behind(last, &frame_subscribers(frame_service), since);
+            let frames = behind.iter().map(|b| b.frames).sum();
+            if behind.is_empty() || behind.iter().all(|b| b.idle >= limit) {
+                return frames;
+            }
+            match node {
+                Some(node) if node.wait(Duration::from_millis(1)).is_err() => return frames,
+                Some(_) => {}
+                None => std::thread::sleep(Duration::from_millis(1)),
+            }
+        }
+    }
+
     /// The connected ready lossless subscribers that have not taken frame `last`, with the
     /// time since each last made progress (counted from `since` at the latest).
-    pub(super) fn behind(
-        &self,
-        last: u64,
-        connected: &[(u128, bool)],
-        since: Instant,
-    ) -> Vec<Behind> {
+    fn behind(&self, last: u64, connected: &[(u128, bool)], since: Instant) -> Vec<Behind> {
         connected
             .iter()
             .filter(|(_, lossless)| *lossless)

@@ -26,8 +26,7 @@
 //! [`COMMAND_DRAIN_BUDGET`]) so a flood cannot starve stepping, and liveness is the loop's
 //! progress ([`Heartbeat::tick`]), not the beat.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use iceoryx2::node::Node;
@@ -48,11 +47,11 @@ use crate::services::{
 };
 use crate::simulation::Simulation;
 use crate::simulation::SimulationError;
-use crate::validate::{Limits, validate};
+use crate::validate::validate;
 use crate::wire::{
     CommandLogEntry, CommandMsg, FrameHeader, LOG_EVENT_COMMAND, LOG_EVENT_STEP_FAILED, ObjectName,
-    ReplyMsg, STATUS_FAILED, STATUS_FINISHED, STATUS_LOSSLESS_LAGGING, STATUS_PAUSED,
-    STATUS_SHUTTING_DOWN, SceneGaussian, SceneHeader, Status, write_fixed_str,
+    ReplyMsg, STATUS_FAILED, STATUS_FINISHED, STATUS_PAUSED, STATUS_SHUTTING_DOWN, SceneGaussian,
+    SceneHeader, write_fixed_str,
 };
 
 /// Most commands answered per loop iteration; the rest wait for the next one.
@@ -60,116 +59,18 @@ pub const MAX_COMMANDS_PER_ITERATION: usize = 64;
 /// Longest time spent answering commands per loop iteration.
 pub const COMMAND_DRAIN_BUDGET: Duration = Duration::from_millis(5);
 
+mod config;
 mod lossless;
 mod ports;
 pub mod shm;
+mod status;
 
+pub use config::{ServerConfig, ServerReport, StopReason};
 use lossless::LosslessAcks;
+use status::status;
 
 use ports::{Ports, clean_dead_nodes, publish_frame, publish_object_names, publish_scene};
 pub use ports::{frame_publisher, objects_publisher};
-
-/// How the server runs.
-#[derive(Debug, Clone)]
-pub struct ServerConfig {
-    /// Service prefix; `None` = `splatphys/<scene name>`.
-    pub prefix: Option<String>,
-    /// Pace frames to simulated time instead of running as fast as possible.
-    pub realtime: bool,
-    /// Longest wait on a full lossless subscriber per frame. Default 2 s: a live recorder that
-    /// is slower than the simulation is waited for (lossless means the run slows down, not
-    /// that frames go missing); a stopped one costs one such wait, then is not waited for
-    /// until it catches up ([`crate::backpressure`]).
-    pub lossless_limit: Duration,
-    /// Command value limits.
-    pub limits: Limits,
-    /// Period of dead-node cleanup. Default 1 s.
-    pub cleanup_period: Duration,
-    /// Stop after publishing this many frames after the initial one.
-    pub max_frames: Option<u64>,
-    /// Stop when the simulation reports it is finished. Otherwise the server holds the last
-    /// frame, paused, with [`STATUS_FINISHED`] in `status`, and keeps answering: `step N` steps
-    /// past the end, `resume` runs one more scene duration, `reset` starts over. Default true
-    /// (a job); `splatphys serve` turns it off unless `--exit-at-end`.
-    pub exit_when_finished: bool,
-    /// Start paused.
-    pub start_paused: bool,
-    /// Set to stop the server from another thread.
-    pub stop: Arc<AtomicBool>,
-    /// Publish no frame until this many lossless subscribers (recorders) have said they are
-    /// ready: every port connected and the scene taken (0 = do not wait). Past
-    /// [`ServerConfig::wait_timeout`] the server fails with [`IpcError::LosslessNotReady`].
-    /// The main job uses it so the recording holds every step, the initial one once.
-    pub wait_for_lossless: usize,
-    /// Publish no frame until this many `frame` subscribers of any kind are connected (0 = do
-    /// not wait); past [`ServerConfig::wait_timeout`] the server says so and starts anyway.
-    /// For tools and tests whose best-effort clients should see the initial frame.
-    pub wait_for_subscribers: usize,
-    /// Longest wait for those subscribers. Default 10 s.
-    pub wait_timeout: Duration,
-}
-
-impl Default for ServerConfig {
-    fn default() -> Self {
-        Self {
-            prefix: None,
-            realtime: false,
-            lossless_limit: Duration::from_secs(2),
-            limits: Limits::default(),
-            cleanup_period: Duration::from_secs(1),
-            max_frames: None,
-            exit_when_finished: true,
-            start_paused: false,
-            stop: Arc::default(),
-            wait_for_lossless: 0,
-            wait_for_subscribers: 0,
-            wait_timeout: Duration::from_secs(10),
-        }
-    }
-}
-
-/// Why the server stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StopReason {
-    /// SIGINT or SIGTERM.
-    Signal,
-    /// A `Shutdown` command.
-    ShutdownCommand,
-    /// The simulation finished.
-    Finished,
-    /// [`ServerConfig::max_frames`] reached.
-    MaxFrames,
-    /// [`ServerConfig::stop`] was set.
-    StopFlag,
-}
-
-/// What a server run did.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ServerReport {
-    /// Why it stopped.
-    pub reason: StopReason,
-    /// Frames published, including the initial one.
-    pub frames_published: u64,
-    /// Last step index.
-    pub step: u64,
-    /// Commands received / rejected.
-    pub commands_received: u64,
-    /// Commands rejected.
-    pub commands_rejected: u64,
-    /// Frames skipped by best-effort subscribers.
-    pub frames_dropped: u64,
-    /// Frames lossless subscribers lost: dropped past the backpressure limit, or not taken
-    /// when the server stopped.
-    pub recorder_frames_lost: u64,
-    /// Steps that failed and were rolled back to the last good frame.
-    pub step_failures: u64,
-    /// Wall time spent stepping vs. publishing, seconds.
-    pub step_wall_s: f64,
-    /// Wall time spent loaning, writing and sending frames and objects, seconds.
-    pub publish_wall_s: f64,
-    /// Wall time spent saving the checkpoint a failed step goes back to, seconds.
-    pub checkpoint_wall_s: f64,
-}
 
 /// Serves `sim` until a signal, a `Shutdown` command, the end of the simulation or
 /// [`ServerConfig::stop`].
@@ -777,11 +678,7 @@ impl<'a, S: Simulation> Server<'a, S> {
     /// Hands the heartbeat thread the current status, with `flags` and [`STATUS_FINISHED`]
     /// when the simulation is at its end.
     fn update_status(&self, flags: u32) {
-        let finished = if self.at_end() {
-            STATUS_FINISHED
-        } else {
-            0
-        };
+        let finished = if self.at_end() { STATUS_FINISHED } else { 0 };
         let mut s = status(
             self.sim,
             &self.ports,
@@ -805,45 +702,33 @@ impl<'a, S: Simulation> Server<'a, S> {
         }
     }
 
-    /// Waits until every ready lossless subscriber has taken the last published frame, as long
-    /// as each one that is behind keeps making progress: it ends when all are there, or when
-    /// none of those behind acknowledged a new frame for the lossless limit (1 s at most after
-    /// a signal, so SIGTERM still ends the server within 2 s), or on a signal during the wait.
-    /// Returns the frames not taken, summed over subscribers.
+    /// Waits for lossless subscribers to take the last published frame (see
+    /// [`LosslessAcks::wait_for_last_frame`]); returns the frames not taken.
     fn wait_for_lossless_to_take_the_last_frame(&mut self, reason: StopReason) -> u64 {
         let Some(last) = self.report.frames_published.checked_sub(1) else {
             return 0;
         };
         let signalled = matches!(reason, StopReason::Signal | StopReason::StopFlag);
-        let limit = if signalled {
-            self.cfg.lossless_limit.min(Duration::from_secs(1))
-        } else {
-            self.cfg.lossless_limit
-        };
-        let since = Instant::now();
-        loop {
-            self.heartbeat.tick();
-            if self.acks.poll().is_err() {
-                return 0;
-            }
-            let connected = frame_subscribers(&self.ports.frame_service);
-            let behind = self.acks.behind(last, &connected, since);
-            let frames = behind.iter().map(|b| b.frames).sum();
-            if behind.is_empty() || behind.iter().all(|b| b.idle >= limit) {
-                return frames;
-            }
-            if signalled {
-                std::thread::sleep(Duration::from_millis(1));
-            } else if self.node.wait(Duration::from_millis(1)).is_err() {
-                return frames;
-            }
-        }
+        self.acks.wait_for_last_frame(
+            last,
+            &self.ports.frame_service,
+            self.cfg.lossless_limit,
+            (!signalled).then_some(&self.node),
+            &self.heartbeat,
+        )
     }
 
     /// Waits for lossless subscribers to take the last frame, publishes the last status with
     /// [`STATUS_SHUTTING_DOWN`] and returns the report.
     fn finish(mut self, reason: StopReason) -> Result<ServerReport, IpcError> {
+        let t0 = Instant::now();
         let not_taken = self.wait_for_lossless_to_take_the_last_frame(reason);
+        if t0.elapsed() >= Duration::from_millis(100) {
+            eprintln!(
+                "splatphys server: waited {:.2} s for lossless subscribers to take the last frame",
+                t0.elapsed().as_secs_f64()
+            );
+        }
         if not_taken > 0 {
             eprintln!(
                 "splatphys server: lossless subscribers had not taken the last {not_taken} frame(s) when the server stopped"
@@ -858,38 +743,4 @@ impl<'a, S: Simulation> Server<'a, S> {
         self.heartbeat.finish(STATUS_SHUTTING_DOWN)?;
         Ok(self.report)
     }
-}
-
-fn status<S: Simulation>(
-    sim: &S,
-    ports: &Ports,
-    report: &ServerReport,
-    rates: (f64, f64),
-    flags: u32,
-) -> Status {
-    let totals = ports.frame_book.totals();
-    let lags = ports.frame_book.report();
-    let mut s = Status {
-        step: sim.step(),
-        time_s: sim.time_s(),
-        frames_published: report.frames_published,
-        steps_per_s: rates.0,
-        substeps_per_s: rates.1,
-        frames_dropped: totals.best_effort_dropped,
-        recorder_frames_lost: totals.lossless_lost.max(report.recorder_frames_lost),
-        commands_received: report.commands_received,
-        commands_rejected: report.commands_rejected,
-        flags: flags
-            | if totals.lagging > 0 {
-                STATUS_LOSSLESS_LAGGING
-            } else {
-                0
-            },
-        scene_generation: sim.scene_generation(),
-        subscriber_count: ports.subscriber_counts.0 as u32,
-        reported_subscribers: lags.len() as u32,
-        ..Default::default()
-    };
-    s.subscribers[..lags.len()].copy_from_slice(&lags);
-    s
 }
