@@ -243,3 +243,22 @@ height_px = 120
     let (w, h) = image::image_dimensions(&frames[0]).unwrap();
     assert_eq!((w, h), (160, 120), "the scene camera's image size");
 }
+
+#[test]
+fn splatphys_bench_runs_the_benchmark_binary_with_its_arguments() {
+    // The benchmarks are a binary of their own; `splatphys bench` forwards to it, `--help` and
+    // exit status included.
+    let _ = bin("splatphys-bench");
+    let help = Command::new(bin("splatphys"))
+        .args(["bench", "mpm", "--help"])
+        .output()
+        .expect("run splatphys bench");
+    let text = String::from_utf8_lossy(&help.stdout);
+    assert!(help.status.success(), "{text}");
+    assert!(text.contains("--particles-per-axis"), "{text}");
+    let bad = Command::new(bin("splatphys"))
+        .args(["bench", "nonsense"])
+        .output()
+        .expect("run splatphys bench");
+    assert_eq!(bad.status.code(), Some(2));
+}

@@ -8,9 +8,10 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
-use splatphys_bench::budget::CalibrationSettings;
 use splatphys_core::scene::level_of_detail::{Choice, ObjectSpacing, candidates};
 use splatphys_core::scene::{LevelOfDetail, Scene};
+
+use crate::calibration::CalibrationSettings;
 
 /// Level-of-detail flags.
 #[derive(Args, Debug, Clone)]
@@ -164,7 +165,7 @@ pub fn resolve(
         ProgressStyle::with_template("calibrating {msg} [{bar:30}] {pos}/{len} frames {elapsed}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let choice = splatphys_bench::budget::calibrate(scene, settings, &pb)?;
+    let choice = crate::calibration::calibrate(scene, settings, &pb)?;
     let mut record = record(&choice, &settings);
     if let Some(c) = &mut record.calibration {
         c.expected_error = expected_error(scene, &choice, &settings, args.error_window_s, &pb)?;
@@ -176,7 +177,7 @@ pub fn resolve(
 }
 
 /// The chosen level's expected error: from the calibration when it measured errors, else by
-/// [`splatphys_bench::budget::expected_error`] over `window_s` (none when 0).
+/// [`crate::calibration::expected_error`] over `window_s` (none when 0).
 fn expected_error(
     scene: &Scene,
     choice: &Choice,
@@ -201,14 +202,9 @@ fn expected_error(
     let window_s = window_s.min(scene.simulation.duration_s);
     let frames = (window_s * scene.simulation.frame_rate_hz).round() as u64;
     pb.set_length(pb.length().unwrap_or(0) + 2 * frames);
-    let (com_error_m, p95_error_m) = splatphys_bench::budget::expected_error(
-        scene,
-        &choice.chosen,
-        window_s,
-        settings.threads,
-        pb,
-    )
-    .context("--error-window-s")?;
+    let (com_error_m, p95_error_m) =
+        crate::calibration::expected_error(scene, &choice.chosen, window_s, settings.threads, pb)
+            .context("--error-window-s")?;
     Ok(Some(ExpectedError {
         window_s,
         com_error_m,

@@ -8,11 +8,15 @@
 //! - [`plan`]: what the parent of `splatphys run` reads from the scene, once;
 //! - [`report`]: `server.json` and `summary.json` as typed reports;
 //! - [`view`]: the browser viewer as a child process (`--view`);
-//! - [`child_args`]: the arguments of every child process, built in one place.
+//! - [`child_args`]: the arguments of every child process, built in one place;
+//! - [`calibration`] and [`trace`]: the timed in-process runs behind `--budget-fps` (the
+//!   benchmarks of `splatphys-bench` use them too).
 
+pub mod calibration;
 pub mod child_args;
 pub mod level_of_detail;
 pub mod plan;
 pub mod report;
+pub mod trace;
 pub mod view;
 pub mod world_sim;

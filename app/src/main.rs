@@ -1,6 +1,6 @@
 //! `splatphys`: the main job, the server, inspection and benchmarks.
 
-use anyhow::Result;
+use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 
 mod inspect;
@@ -43,9 +43,14 @@ enum Command {
     Inspect(inspect::InspectArgs),
     /// Stage 1: lift 2-D feature maps of the training views into per-Gaussian features.
     Uplift(uplift::UpliftArgs),
-    /// Benchmarks (JSON lines).
-    #[command(subcommand)]
-    Bench(splatphys_bench::BenchCommand),
+    /// Benchmarks (JSON lines): runs `splatphys-bench` with the same arguments
+    /// (`splatphys bench --help` lists them).
+    #[command(disable_help_flag = true)]
+    Bench {
+        /// The benchmark and its arguments, e.g. `mpm --threads 2`.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<std::ffi::OsString>,
+    },
 }
 
 fn main() -> Result<()> {
@@ -54,7 +59,29 @@ fn main() -> Result<()> {
         Command::Run(args) => run::run(&args),
         Command::Serve(args) => serve::run(&args),
         Command::Inspect(args) => inspect::run(&args),
-        Command::Bench(cmd) => splatphys_bench::run(&cmd, splatphys::world_sim::boxed),
+        Command::Bench { args } => bench(&args),
         Command::Uplift(args) => uplift::run(&args),
     }
+}
+
+/// `splatphys bench ARGS`: runs the `splatphys-bench` binary beside this one with `ARGS` and
+/// exits as it does (the benchmarks, their plotting and the rapier reference live there).
+fn bench(args: &[std::ffi::OsString]) -> Result<()> {
+    let me = std::env::current_exe().context("locating the splatphys executable")?;
+    let bin = me.with_file_name("splatphys-bench");
+    if !bin.exists() {
+        bail!(
+            "{} not found: build it with `cargo build --release -p splatphys-bench` (or the whole \
+             workspace)",
+            bin.display()
+        );
+    }
+    let status = std::process::Command::new(&bin)
+        .args(args)
+        .status()
+        .with_context(|| format!("running {}", bin.display()))?;
+    if !status.success() {
+        std::process::exit(status.code().unwrap_or(1));
+    }
+    Ok(())
 }

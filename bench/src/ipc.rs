@@ -94,9 +94,9 @@ impl Drop for Peer {
 impl Peer {
     /// Starts `splatphys bench ipc-peer ARGS` with stdout piped.
     pub fn spawn(args: &[String]) -> Result<Self> {
-        let exe = std::env::current_exe().context("locating the splatphys binary")?;
+        let exe = std::env::current_exe().context("locating the splatphys-bench binary")?;
         let child = Process::new(exe)
-            .args(["bench", "ipc-peer"])
+            .arg("ipc-peer")
             .args(args)
             .stdout(Stdio::piped())
             .spawn()

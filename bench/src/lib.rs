@@ -1,5 +1,7 @@
-//! splatphys-bench: every benchmark and experiment behind `splatphys bench`, printed as JSON
-//! lines (never timed tests), with their charts and the Taichi references in `bench/taichi/`.
+//! splatphys-bench: every benchmark and experiment of the `splatphys-bench` binary (which
+//! `splatphys bench` runs), printed as JSON lines (never timed tests), with their charts and the
+//! Taichi references in `bench/taichi/`. The shipped `splatphys` command links none of it
+//! (no plotting, no rapier).
 //!
 //! `bench mpm` ([`crate::mpm`]) measures MLS-MPM throughput on the standard problem, optionally
 //! against Taichi in the same run; `bench ipc` ([`crate::ipc`]) measures the shared-memory frame path against a Unix
@@ -10,7 +12,6 @@
 //! soak` ([`crate::soak`]) memory growth of a server and a recorder over minutes. Charts
 //! go through [`crate::chart`].
 
-pub mod budget;
 pub mod chart;
 pub mod compare;
 pub mod contact;

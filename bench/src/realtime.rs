@@ -38,7 +38,7 @@ use serde_json::{Value, json};
 use splatphys_core::scene::{ObjectKind, Scene, SceneObject};
 
 use crate::chart::{self, Series};
-use crate::subsets::{Trace, gaussian_errors_cells, max_distance, moving, run_scene};
+use splatphys::trace::{Trace, gaussian_errors_cells, max_distance, moving, run_scene};
 
 /// Arguments of `bench realtime`.
 #[derive(Args, Debug)]

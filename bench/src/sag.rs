@@ -26,8 +26,8 @@ use serde_json::{Value, json};
 use splatphys_core::scene::{ObjectKind, Scene};
 use splatphys_core::world::World;
 
-use crate::subsets::moving;
 use crate::{chart, thread_pool};
+use splatphys::trace::moving;
 
 /// Arguments of `bench sag`.
 #[derive(Args, Debug)]

@@ -41,6 +41,10 @@ pub struct SoakBenchArgs {
     /// Keep the recording (by default only its size is reported and the file is deleted).
     #[arg(long)]
     pub keep_recording: bool,
+    /// The recorder's MCAP chunk size, MiB (`splatphys-record record --chunk-mb`): its memory
+    /// grows by one index entry per chunk.
+    #[arg(long, default_value_t = 4)]
+    pub chunk_mb: u64,
     /// Output folder (CSV, chart, server report, recording).
     #[arg(long, default_value = "out/soak")]
     pub out_dir: PathBuf,
@@ -135,13 +139,18 @@ pub fn run(a: &SoakBenchArgs) -> Result<()> {
     );
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
-    let exe = std::env::current_exe().context("locating the splatphys binary")?;
-    let recorder_exe = exe.with_file_name("splatphys-record");
-    ensure!(
-        recorder_exe.exists(),
-        "{} not found next to splatphys (build it: cargo build --release -p splatphys-record)",
-        recorder_exe.display()
+    let me = std::env::current_exe().context("locating the splatphys-bench binary")?;
+    let (exe, recorder_exe) = (
+        me.with_file_name("splatphys"),
+        me.with_file_name("splatphys-record"),
     );
+    for bin in [&exe, &recorder_exe] {
+        ensure!(
+            bin.exists(),
+            "{} not found next to splatphys-bench (build the workspace: cargo build --release --workspace)",
+            bin.display()
+        );
+    }
     let (_, scene) = splatphys_core::scene::load_named(a.scene.as_deref(), Some(1.0))?;
     let object = scene
         .objects
@@ -179,7 +188,8 @@ pub fn run(a: &SoakBenchArgs) -> Result<()> {
                 "60",
                 "--out",
             ])
-            .arg(&recording),
+            .arg(&recording)
+            .arg(format!("--chunk-mb={}", a.chunk_mb)),
         &iox,
         &a.out_dir.join("recorder.log"),
         "splatphys-record",
@@ -258,6 +268,7 @@ pub fn run(a: &SoakBenchArgs) -> Result<()> {
     let summary = json!({
         "bench": "soak",
         "minutes": started.elapsed().as_secs_f64() / 60.0,
+        "recorder_chunk_mb": a.chunk_mb,
         "samples": rows.len(),
         "warmup_s": warmup_s,
         "server_rss_mb_first": server_rss.iter().find(|(t, _)| *t >= warmup_s).map(|s| s.1),

@@ -35,13 +35,12 @@ pub fn json_objects(text: &str) -> Vec<serde_json::Value> {
         .collect()
 }
 
-/// Runs `splatphys bench <args> --out-dir <out_dir>` and returns its stdout.
+/// Runs `splatphys-bench <args> --out-dir <out_dir>` and returns its stdout.
 ///
 /// # Panics
 /// When it fails (showing its stderr).
 pub fn run_bench(args: &[&str], out_dir: &Path) -> String {
-    let out = Command::new(bin("splatphys"))
-        .arg("bench")
+    let out = Command::new(bin("splatphys-bench"))
         .args(args)
         .arg("--out-dir")
         .arg(out_dir)

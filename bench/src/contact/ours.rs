@@ -10,7 +10,7 @@ use splatphys_core::world::{World, measure};
 
 use super::scenes::{ContactScene, ContactSettings};
 use super::{EngineRun, FinalBody, MassProps, Progress};
-use crate::subsets::process_cpu_s;
+use splatphys::trace::process_cpu_s;
 
 /// Builds the world of `scene` for `duration_s` and the mass properties it gives each body (the
 /// rapier side copies them).

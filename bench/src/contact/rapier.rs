@@ -20,7 +20,7 @@ use rapier3d::prelude::{
 
 use super::scenes::{BodyShape, ContactScene, ContactSettings};
 use super::{EngineRun, FinalBody, MassProps, Progress};
-use crate::subsets::process_cpu_s;
+use splatphys::trace::process_cpu_s;
 
 /// The rapier version linked in, for tables and file rows.
 pub const VERSION: &str = rapier3d::VERSION;

@@ -90,7 +90,7 @@ pub fn serve<S: Simulation>(sim: &mut S, cfg: &ServerConfig) -> Result<ServerRep
             break reason;
         }
         server.republish_on_new_generation()?;
-        if let Some(reason) = server.end_reached()? {
+        if let Some(reason) = server.end_reached() {
             break reason;
         }
         if server.wait_for_subscribers()? {
@@ -483,10 +483,10 @@ impl<'a, S: Simulation> Server<'a, S> {
 
     /// The end of the simulation (a stop with [`ServerConfig::exit_when_finished`], otherwise
     /// the first time a hold: paused, [`STATUS_FINISHED`]) or [`ServerConfig::max_frames`].
-    fn end_reached(&mut self) -> Result<Option<StopReason>, IpcError> {
+    fn end_reached(&mut self) -> Option<StopReason> {
         if self.at_end() && !self.state.held_at_end && !self.state.waiting {
             if self.cfg.exit_when_finished {
-                return Ok(Some(StopReason::Finished));
+                return Some(StopReason::Finished);
             }
             self.state.held_at_end = true;
             self.state.paused = true;
@@ -502,11 +502,10 @@ impl<'a, S: Simulation> Server<'a, S> {
             self.state.last_status = Instant::now() - crate::services::STATUS_PERIOD;
             self.beat();
         }
-        Ok(self
-            .cfg
+        self.cfg
             .max_frames
             .is_some_and(|m| self.report.frames_published > m)
-            .then_some(StopReason::MaxFrames))
+            .then_some(StopReason::MaxFrames)
     }
 
     /// While holding for [`ServerConfig::wait_for_lossless`] and

@@ -40,6 +40,12 @@ enum Cmd {
         /// Seconds to wait for the server.
         #[arg(long, default_value_t = 5.0)]
         connect_timeout_s: f64,
+        /// Target size of an MCAP chunk (uncompressed), MiB. The recorder keeps one index entry
+        /// (about 300 B) per chunk in memory until the file is finished, for the file's summary:
+        /// larger chunks mean fewer entries. A chunk is also closed every second, so a killed
+        /// recorder loses at most that.
+        #[arg(long, default_value_t = 4)]
+        chunk_mb: u64,
     },
     /// Publish a recording back onto the services.
     Replay {
@@ -78,7 +84,15 @@ enum Cmd {
     },
 }
 
+/// With the `dhat-heap` feature every allocation is counted with its call stack (`dhat-heap.json`
+/// at exit), to attribute the recorder's memory.
+#[cfg(feature = "dhat-heap")]
+#[global_allocator]
+static ALLOC: dhat::Alloc = dhat::Alloc;
+
 fn main() -> Result<()> {
+    #[cfg(feature = "dhat-heap")]
+    let _profiler = dhat::Profiler::new_heap();
     match Cli::parse().command {
         Cmd::Record {
             prefix,
@@ -87,8 +101,13 @@ fn main() -> Result<()> {
             frames,
             pointcloud_every,
             connect_timeout_s,
+            chunk_mb,
         } => {
+            if chunk_mb == 0 {
+                bail!("--chunk-mb must be at least 1");
+            }
             let mut opts = RecordOptions::new(&prefix);
+            opts.writer.chunk_size_bytes = chunk_mb.saturating_mul(1 << 20);
             opts.max_frames = frames;
             opts.writer.pointcloud_every = pointcloud_every;
             opts.connect_timeout = Duration::from_secs_f64(connect_timeout_s.max(0.0));

@@ -18,7 +18,7 @@ use indicatif::ProgressBar;
 use splatphys_core::scene::level_of_detail::{Choice, CostModel, Measurement, choose};
 use splatphys_core::scene::{LevelOfDetail, Scene};
 
-use crate::subsets::{Trace, gaussian_errors_cells, max_distance, run_scene_within};
+use crate::trace::{Trace, gaussian_errors_cells, max_distance, run_scene_within};
 
 /// How a scene is calibrated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -68,7 +68,10 @@ impl<'a> Calibration<'a> {
         Ok(Self {
             settings,
             window,
-            pool: crate::thread_pool(settings.threads)?,
+            pool: rayon::ThreadPoolBuilder::new()
+                .num_threads(settings.threads)
+                .build()
+                .context("thread pool")?,
             reference: None,
             pb,
         })
