@@ -9,8 +9,8 @@
 //! [`ServerConfig::cleanup_period`]. On a `Shutdown` command or the end of the simulation the
 //! server finishes the step; a signal or the stop flag is seen between substeps, so a step in
 //! progress is abandoned; it then waits for lossless subscribers to take the last frame
-//! ([`lossless`]), publishes a last status with [`STATUS_SHUTTING_DOWN`] and drops its services
-//! (iceoryx2 removes them with their last user). Without
+//! (`server/lossless.rs`), publishes a last status with [`STATUS_SHUTTING_DOWN`] and drops its
+//! services (iceoryx2 removes them with their last user). Without
 //! [`ServerConfig::exit_when_finished`] the end of the simulation does not stop the server: it
 //! holds the last frame, paused, with [`STATUS_FINISHED`], and keeps answering.
 //!
