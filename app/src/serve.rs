@@ -39,7 +39,7 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 2000)]
     pub lossless_limit_ms: u64,
     /// Largest accepted impulse magnitude, N·s.
-    #[arg(long, default_value_t = 1e3)]
+    #[arg(long, default_value_t = splatphys_types::limits::DEFAULT_MAX_IMPULSE_N_S)]
     pub max_impulse: f64,
     /// Start paused (send `resume` or `step N`).
     #[arg(long)]

@@ -5,25 +5,29 @@
 //! exceeds [`Limits::max_impulse_n_s`], `Step` with a count of 0 or above
 //! [`Limits::max_step_count`].
 
+use splatphys_types::limits::{DEFAULT_MAX_IMPULSE_N_S, MAX_COMMAND_SPEED_M_S, MAX_STEP_COUNT};
+
 use crate::command::{Command, RejectCode, Reply};
 
-/// Server-side limits on command values.
+/// Server-side limits on command values (defaults from [`splatphys_types::limits`], the bounds
+/// the simulation and the scene loader use too).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limits {
-    /// Largest accepted impulse magnitude, N·s. Default 1e3.
+    /// Largest accepted impulse magnitude, N·s. Default [`DEFAULT_MAX_IMPULSE_N_S`] (1e3).
     pub max_impulse_n_s: f64,
-    /// Largest accepted speed for `SetVelocity`, m/s. Default 1e3.
+    /// Largest accepted speed for `SetVelocity`, m/s. Default [`MAX_COMMAND_SPEED_M_S`] (100):
+    /// the simulation refuses any command that would move a particle faster.
     pub max_speed_m_s: f64,
-    /// Largest `Step { count }`. Default 1e6.
+    /// Largest `Step { count }`. Default [`MAX_STEP_COUNT`] (1e6).
     pub max_step_count: u64,
 }
 
 impl Default for Limits {
     fn default() -> Self {
         Self {
-            max_impulse_n_s: 1e3,
-            max_speed_m_s: 1e3,
-            max_step_count: 1_000_000,
+            max_impulse_n_s: DEFAULT_MAX_IMPULSE_N_S,
+            max_speed_m_s: MAX_COMMAND_SPEED_M_S,
+            max_step_count: MAX_STEP_COUNT,
         }
     }
 }

@@ -67,8 +67,8 @@ struct Placed {
 
 /// Validates and converts a material table.
 fn material(ctx: &Ctx, m: &MaterialToml, key: &str) -> Result<MaterialSpec, SceneError> {
-    // The bounds a material edit command gets (`world::limits`).
-    use crate::world::limits::{DENSITY_RANGE_KG_M3, MAX_POISSON_RATIO, MAX_YOUNGS_MODULUS_PA};
+    // The bounds a material edit command gets (`splatphys_types::limits`).
+    use splatphys_types::limits::{DENSITY_RANGE_KG_M3, MAX_POISSON_RATIO, MAX_YOUNGS_MODULUS_PA};
     ctx.check(
         m.youngs_modulus_pa > 0.0 && m.youngs_modulus_pa <= MAX_YOUNGS_MODULUS_PA,
         format!("{key}.youngs_modulus_pa"),

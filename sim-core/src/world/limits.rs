@@ -16,19 +16,10 @@ use super::{World, WorldError, measure};
 use crate::material::{ConstitutiveModel, Material, MaterialSpec};
 use crate::scene::ObjectKind;
 
-/// Fastest a command may make any particle of an object move (m/s).
-pub const MAX_COMMAND_SPEED_M_S: f64 = 100.0;
-/// Farthest from the origin a command may place an object (m).
-pub const MAX_POSITION_M: f64 = 1e4;
-/// Default particle-substeps per published frame a material edit may raise the world to (all
-/// objects): about 10 s of stepping per frame on a 2-core machine.
-pub const DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME: f64 = 1e8;
-/// Largest Young's modulus accepted (Pa): steel is 2e11; beyond 1e13 the stress overflows f32.
-pub const MAX_YOUNGS_MODULUS_PA: f64 = 1e13;
-/// Density range accepted (kg/m³): aerogel to osmium, with margin.
-pub const DENSITY_RANGE_KG_M3: (f64, f64) = (0.1, 1e5);
-/// Largest Poisson's ratio accepted: λ = E ν / ((1 + ν)(1 − 2ν)) stays finite in f32.
-pub const MAX_POISSON_RATIO: f64 = 0.499;
+pub use splatphys_types::limits::{
+    DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME, DENSITY_RANGE_KG_M3, MAX_COMMAND_SPEED_M_S,
+    MAX_POISSON_RATIO, MAX_POSITION_M, MAX_YOUNGS_MODULUS_PA,
+};
 
 impl World {
     fn refuse(&self, id: usize, reason: String) -> WorldError {

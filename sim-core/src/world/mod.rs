@@ -248,9 +248,7 @@ pub struct World {
     island: Option<Vec<bool>>,
 }
 
-/// Fastest any particle may move before the world calls its state unstable (m/s): ten times
-/// the fastest a command may push ([`limits::MAX_COMMAND_SPEED_M_S`]).
-pub const MAX_STABLE_SPEED_M_S: f64 = 1000.0;
+pub use splatphys_types::limits::MAX_STABLE_SPEED_M_S;
 
 /// Friction coefficient of the captured background.
 pub const BACKGROUND_FRICTION: f32 = 0.5;
