@@ -60,7 +60,7 @@ impl Collider {
     }
 
     /// Displacement of a moving collider at time `t_s` (m): velocity × elapsed active time.
-    fn offset(&self, t_s: f64) -> Vec3A {
+    pub(crate) fn offset(&self, t_s: f64) -> Vec3A {
         match self.active_s {
             Some((a, _)) => self.velocity_m_s * ((t_s - a).max(0.0) as f32),
             None => Vec3A::ZERO,

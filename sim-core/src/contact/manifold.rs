@@ -330,6 +330,10 @@ fn sphere_against(
 
 /// Contact points of `a` and `b` (normals from A to B) closer than `margin_m`.
 pub fn between(a: &Placed, b: &Placed, margin_m: f32) -> Vec<RawContact> {
+    if let Some(out) = super::exact::between((a.geometry, &a.pose), (b.geometry, &b.pose), margin_m)
+    {
+        return reduce(out, margin_m);
+    }
     if let Some(s) = sphere(a.geometry)
         && let Some(out) = sphere_against(s, a.pose, b, margin_m, 0)
     {
@@ -363,6 +367,11 @@ pub fn against_collider(
     time_s: f64,
     margin_m: f32,
 ) -> Vec<RawContact> {
+    if let Some(out) =
+        super::exact::against_collider((a.geometry, &a.pose), collider, time_s, margin_m)
+    {
+        return reduce(out, margin_m);
+    }
     // The domain's bound is the inside of a box: a sphere in its corner touches two walls.
     let convex = !matches!(collider.shape, crate::collider::Shape::DomainBound(_));
     if let Some(s) = sphere(a.geometry)
@@ -419,6 +428,8 @@ mod tests {
 
     #[test]
     fn a_box_on_a_box_touches_over_its_face_with_a_vertical_normal() {
+        // Exact shapes: the corners of the overlap square [0.02, 0.1]² of the two faces, 1 mm
+        // deep, normal straight up.
         let (ga, gb) = (cube([0.0; 3], 0.1), cube([0.02, 0.02, 0.099], 0.1));
         let (pa, pb) = (ga.surface_points(0.01), gb.surface_points(0.01));
         let c = between(
@@ -426,19 +437,37 @@ mod tests {
             &placed(&gb, &pb, Pose::IDENTITY),
             1e-3,
         );
-        assert_eq!(c.len(), MAX_POINTS);
+        assert_eq!(c.len(), 4, "{c:?}");
         let (mut lo, mut hi) = (Vec3A::splat(f32::MAX), Vec3A::splat(f32::MIN));
         for p in &c {
             assert!((p.normal - Vec3A::Z).length() < 1e-5, "{p:?}");
             assert!((p.separation_m + 1e-3).abs() < 1e-5);
+            assert!((p.point_m.z - 0.0995).abs() < 1e-5, "{p:?}");
             lo = lo.min(p.point_m);
             hi = hi.max(p.point_m);
         }
-        // The kept points span the overlap square [0.02, 0.1]² (within the edge inset).
-        assert!(
-            lo.x < 0.021 && lo.y < 0.021 && hi.x > 0.099 && hi.y > 0.099,
-            "{lo} {hi}"
+        let corner = |v: Vec3A, x: f32| (v.x - x).abs() < 1e-5 && (v.y - x).abs() < 1e-5;
+        assert!(corner(lo, 0.02) && corner(hi, 0.1), "{lo} {hi}");
+    }
+
+    #[test]
+    fn a_level_set_box_on_a_box_touches_over_its_face_with_a_vertical_normal() {
+        // The point probes of a sampled surface: at most MAX_POINTS spanning the overlap.
+        let ga = cube([0.0; 3], 0.1);
+        let gb = cube([0.02, 0.02, 0.099], 0.1);
+        let ls = crate::contact::LevelSet::from_points(&gb.surface_points(0.005), 0.01, 1 << 22)
+            .unwrap();
+        let gb = Geometry::Sampled(ls);
+        let (pa, pb) = (ga.surface_points(0.01), gb.surface_points(0.01));
+        let c = between(
+            &placed(&ga, &pa, Pose::IDENTITY),
+            &placed(&gb, &pb, Pose::IDENTITY),
+            0.02,
         );
+        assert!(!c.is_empty() && c.len() <= MAX_POINTS, "{c:?}");
+        for p in &c {
+            assert!(p.normal.z > 0.9, "{p:?}");
+        }
     }
 
     #[test]
