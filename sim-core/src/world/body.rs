@@ -253,6 +253,8 @@ pub struct Body {
     pub sigma0: Vec<Mat3A>,
     /// `[N]` particle offsets from the COM in the rest pose (m), for rigid motion.
     pub rest_offsets: Vec<Vec3A>,
+    /// The largest of `rest_offsets`' lengths (m), computed with them.
+    rest_arm_m: f64,
     /// `[G]` whether each Gaussian is published (false for fill particles).
     pub visible: Vec<bool>,
     /// How the `[G]` Gaussians follow the `[N]` particles; `None`: G = N and each Gaussian is a
@@ -359,6 +361,7 @@ impl Body {
             gaussians: g.clone(),
             sigma0,
             rest_offsets: Vec::new(),
+            rest_arm_m: 0.0,
             visible: if o.visible.len() == g.len() {
                 o.visible.clone()
             } else {
@@ -461,6 +464,11 @@ impl Body {
         let s = measure(&self.particles, self.solver.dx_m);
         let com = s.com_m.as_vec3a();
         self.rest_offsets = self.particles.x.iter().map(|x| *x - com).collect();
+        self.rest_arm_m = self
+            .rest_offsets
+            .iter()
+            .map(|r| r.length())
+            .fold(0.0f32, f32::max) as f64;
         self.rigid = RigidState {
             orientation: Quat::IDENTITY,
             com_m: s.com_m,
@@ -493,6 +501,8 @@ impl Body {
     }
 
     /// Writes the rigid pose into the particles: x = com + R r0, v = v + ω × R r0, F = R, C = `[ω]×`.
+    /// Stepping moves only the pose; the world calls this once per frame (and before commands
+    /// and events), so a solid costs nothing per substep in proportion to its particles.
     pub fn sync_rigid_particles(&mut self) {
         let r = Mat3A::from_quat(self.rigid.orientation);
         let com = self.rigid.com_m.as_vec3a();
@@ -535,20 +545,17 @@ impl Body {
     /// The largest distance of a particle from the COM in the rest pose (m): the lever arm that
     /// turns ω into the fastest particle speed.
     pub fn arm_m(&self) -> f64 {
-        self.rest_offsets
-            .iter()
-            .map(|r| r.length())
-            .fold(0.0f32, f32::max) as f64
+        self.rest_arm_m
     }
 
-    /// Gives rigid body impulse `j` (N s) at `point` (m).
+    /// Gives rigid body impulse `j` (N s) at `point` (m). The particles follow at
+    /// [`Self::sync_rigid_particles`].
     pub fn apply_rigid_impulse(&mut self, j: DVec3, point: DVec3) {
         let inv_i = inverse_or_zero(self.rigid_world_inertia());
         let rs = &mut self.rigid;
         rs.velocity_m_s += j / rs.mass_kg.max(f64::MIN_POSITIVE);
         rs.omega_rad_s += inv_i * (point - rs.com_m).cross(j);
         self.impulse_total_n_s += j.length();
-        self.sync_rigid_particles();
     }
 
     /// World inertia of the rigid state, R I0 Rᵀ.

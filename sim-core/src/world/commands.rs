@@ -112,10 +112,16 @@ impl World {
         self.forget_impacts(id);
         let b = &mut self.bodies[id];
         let dx = b.dx_m();
-        let s = measure(&b.particles, dx);
-        let point = point_m.map(|p| p.as_dvec3()).unwrap_or(s.com_m);
+        let com_m = match b.kind {
+            ObjectKind::Rigid => b.rigid.com_m,
+            _ => measure(&b.particles, dx).com_m,
+        };
+        let point = point_m.map(|p| p.as_dvec3()).unwrap_or(com_m);
         match b.kind {
-            ObjectKind::Rigid => b.apply_rigid_impulse(j_n_s.as_dvec3(), point),
+            ObjectKind::Rigid => {
+                b.apply_rigid_impulse(j_n_s.as_dvec3(), point);
+                b.sync_rigid_particles();
+            }
             _ => {
                 // The zone: particles within 3 cells of the point (all of them for the COM).
                 let r2 = (3.0 * dx as f64).powi(2);

@@ -50,10 +50,6 @@ pub struct Swept {
 }
 
 impl Swept {
-    fn overlaps(&self, o: &Swept) -> bool {
-        self.min_m.cmple(o.max_m).all() && o.min_m.cmple(self.max_m).all()
-    }
-
     fn contains(&self, lo: Vec3A, hi: Vec3A) -> bool {
         self.min_m.cmple(lo).all() && hi.cmple(self.max_m).all()
     }
@@ -64,17 +60,17 @@ impl Swept {
 pub fn group(boxes: &[Option<Swept>]) -> Vec<Vec<usize>> {
     let n = boxes.len();
     let mut parent: Vec<usize> = (0..n).collect();
-    for i in 0..n {
-        let Some(a) = &boxes[i] else { continue };
-        for (j, b) in boxes.iter().enumerate().skip(i + 1) {
-            if b.as_ref().is_some_and(|b| a.overlaps(b)) {
-                let (ri, rj) = (
-                    super::sleep::root(&mut parent, i),
-                    super::sleep::root(&mut parent, j),
-                );
-                parent[ri.max(rj)] = ri.min(rj);
-            }
-        }
+    let bounds: Vec<Option<(Vec3A, Vec3A)>> = boxes
+        .iter()
+        .map(|b| b.map(|b| (b.min_m, b.max_m)))
+        .collect();
+    // Components do not depend on the order the overlapping pairs are joined in.
+    for (i, j) in super::contact::broad_phase(&bounds, 0.0) {
+        let (ri, rj) = (
+            super::sleep::root(&mut parent, i),
+            super::sleep::root(&mut parent, j),
+        );
+        parent[ri.max(rj)] = ri.min(rj);
     }
     let mut islands: Vec<Vec<usize>> = Vec::new();
     let mut slot: Vec<Option<usize>> = vec![None; n];

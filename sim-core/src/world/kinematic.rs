@@ -97,7 +97,6 @@ impl Body {
         {
             self.arrive();
         }
-        self.sync_rigid_particles();
     }
 
     /// Adds a contact impulse `j_n_s` (N s) received at `point_m` (m) to this frame's sums.

@@ -35,7 +35,8 @@ pub fn integrate_velocity(
 }
 
 /// Position half of a rigid step over `dt_s`: the COM moves with v + `push_m_s`, the orientation
-/// with ω + `push_rad_s` keeping L (module docs); the particles follow.
+/// with ω + `push_rad_s` keeping L (module docs). The particles follow once per frame
+/// ([`Body::sync_rigid_particles`]).
 pub fn integrate_position(body: &mut Body, dt_s: f64, push_m_s: DVec3, push_rad_s: DVec3) {
     let rs = &mut body.rigid;
     rs.com_m += (rs.velocity_m_s + push_m_s) * dt_s;
@@ -52,7 +53,6 @@ pub fn integrate_position(body: &mut Body, dt_s: f64, push_m_s: DVec3, push_rad_
     if inverse_or_zero(i0) != DMat3::ZERO {
         rs.omega_rad_s = omega_at(q1);
     }
-    body.sync_rigid_particles();
     let arm = body.arm_m();
     let rs = &body.rigid;
     body.max_speed_m_s = (rs.velocity_m_s.length() + rs.omega_rad_s.length() * arm) as f32;
