@@ -50,6 +50,8 @@ Conventions of the output:
 - deepest_contact_m: max over the steps sampled every 10 steps of -dist over `d.contact`
   (0 when there never was a contact or no contact penetrated).
 
+MuJoCo's warnings go to stderr (not to MUJOCO_LOG.TXT) and are counted in "warnings".
+
 Exit codes: 0 success; 2 bad input (message on stderr); 3 `import mujoco` failed (the caller
 skips MuJoCo); 1 anything else (e.g. MuJoCo refuses the model).
 """
@@ -245,6 +247,8 @@ def simulate(inp, mujoco, np):
         mujoco.mju_quat2Mat(m, np.asarray(q, dtype=float))
         return m.reshape(3, 3)
 
+    # Warnings to stderr, not to MUJOCO_LOG.TXT in the caller's directory.
+    mujoco.set_mju_user_warning(lambda msg: print(f"contact.py: MuJoCo: {msg}", file=sys.stderr))
     model = mujoco.MjModel.from_xml_string(mjcf(inp, np, quat_to_mat))
     data = mujoco.MjData(model)
     dt = float(model.opt.timestep)

@@ -26,15 +26,16 @@ except ImportError:
 needs_mujoco = pytest.mark.skipif(not HAVE_MUJOCO, reason="mujoco is not installed")
 
 
-def run(doc, env=None):
+def run(doc, env=None, cwd=None):
     """Runs the script on `doc` (a dict or raw text); returns the completed process."""
     text = doc if isinstance(doc, str) else json.dumps(doc)
     return subprocess.run(
-        [sys.executable, str(SCRIPT)],
+        [sys.executable, str(SCRIPT.resolve())],
         input=text,
         capture_output=True,
         text=True,
         env=env,
+        cwd=cwd,
         timeout=120,
         check=False,
     )
@@ -198,6 +199,18 @@ def test_steps_and_time(duration, dt, steps):
     assert out["wall_s"] > 0.0
     assert out["simulated_s"] == pytest.approx(steps * out["dt_s"])
     assert out["engine"].startswith("mujoco ")
+
+
+@needs_mujoco
+def test_warnings_are_counted_and_go_to_stderr(tmp_path):
+    # A ball thrown down at an absurd speed: MuJoCo flags the velocity (and resets the state).
+    # The warning is in the output and on stderr, and no MUJOCO_LOG.TXT lands in the cwd.
+    doc = scene([ball(0.05, [0.0, 0.0, 0.2], velocity_m_s=[0.0, 0.0, -1e12])], duration=0.01)
+    p = run(doc, cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["warnings"].get("mjWARN_BADQVEL", 0) >= 1
+    assert "QVEL" in p.stderr
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
 
 
 @pytest.mark.parametrize(

@@ -1,39 +1,52 @@
-//! `splatphys bench contact`: rigid-body contact of the COM layer against rapier3d on the same
-//! scenes in the same process: a stack of 10 boxes, a pyramid of 15 and a pile of 100 boxes and
-//! balls in an open box ([`scenes`]).
+//! `splatphys bench contact`: rigid-body contact of the COM layer against two reference
+//! engines, rapier3d (in the same process) and MuJoCo (a Python child process), on the same
+//! scenes ([`scenes`]): a stack of 10 boxes, a pyramid of 15, a pile of 100 boxes and balls in
+//! an open box, 125 randomly turned 5 cm cubes dropped into an open box (`cubes`) and, on
+//! request only (it is slow), 1,000 of them (`cubes1000`).
 //!
 //! Per scene, splatphys runs first ([`ours`]): a [`splatphys_core::world::World`] from the scene
 //! builder, substeps chosen by the world (CFL), sleeping kept off. Rapier then runs the same
 //! scene ([`rapier`], feature `rapier`, on by default) with the masses, centres of mass and
-//! inertia tensors the world computed from its particles, the same friction, restitution and
-//! gravity, sleeping off, and a fixed step that is by default the world's mean substep (so both
-//! take about as many steps; `--rapier-dt-s` sets another).
+//! inertia tensors the world computed from its particles, the same start poses, friction,
+//! restitution and gravity, sleeping off, and a fixed step that is by default the world's mean
+//! substep (so both take about as many steps; `--rapier-dt-s` sets another). MuJoCo runs it
+//! third ([`mujoco`], `bench/mujoco/contact.py` through `--python`) with the same masses,
+//! poses, friction and gravity and otherwise at its defaults: its 0.002 s step (unless
+//! `--mujoco-dt-s`), Euler integrator, Newton solver, pyramidal cone, soft contacts. MuJoCo has
+//! no restitution coefficient, so `--restitution` does not reach it. A Python without `mujoco`
+//! (or no Python) skips MuJoCo with one line on stderr; `--no-mujoco` skips it outright.
 //!
 //! Measured per scene and engine, at the end of the run:
 //! - **COM drift** (stack, pyramid): per body |COM − rest COM| in mm, its max and mean, where
 //!   the rest COM is the start COM lowered by the gaps below the body (for the stack k·0.1 +
-//!   0.05 m up to the lattice's COM offset, which both engines share);
+//!   0.05 m up to the lattice's COM offset, which all engines share);
 //! - **deepest overlap** of any two bodies or a body and the ground or a wall, on the exact
-//!   shapes at the final poses ([`penetration`], needs the `rapier` feature for parry);
-//! - **largest COM speed** and **kinetic energy** (translation and rotation; what a pile that has
-//!   not come to rest still holds);
-//! - **time**: steps, wall time per step and per simulated second, CPU time of the loop.
+//!   shapes at the final poses ([`penetration`], needs the `rapier` feature for parry), the
+//!   same way for every engine; MuJoCo also reports the **deepest contact during the run**
+//!   (its own contact depths, every 10 steps), which the others leave '-';
+//! - **largest COM speed**, **kinetic energy** (translation and rotation; what a pile that has
+//!   not come to rest still holds) and the **bodies below 1 cm/s** (COM speed; the target is
+//!   every cube below it at 3 s);
+//! - **time**: steps, wall time per step and per simulated second, CPU time of the loop
+//!   (splatphys and rapier; MuJoCo's wall time is that of its `mj_step` calls only).
 //!
 //! Splatphys bodies are particle clouds (one particle per Gaussian or lattice point), so its cost
-//! per step follows the particle count; rapier's follows bodies and contacts.
+//! per step follows the particle count; rapier's and MuJoCo's follow bodies and contacts.
 //!
-//! Output: one JSON line per scene and engine, then a table with the ratio splatphys / rapier;
-//! `contact.csv` (those rows), `contact_bodies.csv` (per body) and the chart `contact.svg` /
-//! `contact.png` in `--out-dir`.
+//! Output: one JSON line per scene and engine, then a table with a column per engine and the
+//! ratios splatphys / rapier and splatphys / mujoco ([`report`]); `contact.csv` (those rows),
+//! `contact_bodies.csv` (per body) and the chart `contact.svg` / `contact.png` in `--out-dir`.
 
+pub mod mujoco;
 pub mod ours;
 #[cfg(feature = "rapier")]
 pub mod penetration;
 #[cfg(feature = "rapier")]
 pub mod rapier;
+pub mod report;
 pub mod scenes;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -41,14 +54,18 @@ use glam::{DMat3, DQuat, DVec3};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
-use crate::chart::{self, BarPanel};
+use report::SceneRows;
 use scenes::{ContactScene, ContactSettings, SceneKind};
 
 /// Arguments of `bench contact`.
 #[derive(Args, Debug)]
 pub struct ContactBenchArgs {
-    /// Scenes to run, in order.
-    #[arg(long, value_delimiter = ',', default_value = "stack,pyramid,pile")]
+    /// Scenes to run, in order (cubes1000 is slow: only on request).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "stack,pyramid,pile,cubes"
+    )]
     pub scenes: Vec<SceneKind>,
     /// Simulated time of the stack and the pyramid (s).
     #[arg(long, default_value_t = 10.0)]
@@ -56,28 +73,43 @@ pub struct ContactBenchArgs {
     /// Simulated time of the pile (s).
     #[arg(long, default_value_t = 4.0)]
     pub pile_duration_s: f64,
+    /// Simulated time of the cube scenes, cubes and cubes1000 (s).
+    #[arg(long, default_value_t = 3.0)]
+    pub cubes_duration_s: f64,
     /// Objects in the pile (25 per layer).
     #[arg(long, default_value_t = 100)]
     pub pile_count: usize,
     /// Grid cell size of the splatphys world and lattice spacing of its particles (m).
     #[arg(long, default_value_t = 0.01)]
     pub dx_m: f64,
-    /// Coulomb friction of every surface, both engines.
+    /// Coulomb friction of every surface, every engine.
     #[arg(long, default_value_t = 0.5)]
     pub friction: f32,
-    /// Restitution of every surface, both engines.
+    /// Restitution of every surface, splatphys and rapier (MuJoCo has none).
     #[arg(long, default_value_t = 0.0)]
     pub restitution: f32,
     /// Density of every body (kg/m³): a 10 cm box of 1000 kg/m³ weighs 1 kg.
     #[arg(long, default_value_t = 1000.0)]
     pub density_kg_m3: f64,
-    /// Seed of the pile layout and the particle lattice jitter.
+    /// Seed of the pile layout, the cubes' orientations and the particle lattice jitter.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Rapier's fixed step (s); default: the splatphys world's mean substep on each scene.
     #[arg(long)]
     pub rapier_dt_s: Option<f64>,
-    /// Worker threads of the splatphys world (rapier runs single-threaded).
+    /// MuJoCo's fixed step (s); default: MuJoCo's own, 0.002 s.
+    #[arg(long)]
+    pub mujoco_dt_s: Option<f64>,
+    /// The Python that runs MuJoCo (needs the `mujoco` package; without it MuJoCo is skipped).
+    #[arg(long, default_value = "python3")]
+    pub python: String,
+    /// The MuJoCo script; default: bench/mujoco/contact.py of this checkout.
+    #[arg(long)]
+    pub mujoco_script: Option<PathBuf>,
+    /// Do not run MuJoCo.
+    #[arg(long, conflicts_with = "mujoco_script")]
+    pub no_mujoco: bool,
+    /// Worker threads of the splatphys world (rapier and MuJoCo run single-threaded).
     #[arg(long, default_value_t = 1)]
     pub threads: usize,
     /// Where `contact.csv`, `contact_bodies.csv`, `.svg` and `.png` go.
@@ -161,7 +193,7 @@ pub struct ContactRow {
     pub bench: &'static str,
     /// Scene name.
     pub scene: &'static str,
-    /// "splatphys" or "rapier3d" with its version.
+    /// "splatphys", or "rapier3d" or "mujoco" with its version.
     pub engine: String,
     /// Rigid bodies.
     pub bodies: usize,
@@ -193,10 +225,14 @@ pub struct ContactRow {
     pub mean_drift_mm: Option<f64>,
     /// Deepest overlap at the end (mm; needs the `rapier` feature).
     pub max_penetration_mm: Option<f64>,
+    /// Deepest contact during the run, as the engine measures it (mm; MuJoCo only).
+    pub deepest_contact_during_run_mm: Option<f64>,
     /// Largest COM speed at the end (m/s).
     pub max_speed_m_s: f64,
     /// Kinetic energy at the end, translation and rotation (J).
     pub kinetic_energy_j: f64,
+    /// Bodies whose COM moves slower than [`REST_SPEED_M_S`] at the end.
+    pub below_1cm_s_at_end: usize,
     /// Bodies asleep at the end.
     pub asleep_at_end: usize,
 }
@@ -225,6 +261,9 @@ pub struct BodyRow {
     /// COM speed (m/s).
     pub speed_m_s: f64,
 }
+
+/// The speed a body at rest stays below at the end (m/s): 1 cm/s.
+pub const REST_SPEED_M_S: f64 = 0.01;
 
 /// Per body |COM − rest COM| (m), `None` where the scene knows no rest pose.
 fn drifts_m(scene: &ContactScene, mass: &[MassProps], run: &EngineRun) -> Vec<Option<f64>> {
@@ -255,13 +294,15 @@ fn kinetic_energy_j(mass: &[MassProps], run: &EngineRun) -> f64 {
         .sum()
 }
 
-/// The row and the per-body rows of one run.
+/// The row and the per-body rows of one run; `deepest_contact_m` is the deepest contact the
+/// engine saw during the run (m), where it reports one.
 fn rows(
     scene: &ContactScene,
     mass: &[MassProps],
     engine: &str,
     threads: usize,
     run: &EngineRun,
+    deepest_contact_m: Option<f64>,
 ) -> (ContactRow, Vec<BodyRow>) {
     let drifts = drifts_m(scene, mass, run);
     let known: Vec<f64> = drifts.iter().flatten().copied().collect();
@@ -296,12 +337,18 @@ fn rows(
         max_drift_mm,
         mean_drift_mm,
         max_penetration_mm,
+        deepest_contact_during_run_mm: deepest_contact_m.map(|d| d * 1e3),
         max_speed_m_s: run
             .bodies
             .iter()
             .map(|f| f.velocity_m_s.length())
             .fold(0.0, f64::max),
         kinetic_energy_j: kinetic_energy_j(mass, run),
+        below_1cm_s_at_end: run
+            .bodies
+            .iter()
+            .filter(|f| f.velocity_m_s.length() < REST_SPEED_M_S)
+            .count(),
         asleep_at_end: run.bodies.iter().filter(|f| f.asleep).count(),
     };
     let bodies = scene
@@ -327,34 +374,48 @@ fn rows(
 }
 
 /// The splatphys engine name.
-const OURS: &str = "splatphys";
+pub const OURS: &str = "splatphys";
 
 /// The rapier engine name, with its version.
+#[cfg(feature = "rapier")]
 fn rapier_name() -> String {
-    #[cfg(feature = "rapier")]
-    return format!("rapier3d {}", rapier::VERSION);
-    #[cfg(not(feature = "rapier"))]
-    return "rapier3d (not built: feature `rapier` off)".into();
+    format!("rapier3d {}", rapier::VERSION)
 }
 
 /// Runs `bench contact`.
 ///
 /// # Errors
-/// Bad arguments, a scene or world that cannot be built, a failed substep, unwritable output.
+/// Bad arguments, a scene or world that cannot be built, a failed substep, a MuJoCo script that
+/// is missing or fails, unwritable output.
 pub fn run(a: &ContactBenchArgs) -> Result<()> {
     let positive = |v: f64| v.is_finite() && v > 0.0;
     if a.scenes.is_empty() {
-        bail!("--scenes: name at least one of stack, pyramid, pile");
+        bail!("--scenes: name at least one of stack, pyramid, pile, cubes, cubes1000");
     }
-    if !(positive(a.duration_s) && positive(a.pile_duration_s) && positive(a.dx_m)) {
-        bail!("--duration-s, --pile-duration-s and --dx-m must be positive");
+    if ![a.duration_s, a.pile_duration_s, a.cubes_duration_s, a.dx_m]
+        .into_iter()
+        .all(positive)
+    {
+        bail!("--duration-s, --pile-duration-s, --cubes-duration-s and --dx-m must be positive");
     }
     if a.rapier_dt_s.is_some_and(|dt| !positive(dt)) {
         bail!("--rapier-dt-s must be positive");
     }
+    if a.mujoco_dt_s.is_some_and(|dt| !positive(dt)) {
+        bail!("--mujoco-dt-s must be positive");
+    }
     if a.pile_count == 0 && a.scenes.contains(&SceneKind::Pile) {
         bail!("--pile-count must be at least 1");
     }
+    // A missing script is a broken checkout (an error); a missing mujoco a skip, below.
+    let mujoco_script = if a.no_mujoco {
+        None
+    } else {
+        Some(mujoco::find_script(
+            mujoco::SCRIPT,
+            a.mujoco_script.as_deref(),
+        )?)
+    };
     let settings = ContactSettings {
         friction: a.friction,
         restitution: a.restitution,
@@ -367,26 +428,33 @@ pub fn run(a: &ContactBenchArgs) -> Result<()> {
         .scenes
         .iter()
         .map(|&k| {
-            let d = if k == SceneKind::Pile {
-                a.pile_duration_s
-            } else {
-                a.duration_s
+            let d = match k {
+                SceneKind::Pile => a.pile_duration_s,
+                k if k.is_cubes() => a.cubes_duration_s,
+                _ => a.duration_s,
             };
             (ContactScene::new(k, a.pile_count, a.seed), d)
         })
         .collect();
-    let engines = if cfg!(feature = "rapier") { 2 } else { 1 };
+    let mujoco_on = mujoco_script.is_some();
+    let engines = 1 + u64::from(cfg!(feature = "rapier")) + u64::from(mujoco_on);
     let total_ms: u64 = plans.iter().map(|(_, d)| (d * 1e3) as u64 * engines).sum();
     let pb = ProgressBar::new(total_ms);
     pb.set_style(
         ProgressStyle::with_template("contact {msg} [{bar:30}] {pos}/{len} simulated ms {elapsed}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let json_line = |row: &ContactRow| {
+        pb.suspend(|| println!("{}", serde_json::to_string(row).unwrap_or_default()));
+    };
     let mut table = Vec::new();
     let mut body_rows = Vec::new();
     let mut base_ms = 0;
+    // Cleared when MuJoCo turns out missing, so it is skipped (and said so) once.
+    let mut mujoco_script = mujoco_script;
     for (scene, duration_s) in &plans {
         let name = scene.kind.name();
+        let span_ms = (duration_s * 1e3) as u64;
         pb.set_message(format!("{name}: {OURS}"));
         let (mut world, mass) = ours::build(scene, &settings, *duration_s)?;
         let gravity = world.gravity_m_s2.as_dvec3();
@@ -395,12 +463,13 @@ pub fn run(a: &ContactBenchArgs) -> Result<()> {
             base_ms,
         };
         let ours_run = pool.install(|| ours::run(&mut world, &progress))?;
-        base_ms += (duration_s * 1e3) as u64;
-        let (ours_row, bodies) = rows(scene, &mass, OURS, a.threads, &ours_run);
-        pb.suspend(|| println!("{}", serde_json::to_string(&ours_row).unwrap_or_default()));
+        drop(world);
+        base_ms += span_ms;
+        let (ours_row, bodies) = rows(scene, &mass, OURS, a.threads, &ours_run, None);
+        json_line(&ours_row);
         body_rows.extend(bodies);
         #[cfg(feature = "rapier")]
-        let theirs_row = {
+        let rapier_row = {
             pb.set_message(format!("{name}: rapier3d"));
             let dt = a
                 .rapier_dt_s
@@ -410,158 +479,71 @@ pub fn run(a: &ContactBenchArgs) -> Result<()> {
                 pb: Some(&pb),
                 base_ms,
             };
-            let theirs = rapier::run(&mut rw, &handles, *duration_s, &progress);
-            base_ms += (duration_s * 1e3) as u64;
-            let (row, bodies) = rows(scene, &mass, &rapier_name(), 1, &theirs);
-            pb.suspend(|| println!("{}", serde_json::to_string(&row).unwrap_or_default()));
+            let start: Vec<_> = scene
+                .bodies
+                .iter()
+                .map(scenes::BodySpec::orientation)
+                .collect();
+            let theirs = rapier::run(&mut rw, &handles, &start, *duration_s, &progress);
+            base_ms += span_ms;
+            let (row, bodies) = rows(scene, &mass, &rapier_name(), 1, &theirs, None);
+            json_line(&row);
             body_rows.extend(bodies);
             Some(row)
         };
         #[cfg(not(feature = "rapier"))]
-        let theirs_row = {
-            let _ = gravity;
-            None
-        };
-        table.push((ours_row, theirs_row));
+        let rapier_row = None;
+        let mut mujoco_row = None;
+        if let Some(script) = &mujoco_script {
+            pb.set_message(format!("{name}: mujoco"));
+            let r = mujoco::run(
+                scene,
+                &mass,
+                &settings,
+                gravity,
+                *duration_s,
+                a.mujoco_dt_s,
+                &a.python,
+                script,
+            )
+            .with_context(|| format!("MuJoCo on the {name} scene"))?;
+            match r {
+                Some(m) => {
+                    let (row, bodies) = rows(
+                        scene,
+                        &mass,
+                        &m.engine,
+                        1,
+                        &m.run,
+                        Some(m.deepest_contact_m),
+                    );
+                    json_line(&row);
+                    body_rows.extend(bodies);
+                    mujoco_row = Some(row);
+                }
+                None => mujoco_script = None,
+            }
+        }
+        // Skipped or not, MuJoCo's share of the bar is done.
+        base_ms += span_ms * u64::from(mujoco_on);
+        pb.set_position(base_ms);
+        table.push(SceneRows {
+            ours: ours_row,
+            rapier: rapier_row,
+            mujoco: mujoco_row,
+        });
     }
     pb.finish_and_clear();
     if !cfg!(feature = "rapier") {
-        eprintln!("contact: built without the `rapier` feature: splatphys only, no reference");
+        eprintln!("contact: built without the `rapier` feature: no rapier3d reference");
     }
-    print!("{}", format_table(&table));
+    print!("{}", report::format_table(&table));
     std::fs::create_dir_all(&a.out_dir)
         .with_context(|| format!("creating {}", a.out_dir.display()))?;
     let stem = a.out_dir.join("contact");
-    let all: Vec<&ContactRow> = table
-        .iter()
-        .flat_map(|(o, t)| std::iter::once(o).chain(t))
-        .collect();
-    write_csv(&stem.with_extension("csv"), &all)?;
-    write_csv(&a.out_dir.join("contact_bodies.csv"), &body_rows)?;
-    draw(&stem, &table, a)?;
-    Ok(())
-}
-
-/// Writes `rows` as CSV with a header of their field names.
-fn write_csv<T: Serialize>(path: &Path, rows: &[T]) -> Result<()> {
-    let mut w =
-        csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
-    for r in rows {
-        w.serialize(r)
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
-    w.flush()
-        .with_context(|| format!("writing {}", path.display()))
-}
-
-/// The metrics of the table: label and how to read it from a row.
-type Metric = (&'static str, fn(&ContactRow) -> Option<f64>);
-
-const METRICS: [Metric; 10] = [
-    ("steps", |r| Some(r.steps as f64)),
-    ("mean step, ms", |r| Some(r.dt_mean_s * 1e3)),
-    ("wall time per step, µs", |r| Some(r.us_per_step)),
-    ("wall s per simulated s", |r| Some(r.wall_s_per_sim_s)),
-    ("max COM drift, mm", |r| r.max_drift_mm),
-    ("mean COM drift, mm", |r| r.mean_drift_mm),
-    ("deepest overlap, mm", |r| r.max_penetration_mm),
-    ("max COM speed at end, m/s", |r| Some(r.max_speed_m_s)),
-    ("kinetic energy at end, J", |r| Some(r.kinetic_energy_j)),
-    ("asleep at end", |r| Some(r.asleep_at_end as f64)),
-];
-
-fn cell(v: Option<f64>) -> String {
-    match v {
-        None => "-".into(),
-        Some(v) if v == v.trunc() && v.abs() < 1e9 => format!("{v:.0}"),
-        Some(v) if v != 0.0 && (v.abs() < 1e-2 || v.abs() >= 1e5) => format!("{v:.3e}"),
-        Some(v) => format!("{v:.3}"),
-    }
-}
-
-/// The comparison table: per scene, each metric for both engines and their ratio.
-fn format_table(table: &[(ContactRow, Option<ContactRow>)]) -> String {
-    let theirs = rapier_name();
-    let mut s = format!(
-        "{:<8} {:<27} {:>12} {:>12} {:>12}\n",
-        "scene", "metric", OURS, "rapier3d", "ours/rapier"
-    );
-    for (ours, rapier) in table {
-        let head = format!(
-            "{} ({} bodies, {} particles, {:.2} s simulated; rapier: {theirs})",
-            ours.scene,
-            ours.bodies,
-            ours.particles.unwrap_or(0),
-            ours.simulated_s
-        );
-        s.push_str(&format!("{head}\n"));
-        for (label, get) in METRICS {
-            let o = get(ours);
-            let t = rapier.as_ref().and_then(get);
-            let ratio = o.zip(t).and_then(|(o, t)| (t != 0.0).then(|| o / t));
-            s.push_str(&format!(
-                "{:<8} {:<27} {:>12} {:>12} {:>12}\n",
-                ours.scene,
-                label,
-                cell(o),
-                cell(t),
-                cell(ratio)
-            ));
-        }
-    }
-    s
-}
-
-/// Smallest value drawn on the chart's log axes (a rapier drift of exactly 0 still shows).
-const CHART_FLOOR: f64 = 1e-4;
-
-/// Bars of max COM drift, deepest overlap and time per step per scene, both engines.
-fn draw(
-    stem: &Path,
-    table: &[(ContactRow, Option<ContactRow>)],
-    a: &ContactBenchArgs,
-) -> Result<()> {
-    let panel = |title: &str, y: &str, get: fn(&ContactRow) -> Option<f64>| {
-        let used: Vec<&(ContactRow, Option<ContactRow>)> =
-            table.iter().filter(|(o, _)| get(o).is_some()).collect();
-        BarPanel {
-            title: title.into(),
-            y_label: y.into(),
-            categories: used.iter().map(|(o, _)| o.scene.to_owned()).collect(),
-            values: vec![
-                used.iter()
-                    .map(|(o, _)| get(o).map(|v| v.max(CHART_FLOOR)))
-                    .collect(),
-                used.iter()
-                    .map(|(_, t)| t.as_ref().and_then(get).map(|v| v.max(CHART_FLOOR)))
-                    .collect(),
-            ],
-            log_y: true,
-        }
-    };
-    let panels: Vec<BarPanel> = [
-        panel("max COM drift at the end", "mm", |r| r.max_drift_mm),
-        panel("deepest overlap at the end", "mm", |r| r.max_penetration_mm),
-        panel("wall time per step", "µs", |r| Some(r.us_per_step)),
-    ]
-    .into_iter()
-    .filter(|p| !p.categories.is_empty())
-    .collect();
-    let durations: Vec<String> = table
-        .iter()
-        .map(|(o, _)| format!("{} {:.2} s", o.scene, o.simulated_s))
-        .collect();
-    chart::bar_chart(
-        stem,
-        &format!(
-            "Contact: splatphys ({} thread{}) vs {} ({})",
-            a.threads,
-            if a.threads == 1 { "" } else { "s" },
-            rapier_name(),
-            durations.join(", ")
-        ),
-        &[OURS.to_owned(), rapier_name()],
-        &panels,
-    )?;
+    let all: Vec<&ContactRow> = table.iter().flat_map(SceneRows::all).collect();
+    report::write_csv(&stem.with_extension("csv"), &all)?;
+    report::write_csv(&a.out_dir.join("contact_bodies.csv"), &body_rows)?;
+    report::draw(&stem, &table, a)?;
     Ok(())
 }

@@ -8,7 +8,7 @@
 //! socket and the server under a command flood; `bench compare` ([`crate::compare`]) the
 //! COM method against its baselines; `bench stability` ([`crate::stability`]) maps which
 //! E, nu, impact speed and time step each method and material survives; `bench contact`
-//! ([`crate::contact`]) rigid stacking and piling against rapier3d in the same process; `bench
+//! ([`crate::contact`]) rigid stacking and piling against rapier3d and MuJoCo; `bench
 //! soak` ([`crate::soak`]) memory growth of a server and a recorder over minutes. Charts
 //! go through [`crate::chart`].
 
@@ -88,11 +88,13 @@ pub enum BenchCommand {
   splatphys bench islands
   splatphys bench islands --scene scenes/stiff_and_soft.toml --duration-s 0.5 --repeat 3 --out-dir out/islands")]
     Islands(crate::islands::IslandsBenchArgs),
-    /// Rigid-body contact against rapier3d in the same process: a stack of 10 boxes, a pyramid
-    /// of 15 and a pile of 100 boxes and balls in an open box; COM drift, overlap, kinetic
-    /// energy and time per step (table, chart and CSV in --out-dir).
+    /// Rigid-body contact against rapier3d (same process) and MuJoCo (python3 with `mujoco`,
+    /// at its defaults; skipped when missing): a stack of 10 boxes, a pyramid of 15, a pile of
+    /// 100 boxes and balls and 125 randomly turned cubes in open boxes (1,000 cubes on request);
+    /// COM drift, overlap, bodies at rest, kinetic energy and time per step (table, chart and
+    /// CSV in --out-dir).
     #[command(
-        after_help = "Examples:\n  splatphys bench contact\n  splatphys bench contact --duration-s 1 --pile-duration-s 1 --out-dir out/contact\n  splatphys bench contact --scenes stack --rapier-dt-s 0.0166667"
+        after_help = "Examples:\n  splatphys bench contact\n  splatphys bench contact --duration-s 1 --pile-duration-s 1 --cubes-duration-s 1 --out-dir out/contact\n  splatphys bench contact --scenes cubes,cubes1000 --seed 3\n  splatphys bench contact --scenes stack --rapier-dt-s 0.0166667 --mujoco-dt-s 0.001\n  splatphys bench contact --no-mujoco\n  splatphys bench contact --python .venv/bin/python"
     )]
     Contact(crate::contact::ContactBenchArgs),
     /// Server, lossless recorder and controller together for minutes: RSS of the server and the

@@ -5,8 +5,8 @@
 //! shape (box or ball of the scene's size), geometric centre and start orientation, and the mass,
 //! centre of mass and inertia tensor the splatphys world computed from its particles
 //! ([`MassProps`]), as for rapier; the statics are the ground (the plane z = 0, normal +z) and
-//! the walls (fixed axis-aligned boxes); every surface gets the scene's friction, gravity is
-//! [`GRAVITY_M_S2`] (the scene's). The script builds an MJCF model of free-joint bodies (explicit
+//! the walls (fixed axis-aligned boxes); every surface gets the scene's friction, gravity is the
+//! world's (as for rapier). The script builds an MJCF model of free-joint bodies (explicit
 //! `<inertial>`, sleeping disabled), steps it with `mj_step` and answers one JSON document on
 //! stdout: the steps, the fixed step, the wall time of the `mj_step` calls, and per body the COM,
 //! the rotation from the start pose, the COM velocity and the angular velocity (world frame),
@@ -43,7 +43,7 @@ pub const EXIT_NO_MUJOCO: i32 = 3;
 pub const NOT_INSTALLED: &str = "mujoco is not installed: pip install mujoco";
 
 /// Gravity of the contact scenes (m/s²): [`ContactScene::to_scene`] keeps the scene builder's
-/// default, so the splatphys world falls the same way.
+/// default; `bench contact` passes the world's own value, the tests this one.
 pub const GRAVITY_M_S2: DVec3 = DVec3::new(0.0, 0.0, -9.81);
 
 /// One MuJoCo run of one scene: the [`EngineRun`] and what only MuJoCo reports.
@@ -61,8 +61,9 @@ pub struct MujocoRun {
     pub run: EngineRun,
 }
 
-/// Runs `scene` in MuJoCo for `duration_s` with the masses of `mass`, at MuJoCo's default step
-/// (0.002 s) or `dt_s` (s), through `python script` (see [`find_script`]).
+/// Runs `scene` in MuJoCo for `duration_s` with the masses of `mass` and gravity `gravity_m_s2`
+/// (m/s²), at MuJoCo's default step (0.002 s) or `dt_s` (s), through `python script` (see
+/// [`find_script`]); warnings MuJoCo raised go to stderr, one line.
 ///
 /// `Ok(None)` when `python` cannot be started or has no `mujoco` (after one line on stderr).
 ///
@@ -70,16 +71,18 @@ pub struct MujocoRun {
 /// When `mass` does not hold one entry per body, a duration, step or mass is not positive and
 /// finite, or the script fails or answers something else than its result (naming the script,
 /// with its stderr).
+#[allow(clippy::too_many_arguments)]
 pub fn run(
     scene: &ContactScene,
     mass: &[MassProps],
     settings: &ContactSettings,
+    gravity_m_s2: DVec3,
     duration_s: f64,
     dt_s: Option<f64>,
     python: &str,
     script: &Path,
-) -> Result<Option<EngineRun>> {
-    let input = input_json(scene, mass, settings, GRAVITY_M_S2, duration_s, dt_s)?;
+) -> Result<Option<MujocoRun>> {
+    let input = input_json(scene, mass, settings, gravity_m_s2, duration_s, dt_s)?;
     if settings.restitution != 0.0 {
         eprintln!(
             "mujoco: restitution {} not passed: MuJoCo has no restitution coefficient and runs \
@@ -101,16 +104,14 @@ pub fn run(
                 .join(", ")
         );
     }
-    Ok(Some(r.run))
+    Ok(Some(r))
 }
 
 /// The script's input document for `scene` (the format is in `bench/mujoco/contact.py`): bodies
-/// in scene order with the masses of `mass`, the ground and the walls as statics, every surface
-/// of friction `settings.friction`, gravity `gravity_m_s2` (m/s²), `duration_s` simulated at
-/// `dt_s` (s; `None`: MuJoCo's default).
-///
-/// The scenes start every body axis-aligned ([`super::scenes::BodySpec`] has no orientation), so
-/// every start orientation is the identity.
+/// in scene order with their start orientations ([`super::scenes::BodySpec::orientation_wxyz`])
+/// and the masses of `mass`, the ground and the walls as statics, every surface of friction
+/// `settings.friction`, gravity `gravity_m_s2` (m/s²), `duration_s` simulated at `dt_s` (s;
+/// `None`: MuJoCo's default).
 ///
 /// # Errors
 /// When `mass` does not hold one entry per body, or a duration, step or mass is not positive and
@@ -137,7 +138,10 @@ pub fn input_json(
     if let Some(dt) = dt_s {
         ensure!(positive(dt), "MuJoCo step must be positive, got {dt} s");
     }
-    ensure!(gravity_m_s2.is_finite(), "gravity {gravity_m_s2} is not finite");
+    ensure!(
+        gravity_m_s2.is_finite(),
+        "gravity {gravity_m_s2} is not finite"
+    );
     let v3 = |v: [f32; 3]| v.map(f64::from);
     let mut bodies = Vec::with_capacity(scene.bodies.len());
     for (b, m) in scene.bodies.iter().zip(mass) {
@@ -150,14 +154,7 @@ pub fn input_json(
             m.inertia_kg_m2
         );
         let i = m.inertia_kg_m2;
-        let mut body = json!({
-            "center_m": v3(b.center_m),
-            "orientation_wxyz": [1.0, 0.0, 0.0, 0.0],
-            "mass_kg": m.mass_kg,
-            "com_m": m.com_m.to_array(),
-            "inertia_kg_m2": [i.row(0).to_array(), i.row(1).to_array(), i.row(2).to_array()],
-        });
-        let shape = match b.shape {
+        let mut body = match b.shape {
             BodyShape::Cuboid { half_extents_m } => {
                 json!({"shape": "box", "half_extents_m": v3(half_extents_m)})
             }
@@ -165,9 +162,16 @@ pub fn input_json(
                 json!({"shape": "ball", "radius_m": f64::from(radius_m)})
             }
         };
-        if let (Some(body), Value::Object(shape)) = (body.as_object_mut(), shape) {
-            body.extend(shape);
-        }
+        body["center_m"] = json!(v3(b.center_m));
+        let q = b.orientation();
+        body["orientation_wxyz"] = json!([q.w, q.x, q.y, q.z]);
+        body["mass_kg"] = json!(m.mass_kg);
+        body["com_m"] = json!(m.com_m.to_array());
+        body["inertia_kg_m2"] = json!([
+            i.row(0).to_array(),
+            i.row(1).to_array(),
+            i.row(2).to_array()
+        ]);
         bodies.push(body);
     }
     let mut statics = vec![json!({
@@ -370,7 +374,7 @@ fn tail(s: &str, lines: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::scenes::{BodySpec, SceneKind};
+    use crate::contact::scenes::{BodySpec, IDENTITY_WXYZ, SceneKind};
     use glam::DMat3;
 
     fn settings() -> ContactSettings {
@@ -413,20 +417,48 @@ mod tests {
     }
 
     #[test]
+    fn input_carries_the_start_orientations() {
+        let scene = ContactScene::new(SceneKind::Cubes, 0, 4);
+        let mass = exact_mass(&scene);
+        let v = input_json(&scene, &mass, &settings(), GRAVITY_M_S2, 1.0, Some(0.001)).unwrap();
+        assert_eq!(v["bodies"].as_array().map(Vec::len), Some(125));
+        assert_eq!(v["dt_s"], json!(0.001));
+        for (b, spec) in v["bodies"].as_array().unwrap().iter().zip(&scene.bodies) {
+            let q: Vec<f64> = b["orientation_wxyz"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect();
+            let want = spec.orientation_wxyz.map(f64::from);
+            let err = q
+                .iter()
+                .zip(want)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(err < 1e-6, "{}: {q:?} vs {want:?}", spec.name);
+        }
+    }
+
+    #[test]
     fn input_has_the_bodies_ground_and_walls() {
         let scene = ContactScene::new(SceneKind::Pile, 30, 0);
         let mass = exact_mass(&scene);
         let v = input_json(&scene, &mass, &settings(), GRAVITY_M_S2, 1.0, None).unwrap();
         assert_eq!(v["bodies"].as_array().map(Vec::len), Some(30));
-        assert_eq!(v["statics"].as_array().map(Vec::len), Some(1 + scene.walls.len()));
+        assert_eq!(
+            v["statics"].as_array().map(Vec::len),
+            Some(1 + scene.walls.len())
+        );
         assert_eq!(v["statics"][0]["shape"], "plane");
         assert_eq!(v["statics"][1]["shape"], "box");
         assert!(v["dt_s"].is_null());
         for (b, spec) in v["bodies"].as_array().unwrap().iter().zip(&scene.bodies) {
             let shape = b["shape"].as_str().unwrap();
             assert_eq!(shape, spec.shape.name());
-            assert!(b["half_extents_m"].is_array() == (shape == "box"));
-            assert!(b["radius_m"].is_number() == (shape == "ball"));
+            assert_eq!(b["half_extents_m"].is_array(), shape == "box");
+            assert_eq!(b["radius_m"].is_number(), shape == "ball");
+            assert_eq!(b["orientation_wxyz"], json!([1.0, 0.0, 0.0, 0.0]));
             assert_eq!(b["inertia_kg_m2"].as_array().map(Vec::len), Some(3));
         }
         let err = input_json(&scene, &mass[1..], &settings(), GRAVITY_M_S2, 1.0, None);
@@ -444,6 +476,7 @@ mod tests {
             &scene,
             &mass,
             &settings(),
+            GRAVITY_M_S2,
             0.1,
             None,
             "/nonexistent/python3",
@@ -466,21 +499,28 @@ mod tests {
                     half_extents_m: [h; 3],
                 },
                 center_m: [0.0, 0.0, h],
+                orientation_wxyz: IDENTITY_WXYZ,
                 settle_drop_m: Some(0.0),
             }],
             walls: Vec::new(),
         };
         let mass = exact_mass(&scene);
         let script = find_script(SCRIPT, None).unwrap();
-        let Some(run) = run(&scene, &mass, &settings(), 1.0, None, "python3", &script).unwrap()
+        let g = GRAVITY_M_S2;
+        let Some(m) = run(&scene, &mass, &settings(), g, 1.0, None, "python3", &script).unwrap()
         else {
             return;
         };
-        assert_eq!(run.steps, 500);
-        assert_eq!(run.dt_range_s, [0.002, 0.002]);
-        assert!(run.wall_s > 0.0);
-        let drift_m = (run.bodies[0].com_m - mass[0].com_m).length();
+        assert!(m.engine.starts_with("mujoco "), "{}", m.engine);
+        assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+        // It stands on the ground from the start: soft contact sinks it, by well under 1 mm.
+        assert!((0.0..1e-3).contains(&m.deepest_contact_m));
+        let r = m.run;
+        assert_eq!(r.steps, 500);
+        assert_eq!(r.dt_range_s, [0.002, 0.002]);
+        assert!(r.wall_s > 0.0);
+        let drift_m = (r.bodies[0].com_m - mass[0].com_m).length();
         assert!(drift_m < 1e-3, "drifted {drift_m} m");
-        assert!(!run.bodies[0].asleep);
+        assert!(!r.bodies[0].asleep);
     }
 }

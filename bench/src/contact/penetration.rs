@@ -3,7 +3,8 @@
 //! rapier is built on) at each body's final pose, the same way for both engines.
 //!
 //! A body's geometric centre follows its centre of mass rigidly: c = com + R (c₀ − com₀), with
-//! c₀ and com₀ at the start. The splatphys bodies are particle clouds whose outermost particles
+//! c₀ and com₀ at the start and R its rotation from the start pose; its shape is turned by
+//! R · q₀, q₀ its start orientation ([`super::scenes::BodySpec::orientation_wxyz`]). The splatphys bodies are particle clouds whose outermost particles
 //! sit up to about half a lattice spacing inside the nominal shape (jittered cell centres); the
 //! depth here is always that of the nominal shapes, whatever surface a solver makes of them.
 
@@ -56,7 +57,8 @@ pub fn max_penetration_m(scene: &ContactScene, mass: &[MassProps], end: &[FinalB
             let c0 = DVec3::from(b.center_m.map(f64::from));
             let center = f.com_m + f.orientation * (c0 - m.com_m);
             let r = f64::from(b.shape.bounding_radius_m());
-            (pose(center, f.orientation), shape(b.shape), center, r)
+            let turn = (f.orientation * b.orientation()).normalize();
+            (pose(center, turn), shape(b.shape), center, r)
         })
         .collect();
     let ground = HalfSpace::new(Vec3::Z);
@@ -89,19 +91,30 @@ pub fn max_penetration_m(scene: &ContactScene, mass: &[MassProps], end: &[FinalB
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::scenes::{BodySpec, SceneKind};
+    use crate::contact::scenes::{BodySpec, IDENTITY_WXYZ, SceneKind};
 
-    /// The deepest overlap of `bodies` (shape, start centre, final centre), unrotated, next to
-    /// a wall filling x >= 0.25 m.
+    /// The deepest overlap of `bodies` (shape, start centre, drop), unrotated, next to a wall
+    /// filling x >= 0.25 m.
     fn deepest(bodies: &[(BodyShape, [f32; 3], f64)]) -> f64 {
+        let axis_aligned: Vec<_> = bodies
+            .iter()
+            .map(|&(s, c, dz)| (s, c, dz, IDENTITY_WXYZ))
+            .collect();
+        deepest_turned(&axis_aligned, DQuat::IDENTITY)
+    }
+
+    /// The deepest overlap of `bodies` (shape, start centre, drop, start orientation) when each
+    /// ends `drop` lower than it started, turned by `turn` about its centre, next to the wall.
+    fn deepest_turned(bodies: &[(BodyShape, [f32; 3], f64, [f32; 4])], turn: DQuat) -> f64 {
         let scene = ContactScene {
             kind: SceneKind::Pile,
             bodies: bodies
                 .iter()
-                .map(|(shape, c, _)| BodySpec {
+                .map(|(shape, c, _, q)| BodySpec {
                     name: "b".into(),
                     shape: *shape,
                     center_m: *c,
+                    orientation_wxyz: *q,
                     settle_drop_m: None,
                 })
                 .collect(),
@@ -109,7 +122,7 @@ mod tests {
         };
         let mass: Vec<MassProps> = bodies
             .iter()
-            .map(|(_, c, _)| MassProps {
+            .map(|(_, c, _, _)| MassProps {
                 mass_kg: 1.0,
                 com_m: DVec3::from(c.map(f64::from)),
                 inertia_kg_m2: glam::DMat3::IDENTITY,
@@ -118,9 +131,9 @@ mod tests {
         // Every body ends `dz` lower than it started.
         let end: Vec<FinalBody> = bodies
             .iter()
-            .map(|(_, c, dz)| FinalBody {
+            .map(|(_, c, dz, _)| FinalBody {
                 com_m: DVec3::from(c.map(f64::from)) - DVec3::Z * *dz,
-                orientation: DQuat::IDENTITY,
+                orientation: turn,
                 velocity_m_s: DVec3::ZERO,
                 omega_rad_s: DVec3::ZERO,
                 asleep: false,
@@ -156,5 +169,28 @@ mod tests {
             (ball, [0.0, 0.0, 0.13], 0.001),
         ];
         assert!(close(deepest(&ball_on_box), 0.001));
+    }
+
+    #[test]
+    fn overlap_follows_the_start_orientation_and_the_turn() {
+        let cube = BodyShape::Cuboid {
+            half_extents_m: [0.05; 3],
+        };
+        let close = |got: f64, want: f64| (got - want).abs() < 1e-6;
+        let z45 = DQuat::from_rotation_z(std::f64::consts::FRAC_PI_4);
+        let q45 = [z45.w, z45.x, z45.y, z45.z].map(|v| v as f32);
+        // A cube 1 cm clear of the wall axis-aligned; turned 45° about z its edge reaches
+        // 0.05 √2 = 70.7 mm from its centre, 10.7 mm into the wall, whether it started turned
+        // or turned during the run.
+        let at = [0.19, 0.0, 0.5];
+        let want = 0.19 + 0.05 * std::f64::consts::SQRT_2 - 0.25;
+        assert!(close(deepest(&[(cube, at, 0.0)]), 0.0));
+        let started = deepest_turned(&[(cube, at, 0.0, q45)], DQuat::IDENTITY);
+        assert!(close(started, want), "{started}");
+        let turned = deepest_turned(&[(cube, at, 0.0, IDENTITY_WXYZ)], z45);
+        assert!(close(turned, want), "{turned}");
+        // Started turned 45° and turned back during the run: axis-aligned again, clear.
+        let back = deepest_turned(&[(cube, at, 0.0, q45)], z45.inverse());
+        assert!(close(back, 0.0), "{back}");
     }
 }

@@ -1,9 +1,10 @@
 //! The rapier3d side of `bench contact`: the same [`ContactScene`] as rapier bodies in the same
 //! process, for a reference measured on the same machine in the same run.
 //!
-//! Each body is a dynamic rigid body with one cuboid or ball collider of the scene's size at its
-//! geometric centre; its mass, centre of mass and inertia tensor are the ones the splatphys world
-//! computed from its particles ([`MassProps`]), so both engines move the same masses. The
+//! Each body is a dynamic rigid body posed at its geometric centre and start orientation, with
+//! one cuboid or ball collider of the scene's size; its mass, centre of mass and inertia tensor
+//! are the ones the splatphys world computed from its particles ([`MassProps`], world axes at
+//! the start, turned into the body frame here), so both engines move the same masses. The
 //! ground is a half-space, the walls fixed cuboids. Every collider has the scene's friction and
 //! restitution, gravity is the world's, the time step is fixed (`dt_s`), sleeping is off
 //! (`can_sleep(false)`), and everything else is rapier's default (`IntegrationParameters`,
@@ -14,8 +15,8 @@ use std::time::Instant;
 use anyhow::{Result, ensure};
 use glam::{DMat3, DQuat, DVec3};
 use rapier3d::prelude::{
-    ColliderBuilder, MassProperties, Mat3, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle,
-    SharedShape, Vec3,
+    ColliderBuilder, MassProperties, Mat3, PhysicsWorld, Pose, RigidBodyBuilder, RigidBodyHandle,
+    Rotation, SharedShape, Vec3,
 };
 
 use super::scenes::{BodyShape, ContactScene, ContactSettings};
@@ -74,17 +75,23 @@ pub fn build(
     let mut handles = Vec::with_capacity(scene.bodies.len());
     for (b, m) in scene.bodies.iter().zip(mass) {
         let center = Vec3::from_array(b.center_m);
+        let q0 = b.orientation();
+        let rotation = Rotation::from_xyzw(q0.x as f32, q0.y as f32, q0.z as f32, q0.w as f32);
         let body = RigidBodyBuilder::dynamic()
-            .translation(center)
+            .pose(Pose::from_parts(center, rotation))
             .can_sleep(false);
         let collider = match b.shape {
             BodyShape::Cuboid { half_extents_m: h } => ColliderBuilder::cuboid(h[0], h[1], h[2]),
             BodyShape::Ball { radius_m } => ColliderBuilder::ball(radius_m),
         };
+        // Rapier takes the centre of mass and the inertia in the body frame: Rᵀ (com − c) and
+        // Rᵀ I R, with R the start orientation.
+        let r = DMat3::from_quat(q0);
+        let c = DVec3::from_array(b.center_m.map(f64::from));
         let props = MassProperties::with_inertia_matrix(
-            v3(m.com_m) - center,
+            v3(r.transpose() * (m.com_m - c)),
             m.mass_kg as f32,
-            m3(m.inertia_kg_m2),
+            m3(r.transpose() * m.inertia_kg_m2 * r),
         );
         let collider = collider.friction(mu).restitution(e).mass_properties(props);
         handles.push(world.insert(body, collider).0);
@@ -93,10 +100,12 @@ pub fn build(
 }
 
 /// Steps `world` with its fixed dt until `duration_s` is simulated; wall time counts the steps
-/// only.
+/// only. `start` holds the bodies' start orientations ([`super::scenes::BodySpec::orientation`],
+/// in the order of `handles`): the run reports each body's rotation from it.
 pub fn run(
     world: &mut PhysicsWorld,
     handles: &[RigidBodyHandle],
+    start: &[DQuat],
     duration_s: f64,
     progress: &Progress<'_>,
 ) -> EngineRun {
@@ -115,18 +124,20 @@ pub fn run(
     let cpu_s = cpu0.zip(process_cpu_s()).map(|(a, b)| b - a);
     let bodies = handles
         .iter()
-        .map(|h| {
+        .zip(start)
+        .map(|(h, q0)| {
             let b = &world.bodies[*h];
             let q = b.rotation();
+            let q = DQuat::from_xyzw(
+                f64::from(q.x),
+                f64::from(q.y),
+                f64::from(q.z),
+                f64::from(q.w),
+            );
             FinalBody {
                 com_m: dv3(b.center_of_mass()),
-                orientation: DQuat::from_xyzw(
-                    f64::from(q.x),
-                    f64::from(q.y),
-                    f64::from(q.z),
-                    f64::from(q.w),
-                )
-                .normalize(),
+                // The rotation from the start pose.
+                orientation: (q * q0.inverse()).normalize(),
                 velocity_m_s: dv3(b.linvel()),
                 omega_rad_s: dv3(b.angvel()),
                 asleep: b.is_sleeping(),
@@ -147,7 +158,17 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::scenes::{BodySpec, SceneKind};
+    use crate::contact::scenes::{BodySpec, IDENTITY_WXYZ, SceneKind};
+
+    fn settings() -> ContactSettings {
+        ContactSettings {
+            friction: 0.5,
+            restitution: 0.0,
+            density_kg_m3: 1000.0,
+            dx_m: 0.01,
+            seed: 0,
+        }
+    }
 
     #[test]
     fn rapier_holds_a_box_at_rest_on_the_ground() {
@@ -164,16 +185,10 @@ mod tests {
                     half_extents_m: [h as f32; 3],
                 },
                 center_m: [0.0, 0.0, h as f32],
+                orientation_wxyz: IDENTITY_WXYZ,
                 settle_drop_m: Some(0.0),
             }],
             walls: Vec::new(),
-        };
-        let settings = ContactSettings {
-            friction: 0.5,
-            restitution: 0.0,
-            density_kg_m3: 1000.0,
-            dx_m: 0.01,
-            seed: 0,
         };
         let m = 1.0;
         let i = m * (2.0 * h) * (2.0 * h) / 6.0;
@@ -183,10 +198,61 @@ mod tests {
             inertia_kg_m2: DMat3::from_diagonal(DVec3::splat(i)),
         }];
         let g = DVec3::new(0.0, 0.0, -9.81);
-        let (mut world, handles) = build(&scene, &settings, &mass, g, 1.0 / 120.0).unwrap();
-        let run = run(&mut world, &handles, 1.0, &Progress::hidden());
+        let (mut world, handles) = build(&scene, &settings(), &mass, g, 1.0 / 120.0).unwrap();
+        let run = run(
+            &mut world,
+            &handles,
+            &[DQuat::IDENTITY],
+            1.0,
+            &Progress::hidden(),
+        );
         assert_eq!(run.steps, 120);
         let drift_m = (run.bodies[0].com_m - mass[0].com_m).length();
         assert!(drift_m < 1e-4, "drifted {drift_m} m");
+    }
+
+    #[test]
+    fn rapier_poses_a_turned_body_and_its_centre_of_mass() {
+        // A 20 × 10 × 5 cm box lying on its largest face, described as the box standing on
+        // its end turned 90° about y, with its COM 1 cm off the centre along its long axis and
+        // its world inertia: it rests where it starts, to 0.2 mm (rapier's 0.069 mm sag as
+        // above, a little more under the end the COM is nearer), and reports no rotation from
+        // its start pose. Posed unturned it would stand 20 cm tall, 7.5 cm into
+        // the ground, and fly out; a COM offset left in world axes would put its COM 1.4 cm
+        // from where the world computed it.
+        let half = [0.025_f32, 0.05, 0.1];
+        let turn = DQuat::from_rotation_y(std::f64::consts::FRAC_PI_2);
+        let center = DVec3::new(0.3, -0.2, 0.025);
+        let scene = ContactScene {
+            kind: SceneKind::Pile,
+            bodies: vec![BodySpec {
+                name: "box".into(),
+                shape: BodyShape::Cuboid {
+                    half_extents_m: half,
+                },
+                center_m: center.as_vec3().to_array(),
+                orientation_wxyz: [turn.w, turn.x, turn.y, turn.z].map(|v| v as f32),
+                settle_drop_m: None,
+            }],
+            walls: Vec::new(),
+        };
+        let m = 1.0;
+        let [x, y, z] = half.map(|h| 2.0 * f64::from(h));
+        let local = DMat3::from_diagonal(DVec3::new(y * y + z * z, x * x + z * z, x * x + y * y))
+            * (m / 12.0);
+        let r = DMat3::from_quat(turn);
+        let mass = [MassProps {
+            mass_kg: m,
+            com_m: center + turn * DVec3::new(0.0, 0.0, 0.01),
+            inertia_kg_m2: r * local * r.transpose(),
+        }];
+        let g = DVec3::new(0.0, 0.0, -9.81);
+        let (mut world, handles) = build(&scene, &settings(), &mass, g, 1.0 / 120.0).unwrap();
+        let run = run(&mut world, &handles, &[turn], 1.0, &Progress::hidden());
+        let end = run.bodies[0];
+        let drift_m = (end.com_m - mass[0].com_m).length();
+        assert!(drift_m < 2e-4, "drifted {drift_m} m");
+        let angle = end.orientation.angle_between(DQuat::IDENTITY);
+        assert!(angle < 1e-3, "turned {angle} rad from its start pose");
     }
 }
