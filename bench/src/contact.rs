@@ -14,7 +14,10 @@
 //! poses, friction and gravity and otherwise at its defaults: its 0.002 s step (unless
 //! `--mujoco-dt-s`), Euler integrator, Newton solver, pyramidal cone, soft contacts. MuJoCo has
 //! no restitution coefficient, so `--restitution` does not reach it. A Python without `mujoco`
-//! (or no Python) skips MuJoCo with one line on stderr; `--no-mujoco` skips it outright.
+//! (or no Python) skips MuJoCo with one line on stderr; `--no-mujoco` skips it outright. On
+//! `cubes1000` MuJoCo's default Newton solver slows to seconds per step once the cubes land
+//! (measured: 4 to 8 s per step at about 3,000 contacts, 0.3 s into the run, 2-core machine):
+//! run that scene with `--no-mujoco`.
 //!
 //! Measured per scene and engine, at the end of the run:
 //! - **COM drift** (stack, pyramid): per body |COM − rest COM| in mm, its max and mean, where
@@ -60,7 +63,8 @@ use scenes::{ContactScene, ContactSettings, SceneKind};
 /// Arguments of `bench contact`.
 #[derive(Args, Debug)]
 pub struct ContactBenchArgs {
-    /// Scenes to run, in order (cubes1000 is slow: only on request).
+    /// Scenes to run, in order (cubes1000 is slow: only on request, and with --no-mujoco, as
+    /// MuJoCo at its defaults takes seconds per step there).
     #[arg(
         long,
         value_delimiter = ',',

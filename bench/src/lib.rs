@@ -94,7 +94,7 @@ pub enum BenchCommand {
     /// COM drift, overlap, bodies at rest, kinetic energy and time per step (table, chart and
     /// CSV in --out-dir).
     #[command(
-        after_help = "Examples:\n  splatphys bench contact\n  splatphys bench contact --duration-s 1 --pile-duration-s 1 --cubes-duration-s 1 --out-dir out/contact\n  splatphys bench contact --scenes cubes,cubes1000 --seed 3\n  splatphys bench contact --scenes stack --rapier-dt-s 0.0166667 --mujoco-dt-s 0.001\n  splatphys bench contact --no-mujoco\n  splatphys bench contact --python .venv/bin/python"
+        after_help = "Examples:\n  splatphys bench contact\n  splatphys bench contact --duration-s 1 --pile-duration-s 1 --cubes-duration-s 1 --out-dir out/contact\n  splatphys bench contact --scenes cubes,cubes1000 --seed 3 --no-mujoco\n  splatphys bench contact --scenes stack --rapier-dt-s 0.0166667 --mujoco-dt-s 0.001\n  splatphys bench contact --no-mujoco\n  splatphys bench contact --python .venv/bin/python"
     )]
     Contact(crate::contact::ContactBenchArgs),
     /// Server, lossless recorder and controller together for minutes: RSS of the server and the

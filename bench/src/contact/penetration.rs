@@ -1,12 +1,13 @@
 //! How deep the bodies of a scene lie inside each other and inside the ground and walls at the
 //! end of a run, measured on the scene's exact shapes (parry's `contact` query, the geometry
-//! rapier is built on) at each body's final pose, the same way for both engines.
+//! rapier is built on) at each body's final pose, the same way for every engine.
 //!
 //! A body's geometric centre follows its centre of mass rigidly: c = com + R (c₀ − com₀), with
 //! c₀ and com₀ at the start and R its rotation from the start pose; its shape is turned by
-//! R · q₀, q₀ its start orientation ([`super::scenes::BodySpec::orientation_wxyz`]). The splatphys bodies are particle clouds whose outermost particles
-//! sit up to about half a lattice spacing inside the nominal shape (jittered cell centres); the
-//! depth here is always that of the nominal shapes, whatever surface a solver makes of them.
+//! R · q₀, q₀ its start orientation ([`super::scenes::BodySpec::orientation_wxyz`]). The
+//! splatphys bodies are particle clouds whose outermost particles sit up to about half a
+//! lattice spacing inside the nominal shape (jittered cell centres); the depth here is always
+//! that of the nominal shapes, whatever surface a solver makes of them.
 
 use glam::{DQuat, DVec3};
 use rapier3d::parry::query;

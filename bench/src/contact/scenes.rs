@@ -15,17 +15,18 @@
 //!   seeded by `--seed`, Shoemake's method), centred on a 5 × 5 × 5 lattice of 9 cm pitch (their
 //!   bounding spheres, 8.66 cm across, start at least 3.4 mm apart) whose even layers are moved
 //!   by +2.25 cm in x and y and odd layers by −2.25 cm, the lowest bounding sphere 5 mm above
-//!   the floor, dropped into an open box of 50 cm × 50 cm inside (the four pile walls).
+//!   the floor, dropped into an open box of 50 cm × 50 cm inside (walls as the pile's).
 //! - **cubes1000**: the same with 1,000 cubes on a 10 × 10 × 10 lattice in an open box of
 //!   1 m × 1 m inside.
 //!
 //! The staggered layers put every cube over the gap between four cubes of the layer below: on a
-//! plain lattice each lands centred on the one below and the 125 cubes end as 25 columns up to
-//! five cubes (25 cm) tall in splatphys and rapier alike; staggered they end two or three cubes
-//! deep (measured: tallest COM at 14 to 15 cm, median 7.5 cm, with seed 0). A wider box hardly
-//! changes that (friction holds the pile, the walls barely touch it), so each box is about as
-//! small as lets its lattice start inside (the lattices span 49.2 cm and 94.2 cm across their
-//! bounding spheres).
+//! plain lattice each lands centred on the one below and the 125 cubes end as columns up to
+//! five cubes tall (tallest COM 22 cm) in splatphys and rapier alike; staggered they end two or
+//! three cubes deep (measured, seed 0, 3 s: tallest COM 13 to 15 cm, median 7.5 cm, in all
+//! three engines; splatphys and rapier on a 60 or 70 cm floor: tallest 13 to 15 cm, median 4
+//! to 6.5 cm). A wider box hardly changes that (friction holds the pile, the walls barely touch
+//! it), so each box is about as small as lets its lattice start inside (the lattices span
+//! 49.2 cm and 94.2 cm across their bounding spheres).
 //!
 //! Every object but the cubes starts axis-aligned; every object starts at rest; every surface
 //! (objects, ground, walls) has the same friction and restitution, so no engine's combine rule
@@ -222,7 +223,7 @@ pub struct ContactScene {
     pub walls: Vec<[[f32; 3]; 2]>,
 }
 
-/// Surface and material settings shared by both engines.
+/// Surface and material settings shared by every engine (MuJoCo takes no restitution).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactSettings {
     /// Coulomb friction of every surface.
@@ -251,11 +252,11 @@ impl ContactScene {
 
     /// The splatphys scene: every body a rigid procedural object of the given density on a
     /// lattice of spacing dx, turned about its centre to its start orientation (the builder's
-    /// `rotation_deg`, which turns the particles and the contact shape alike), the ground and the walls as slip colliders with the same friction,
-    /// simulated for `duration_s` with the COM method, gravity (0, 0, −9.81) m/s², sleeping
-    /// off. Frames are
-    /// one largest substep long ([`MAX_DT_S`]), so frame boundaries never shorten a substep
-    /// while the bodies are slow.
+    /// `rotation_deg`, which turns the particles and the contact shape alike), the ground and
+    /// the walls as slip colliders with the same friction, simulated for `duration_s` with the
+    /// COM method, gravity (0, 0, −9.81) m/s², sleeping off. Frames are one largest substep
+    /// long ([`MAX_DT_S`]), so frame boundaries never shorten a substep while the bodies are
+    /// slow.
     ///
     /// # Errors
     /// When the scene builder refuses a value.
