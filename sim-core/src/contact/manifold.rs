@@ -1,6 +1,10 @@
 //! Contact manifolds: the contact points of two posed surfaces, or of a surface and a grid
 //! collider.
 //!
+//! Two procedural shapes, or a procedural shape and a plane or box collider, get parry's exact
+//! manifold ([`super::exact`]), reduced as below. What follows serves sampled surfaces (level
+//! sets) and the domain bound.
+//!
 //! Each object carries points on its own surface (rest frame). A point of A whose signed distance
 //! in B is below a margin is a contact point: at that point, with B's outward normal there
 //! (reversed: normals run from A to B; where the point is on a face of A and nearest an edge of
