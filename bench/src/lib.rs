@@ -22,6 +22,7 @@ pub mod mpm;
 pub mod peer;
 pub mod realtime;
 pub mod sag;
+pub mod script;
 pub mod soak;
 pub mod stability;
 pub mod subsets;

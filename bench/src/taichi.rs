@@ -155,35 +155,7 @@ pub const NOT_INSTALLED: &str = "taichi is not installed: pip install taichi";
 /// # Errors
 /// When the script is not a file, naming the places tried.
 pub fn find_script(name: &str, explicit: Option<&Path>) -> Result<PathBuf> {
-    if let Some(p) = explicit {
-        if !p.is_file() {
-            bail!("--taichi-script {}: no such file", p.display());
-        }
-        return Ok(p.to_path_buf());
-    }
-    let rel = Path::new("bench").join("taichi").join(name);
-    let mut tried = vec![rel.clone()];
-    if let Some(root) = std::env::current_exe()
-        .ok()
-        .and_then(|e| e.parent()?.parent()?.parent().map(Path::to_path_buf))
-    {
-        tried.push(root.join(&rel));
-    }
-    tried.push(Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(&rel));
-    tried
-        .iter()
-        .find(|p| p.is_file())
-        .cloned()
-        .with_context(|| {
-            format!(
-                "the Taichi script {name} was not found (tried {}); pass --taichi-script PATH",
-                tried
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })
+    crate::script::find("taichi", name, explicit, "--taichi-script", "Taichi")
 }
 
 /// Whether `python` runs and imports `taichi`; `Err` holds why not (for the skip message).

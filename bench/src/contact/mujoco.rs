@@ -331,35 +331,7 @@ pub fn run_input(
 /// # Errors
 /// When the script is not a file, naming the places tried.
 pub fn find_script(name: &str, explicit: Option<&Path>) -> Result<PathBuf> {
-    if let Some(p) = explicit {
-        if !p.is_file() {
-            bail!("--mujoco-script {}: no such file", p.display());
-        }
-        return Ok(p.to_path_buf());
-    }
-    let rel = Path::new("bench").join("mujoco").join(name);
-    let mut tried = vec![rel.clone()];
-    if let Some(root) = std::env::current_exe()
-        .ok()
-        .and_then(|e| e.parent()?.parent()?.parent().map(Path::to_path_buf))
-    {
-        tried.push(root.join(&rel));
-    }
-    tried.push(Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(&rel));
-    tried
-        .iter()
-        .find(|p| p.is_file())
-        .cloned()
-        .with_context(|| {
-            format!(
-                "the MuJoCo script {name} was not found (tried {}); pass --mujoco-script PATH",
-                tried
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })
+    crate::script::find("mujoco", name, explicit, "--mujoco-script", "MuJoCo")
 }
 
 fn last_line(s: &str) -> &str {
@@ -378,13 +350,7 @@ mod tests {
     use glam::DMat3;
 
     fn settings() -> ContactSettings {
-        ContactSettings {
-            friction: 0.5,
-            restitution: 0.0,
-            density_kg_m3: 1000.0,
-            dx_m: 0.01,
-            seed: 0,
-        }
+        ContactSettings::for_tests()
     }
 
     /// Exact mass properties of `scene`'s bodies at 1000 kg/m³.

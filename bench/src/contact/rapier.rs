@@ -161,13 +161,7 @@ mod tests {
     use crate::contact::scenes::{BodySpec, IDENTITY_WXYZ, SceneKind};
 
     fn settings() -> ContactSettings {
-        ContactSettings {
-            friction: 0.5,
-            restitution: 0.0,
-            density_kg_m3: 1000.0,
-            dx_m: 0.01,
-            seed: 0,
-        }
+        ContactSettings::for_tests()
     }
 
     #[test]

@@ -238,6 +238,21 @@ pub struct ContactSettings {
     pub seed: u64,
 }
 
+impl ContactSettings {
+    /// The bench's defaults (friction 0.5, no restitution, 1000 kg/m³, dx 1 cm, seed 0), for
+    /// tests.
+    #[cfg(test)]
+    pub(crate) fn for_tests() -> Self {
+        Self {
+            friction: 0.5,
+            restitution: 0.0,
+            density_kg_m3: 1000.0,
+            dx_m: 0.01,
+            seed: 0,
+        }
+    }
+}
+
 impl ContactScene {
     /// The scene `kind`; `pile_count` objects for the pile.
     pub fn new(kind: SceneKind, pile_count: usize, seed: u64) -> Self {
@@ -641,13 +656,7 @@ mod tests {
     }
 
     fn settings() -> ContactSettings {
-        ContactSettings {
-            friction: 0.5,
-            restitution: 0.0,
-            density_kg_m3: 1000.0,
-            dx_m: 0.01,
-            seed: 0,
-        }
+        ContactSettings::for_tests()
     }
 
     #[test]
