@@ -59,6 +59,7 @@ use serde::Serialize;
 
 use report::SceneRows;
 use scenes::{ContactScene, ContactSettings, SceneKind};
+use splatphys_core::contact::ContactSolver;
 
 /// Arguments of `bench contact`.
 #[derive(Args, Debug)]
@@ -113,12 +114,25 @@ pub struct ContactBenchArgs {
     /// Do not run MuJoCo.
     #[arg(long, conflicts_with = "mujoco_script")]
     pub no_mujoco: bool,
+    /// How the splatphys world solves contacts: `sequential-impulses` (its default) or
+    /// `soft-step` (the scheme of Box2D v3 and rapier).
+    #[arg(long, value_enum, default_value_t = SolverChoice::SequentialImpulses)]
+    pub contact_solver: SolverChoice,
     /// Worker threads of the splatphys world (rapier and MuJoCo run single-threaded).
     #[arg(long, default_value_t = 1)]
     pub threads: usize,
     /// Where `contact.csv`, `contact_bodies.csv`, `.svg` and `.png` go.
     #[arg(long, default_value = "docs/bench")]
     pub out_dir: PathBuf,
+}
+
+/// `--contact-solver`: the world's [`ContactSolver`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SolverChoice {
+    /// Sequential impulses to convergence (the world's default).
+    SequentialImpulses,
+    /// The soft step of Box2D v3 and rapier.
+    SoftStep,
 }
 
 /// Mass properties of a body at the start, as the splatphys world computed them from its
@@ -426,6 +440,10 @@ pub fn run(a: &ContactBenchArgs) -> Result<()> {
         density_kg_m3: a.density_kg_m3,
         dx_m: a.dx_m,
         seed: a.seed,
+        contact_solver: match a.contact_solver {
+            SolverChoice::SequentialImpulses => ContactSolver::SequentialImpulses,
+            SolverChoice::SoftStep => ContactSolver::SoftStep,
+        },
     };
     let pool = crate::thread_pool(a.threads)?;
     let plans: Vec<(ContactScene, f64)> = a

@@ -36,6 +36,7 @@ use clap::ValueEnum;
 use glam::{DQuat, EulerRot};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use splatphys_core::contact::ContactSolver;
 use splatphys_core::mpm::timestep::MAX_DT_S;
 use splatphys_core::scene::{
     ColliderSpec, MaterialSpec, Method, ObjectKind, Scene, SceneError, SceneObject, Surface,
@@ -236,6 +237,8 @@ pub struct ContactSettings {
     pub dx_m: f64,
     /// Seed of the pile layout and of the lattice jitter.
     pub seed: u64,
+    /// How the splatphys world solves its contacts.
+    pub contact_solver: ContactSolver,
 }
 
 impl ContactSettings {
@@ -248,6 +251,7 @@ impl ContactSettings {
             restitution: 0.0,
             density_kg_m3: 1000.0,
             dx_m: 0.01,
+            contact_solver: ContactSolver::default(),
             seed: 0,
         }
     }
@@ -285,6 +289,7 @@ impl ContactScene {
             .seed(s.seed)
             // Resting must come from contact, not from zeroed velocities.
             .sleep(false)
+            .contact_solver(s.contact_solver)
             .collider(
                 ColliderSpec::ground("ground")
                     .surface(Surface::Slip)

@@ -15,7 +15,7 @@
 //! e = max(e_A, e_B) (Box2D's mixing rules), rolling resistance b = max(b_A, b_B). Grid
 //! colliders and the captured background have a friction coefficient and no restitution or
 //! rolling resistance of their own (the object's applies); a sticky collider acts on a rigid
-//! object as infinite friction.
+//! object as friction [`STICKY_FRICTION`].
 
 pub mod block;
 pub mod boundary;
@@ -24,11 +24,19 @@ pub mod geometry;
 pub mod level_set;
 pub mod manifold;
 pub mod patch;
+pub mod soft_step;
 pub mod solver;
 
 pub use geometry::{Collision, Geometry, Pose};
 pub use level_set::LevelSet;
-pub use solver::{ContactPoint, SolverBody, SolverSettings};
+pub use solver::{ContactPoint, ContactSolver, SolverBody, SolverSettings};
+
+/// The friction μ a sticky collider has against a solid: large, far above any real pair, but
+/// finite, so its grip is bounded by μ times the normal impulse like any friction: nothing
+/// grips without a normal impulse, and a kinematic body pushing a box that a sticky surface
+/// holds has a solution (the box slides) instead of a contradiction between two infinite
+/// masses.
+pub const STICKY_FRICTION: f64 = 10.0;
 
 /// Pair friction μ = √(μ_A μ_B).
 pub fn mix_friction(a: f32, b: f32) -> f32 {

@@ -100,6 +100,7 @@ pub(super) fn patches(
     bodies: &[SolverBody],
     contacts: &[ContactPoint],
     rows: &mut [Row],
+    blocks: bool,
 ) -> Vec<ContactPatch> {
     // Points of a pair come one after another; a pair with several normals gets several patches.
     let mut groups: Vec<(usize, usize, DVec3, Vec<usize>)> = Vec::new();
@@ -121,7 +122,7 @@ pub(super) fn patches(
     }
     groups
         .into_iter()
-        .map(|(a, b, _, points)| ContactPatch::new(bodies, contacts, rows, a, b, points))
+        .map(|(a, b, _, points)| ContactPatch::new(bodies, contacts, rows, a, b, points, blocks))
         .collect()
 }
 
@@ -133,6 +134,7 @@ impl ContactPatch {
         a: usize,
         b: usize,
         points: Vec<usize>,
+        block: bool,
     ) -> Self {
         let normal = points
             .iter()
@@ -184,7 +186,9 @@ impl ContactPatch {
         if k_twist_inv == 0.0 {
             twist_impulse = 0.0;
         }
-        let block = normal_block(bodies, contacts, rows, &points, normal);
+        let block = block
+            .then(|| normal_block(bodies, contacts, rows, &points, normal))
+            .flatten();
         Self {
             a,
             b,
@@ -204,6 +208,11 @@ impl ContactPatch {
             k_roll_inv,
             block,
         }
+    }
+
+    /// The block of its normal impulses, when it has one.
+    pub(super) fn block(&self) -> Option<&NormalBlock> {
+        self.block.as_ref()
     }
 
     /// Applies the friction it starts from (its points' stored shares) to the bodies.
@@ -255,16 +264,11 @@ impl ContactPatch {
         rows: &[Row],
     ) {
         let (a, b) = (self.a, self.b);
-        // An infinite μ (a sticky surface) grips whatever the load.
         let limit = |arm: &dyn Fn(usize) -> f64| {
-            if self.friction.is_infinite() {
-                f64::INFINITY
-            } else {
-                self.points
-                    .iter()
-                    .map(|&i| self.friction * contacts[i].normal_impulse * arm(i))
-                    .sum::<f64>()
-            }
+            self.points
+                .iter()
+                .map(|&i| self.friction * contacts[i].normal_impulse * arm(i))
+                .sum::<f64>()
         };
         if self.k_t_inv != [0.0; 4] {
             let vt = relative(bodies, a, b, self.ra, self.rb);

@@ -53,6 +53,9 @@ pub struct SolverBody {
     pub push_m_s: DVec3,
     /// Split-impulse pseudo angular velocity (rad/s).
     pub push_rad_s: DVec3,
+    /// The velocity change from external forces over the substep (m/s; gravity g dt), already
+    /// in `velocity_m_s`: the soft step ([`super::soft_step`]) spreads it over its steps.
+    pub external_m_s: DVec3,
 }
 
 impl SolverBody {
@@ -77,6 +80,7 @@ impl SolverBody {
             inverse_inertia,
             push_m_s: DVec3::ZERO,
             push_rad_s: DVec3::ZERO,
+            external_m_s: DVec3::ZERO,
         }
     }
 
@@ -129,7 +133,7 @@ pub struct ContactPoint {
     pub separation_m: f64,
     /// Restitution e of the pair.
     pub restitution: f64,
-    /// Coulomb friction μ of the pair (infinite: no sliding).
+    /// Coulomb friction μ of the pair (finite: a sticky surface is [`super::STICKY_FRICTION`]).
     pub friction: f64,
     /// Rolling resistance b of the pair (m): its patch resists rolling with a couple of at most
     /// b times its normal impulse.
@@ -144,10 +148,45 @@ pub struct ContactPoint {
     pub twist_impulse: f64,
 }
 
+/// How the solver steps its contacts (scene file: `[simulation] contact_solver`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ContactSolver {
+    /// Sequential impulses iterated to convergence, flat patches as blocks, split-impulse
+    /// push-out (module docs): the accurate default.
+    #[default]
+    SequentialImpulses,
+    /// The soft step ([`super::soft_step`]): [`SolverSettings::substeps`] steps of one soft and
+    /// one relaxing iteration each, the scheme of Box2D v3 and rapier: fewer passes, but soft
+    /// contacts give under load (docs/performance.md).
+    SoftStep,
+}
+
+impl ContactSolver {
+    /// The scene-file name (`sequential-impulses`, `soft-step`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::SequentialImpulses => "sequential-impulses",
+            Self::SoftStep => "soft-step",
+        }
+    }
+}
+
 /// Solver settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolverSettings {
-    /// Most velocity iterations.
+    /// The scheme.
+    pub scheme: ContactSolver,
+    /// Soft step: steps per substep.
+    pub substeps: usize,
+    /// Soft step: the contact stiffness as a frequency (Hz), bounded by a quarter of the step
+    /// rate; twice this against immovable bodies (Box2D's static softness).
+    pub contact_hertz: f64,
+    /// Soft step: the contact damping ratio ζ.
+    pub damping_ratio: f64,
+    /// Soft step: a flat patch's normal impulses step as one block ([`super::block`]).
+    pub blocks: bool,
+    /// Sequential impulses: most velocity iterations; soft step: most restitution passes.
     pub iterations: usize,
     /// The velocity iterations stop early once one changes no point's relative velocity by
     /// more than this (m/s): warm-started resting contact converges in a few, an impact takes
@@ -168,6 +207,11 @@ pub struct SolverSettings {
 impl Default for SolverSettings {
     fn default() -> Self {
         Self {
+            scheme: ContactSolver::SequentialImpulses,
+            substeps: 4,
+            contact_hertz: 60.0,
+            damping_ratio: 10.0,
+            blocks: true,
             iterations: 60,
             converged_m_s: 1e-8,
             push_iterations: 6,
@@ -189,6 +233,21 @@ pub(super) struct Row {
     pub(super) target_vn: f64,
     push_target: f64,
     push_impulse: f64,
+}
+
+impl Row {
+    /// A point with arms `ra`, `rb` (m) and normal effective mass `k_n` (1/kg), no targets.
+    pub(super) fn new(ra: DVec3, rb: DVec3, k_n: f64) -> Self {
+        Self {
+            ra,
+            rb,
+            k_n,
+            arm_m: 0.0,
+            target_vn: 0.0,
+            push_target: 0.0,
+            push_impulse: 0.0,
+        }
+    }
 }
 
 pub(super) fn relative(bodies: &[SolverBody], a: usize, b: usize, ra: DVec3, rb: DVec3) -> DVec3 {
@@ -235,21 +294,25 @@ pub fn solve(
     dt_s: f64,
     settings: &SolverSettings,
 ) -> Vec<ContactPatch> {
+    match settings.scheme {
+        ContactSolver::SoftStep => super::soft_step::solve(bodies, contacts, dt_s, settings),
+        ContactSolver::SequentialImpulses => sequential_impulses(bodies, contacts, dt_s, settings),
+    }
+}
+
+fn sequential_impulses(
+    bodies: &mut [SolverBody],
+    contacts: &mut [ContactPoint],
+    dt_s: f64,
+    settings: &SolverSettings,
+) -> Vec<ContactPatch> {
     let mut rows: Vec<Row> = Vec::with_capacity(contacts.len());
     for c in contacts.iter_mut() {
         let ra = c.point_m - bodies[c.a].com_m;
         let rb = c.point_m - bodies[c.b].com_m;
         let n = c.normal;
         let k_n = effective(bodies, c.a, c.b, ra, rb, n, n);
-        let mut row = Row {
-            ra,
-            rb,
-            k_n,
-            arm_m: 0.0,
-            target_vn: 0.0,
-            push_target: 0.0,
-            push_impulse: 0.0,
-        };
+        let mut row = Row::new(ra, rb, k_n);
         let vn = relative(bodies, c.a, c.b, ra, rb).dot(n);
         let s = c.separation_m;
         row.target_vn = if s > 0.0 { -s / dt_s } else { 0.0 };
@@ -271,7 +334,7 @@ pub fn solve(
         apply_pair(bodies, c.a, c.b, ra, rb, n * c.normal_impulse);
         rows.push(row);
     }
-    let mut patches = patches(bodies, contacts, &mut rows);
+    let mut patches = patches(bodies, contacts, &mut rows, true);
     for patch in &patches {
         patch.warm_start_friction(bodies);
     }
@@ -306,8 +369,14 @@ pub fn solve(
             bodies[c.b].apply_push(row.rb, n * delta);
         }
     }
-    // Each point keeps its share of its patch's friction, for the next warm start.
-    for patch in &patches {
+    share_friction(contacts, &patches);
+    patches
+}
+
+/// Each point keeps its share of its patch's friction, in proportion to its normal impulse,
+/// for the next warm start.
+pub(super) fn share_friction(contacts: &mut [ContactPoint], patches: &[ContactPatch]) {
+    for patch in patches {
         let total: f64 = patch
             .points
             .iter()
@@ -323,7 +392,6 @@ pub fn solve(
             contacts[i].twist_impulse = patch.twist_impulse * w;
         }
     }
-    patches
 }
 
 /// Whether no point's relative velocity moved by more than `tol_m_s` (m/s) since the last

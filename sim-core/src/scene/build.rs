@@ -182,6 +182,7 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
         background_min_opacity: s.background_min_opacity,
         collision_dx_m: s.collision_dx_m,
         budget_fps: s.budget_fps,
+        contact_solver: s.contact_solver,
     })
 }
 

@@ -165,6 +165,12 @@ impl SceneBuilder {
         self
     }
 
+    /// How contacts between solids are solved. Default sequential impulses.
+    pub fn contact_solver(mut self, solver: crate::contact::ContactSolver) -> Self {
+        self.file.simulation.contact_solver = solver;
+        self
+    }
+
     /// Whether the captured background collides. Default true.
     pub fn background_collision(mut self, collide: bool) -> Self {
         self.file.simulation.background_collision = collide;

@@ -111,6 +111,7 @@ impl Scene {
                 background_min_opacity: 0.5,
                 collision_dx_m: None,
                 budget_fps: None,
+                contact_solver: Default::default(),
             },
             objects,
             background: Default::default(),

@@ -71,6 +71,7 @@ pub enum Surface {
     Separate,
 }
 
+pub use crate::contact::ContactSolver;
 pub use crate::material::MaterialSpec;
 
 /// Simulation settings.
@@ -117,6 +118,9 @@ pub struct SimulationSettings {
     /// Simulated frames per wall second that `splatphys run` chooses deformable objects'
     /// spacing to meet ([`crate::scene::LevelOfDetail`]). `None` (the default): as written.
     pub budget_fps: Option<f64>,
+    /// How contacts between solids are solved. Default
+    /// [`ContactSolver::SequentialImpulses`].
+    pub contact_solver: ContactSolver,
 }
 
 impl SceneObject {

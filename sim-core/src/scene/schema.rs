@@ -5,7 +5,7 @@ use serde::Deserialize;
 
 use crate::procedural::Shape;
 
-use super::model::{Method, ObjectKind, Surface};
+use super::model::{ContactSolver, Method, ObjectKind, Surface};
 
 fn default_one() -> f32 {
     1.0
@@ -100,6 +100,9 @@ pub struct SimulationToml {
     pub collision_dx_m: Option<f64>,
     /// Simulated frames per wall second that `splatphys run` coarsens deformable objects to meet.
     pub budget_fps: Option<f64>,
+    /// How contacts between solids are solved.
+    #[serde(default)]
+    pub contact_solver: ContactSolver,
 }
 
 fn default_true() -> bool {
@@ -130,6 +133,7 @@ impl Default for SimulationToml {
             background_min_opacity: default_background_opacity(),
             collision_dx_m: None,
             budget_fps: None,
+            contact_solver: ContactSolver::default(),
         }
     }
 }

@@ -171,16 +171,18 @@ impl World {
 
     /// Object `k` as the solver sees it: an awake rigid object moves, a kinematic object moves
     /// as driven with infinite mass, anything else does not.
-    fn solver_body(&self, k: usize) -> SolverBody {
+    fn solver_body(&self, k: usize, dt_s: f64) -> SolverBody {
         let b = &self.bodies[k];
         if b.kind == ObjectKind::Rigid && !b.sleeping {
-            SolverBody::new(
+            let mut s = SolverBody::new(
                 b.rigid.com_m,
                 b.rigid.velocity_m_s,
                 b.rigid.omega_rad_s,
                 1.0 / b.rigid.mass_kg.max(f64::MIN_POSITIVE),
                 body::inverse_or_zero(b.rigid_world_inertia()),
-            )
+            );
+            s.external_m_s = self.gravity_m_s2.as_dvec3() * dt_s;
+            s
         } else if b.kind == ObjectKind::Kinematic {
             SolverBody::new(
                 b.rigid.com_m,
@@ -254,7 +256,7 @@ impl World {
             }
         }
         // Solver bodies: objects first, then colliders, then the background.
-        let mut bodies: Vec<SolverBody> = (0..n).map(|k| self.solver_body(k)).collect();
+        let mut bodies: Vec<SolverBody> = (0..n).map(|k| self.solver_body(k, dt_s)).collect();
         let collider0 = bodies.len();
         for c in &self.colliders {
             bodies.push(SolverBody::immovable(c.velocity_at(self.time_s).as_dvec3()));
@@ -279,7 +281,7 @@ impl World {
                     Other::Collider(ci) => {
                         let col = &self.colliders[*ci as usize];
                         let mu = match col.surface {
-                            crate::collider::Surface::Sticky => f64::INFINITY,
+                            crate::collider::Surface::Sticky => crate::contact::STICKY_FRICTION,
                             _ => mix_friction(ba.friction, col.friction) as f64,
                         };
                         (collider0 + *ci as usize, mu, ba.restitution as f64)
@@ -319,6 +321,7 @@ impl World {
             })
             .collect();
         let settings = SolverSettings {
+            scheme: self.settings.contact_solver,
             resting_speed_m_s: 2.0 * self.gravity_m_s2.length() as f64 * dt_s,
             ..SolverSettings::default()
         };
