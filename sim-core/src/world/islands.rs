@@ -88,8 +88,16 @@ pub fn group(boxes: &[Option<Swept>]) -> Vec<Vec<usize>> {
 }
 
 /// A body's axis-aligned box now (m) and its fastest speed (m/s); `None` when it has no
-/// particles.
+/// particles. A solid's come from its pose (its collision surface's box turned into place and
+/// its rigid velocities), with no pass over its particles.
 fn bounds_and_speed(b: &Body) -> Option<(Vec3A, Vec3A, f64)> {
+    if b.kind != ObjectKind::Deformable
+        && let Some(c) = &b.collision
+    {
+        let (lo, hi) = c.placed(b.rigid.com_m, b.rigid.orientation).bounds_m;
+        let speed = b.rigid.velocity_m_s.length() + b.rigid.omega_rad_s.length() * b.arm_m();
+        return Some((lo, hi, speed));
+    }
     let p = &b.particles;
     if p.is_empty() {
         return None;
