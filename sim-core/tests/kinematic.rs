@@ -394,3 +394,43 @@ fn commands_a_kinematic_object_cannot_take_are_refused_with_a_reason() {
     w.advance_frame().expect("step");
     assert!(w.objects()[1].velocity_m_s.iter().all(|v| v.abs() < 1e-9));
 }
+
+#[test]
+fn a_kinematic_pusher_moves_a_box_that_a_sticky_floor_holds_without_throwing_it() {
+    // A sticky surface grips a solid with a large but finite μ (bounded by μ times the normal
+    // impulse), so an infinitely heavy pusher against a held box has an answer: the box is
+    // pushed along (or tips over its front edge, as μ = 10 lets it), never thrown.
+    let scene = Scene::builder()
+        .grid_dx_m(0.01)
+        .frame_rate_hz(50.0)
+        .duration_s(2.0)
+        .sleep(false)
+        .collider(ColliderSpec::ground("floor").surface(Surface::Sticky))
+        .object(
+            SceneObject::cuboid("box", [0.0, -0.05, 0.0005], [0.1, 0.05, 0.1005])
+                .kind(ObjectKind::Rigid)
+                .friction(0.3)
+                .restitution(0.0),
+        )
+        .object(
+            SceneObject::cuboid("pusher", [-0.06, -0.03, 0.005], [-0.01, 0.03, 0.03])
+                .kind(ObjectKind::Kinematic)
+                .velocity([0.2, 0.0, 0.0])
+                .restitution(0.0),
+        )
+        .build()
+        .expect("scene");
+    let mut w = World::from_scene(&scene).expect("world");
+    let x0 = w.objects()[0].com_m[0];
+    let mut fastest = 0.0f64;
+    while !w.is_finished() {
+        w.advance_frame().expect("step");
+        let v = w.objects()[0].velocity_m_s;
+        fastest = fastest.max(v.iter().map(|c| c * c).sum::<f64>().sqrt());
+    }
+    let moved = w.objects()[0].com_m[0] - x0;
+    println!("the box moved {moved:.3} m, fastest {fastest:.3} m/s");
+    // The pusher's face travels 0.4 m after meeting the box 1 cm away: the box goes with it.
+    assert!((moved - 0.39).abs() < 0.02, "the box moved {moved} m");
+    assert!(fastest < 0.3, "the box reached {fastest} m/s");
+}
