@@ -102,13 +102,10 @@ pub(super) fn solve(
             c.tangent_impulse = DVec3::ZERO;
             c.twist_impulse = 0.0;
         }
-        let immovable = |k: usize| {
-            bodies[k].inverse_mass == 0.0 && bodies[k].inverse_inertia == glam::DMat3::ZERO
-        };
         points.push(Point {
             base_separation_m: c.separation_m,
             approach_m_s: relative(bodies, c.a, c.b, ra, rb).dot(c.normal),
-            soft: if immovable(c.a) || immovable(c.b) {
+            soft: if bodies[c.a].is_immovable() || bodies[c.b].is_immovable() {
                 against_immovable
             } else {
                 moving
@@ -203,7 +200,7 @@ pub(super) fn solve(
     super::solver::share_friction(contacts, &patches);
     // The motion the velocities do not account for becomes the push-out pseudo-velocities.
     for ((b, m), &take_part) in bodies.iter_mut().zip(&motion).zip(&involved) {
-        if take_part && (b.inverse_mass > 0.0 || b.inverse_inertia != glam::DMat3::ZERO) {
+        if take_part && !b.is_immovable() {
             b.push_m_s = m.dp_m / dt_s - b.velocity_m_s;
             b.push_rad_s = m.dq.to_scaled_axis() / dt_s - b.omega_rad_s;
         }

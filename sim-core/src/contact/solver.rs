@@ -84,6 +84,11 @@ impl SolverBody {
         }
     }
 
+    /// Whether no impulse can move it (zero inverse mass and inertia).
+    pub(crate) fn is_immovable(&self) -> bool {
+        self.inverse_mass == 0.0 && self.inverse_inertia == DMat3::ZERO
+    }
+
     /// The velocity (m/s) of the body's point at `r` (m) from its COM.
     pub(crate) fn velocity_at(&self, r: DVec3) -> DVec3 {
         self.velocity_m_s + self.omega_rad_s.cross(r)
