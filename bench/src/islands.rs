@@ -80,7 +80,7 @@ fn run_once(scene: &Scene) -> Result<Run> {
                 .objects()
                 .iter()
                 .zip(&world.bodies)
-                .map(|(o, b)| (DVec3::from(o.com_m), b.particles.x.clone()))
+                .map(|(o, b)| (DVec3::from(o.com_m), b.particle_positions()))
                 .collect(),
         );
     }

@@ -384,7 +384,10 @@ fn run_one(s: &RunSpec) -> Result<Outcome> {
         let p = d.momentum_kg_m_s;
         let drift = (0..3).map(|k| (p[k] - p0[k]).powi(2)).sum::<f64>().sqrt() / p0_norm;
         out.momentum_drift = out.momentum_drift.max(drift);
-        let (a, b) = (&w.bodies[0].particles.x, &w.bodies[1].particles.x);
+        let (a, b) = (
+            &w.bodies[0].particle_positions(),
+            &w.bodies[1].particle_positions(),
+        );
         let depth = overlap::penetration(a, b, dx)
             .depth_cells
             .max(overlap::penetration(b, a, dx).depth_cells);

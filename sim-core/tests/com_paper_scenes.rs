@@ -58,8 +58,8 @@ fn sticky_floor() -> ColliderSpec {
 /// Particles of body `a` in interior cells of body `b` (at least a cell deep).
 fn deep_particles(world: &World, a: usize, b: usize, dx: f32) -> usize {
     penetration(
-        &world.bodies[a].particles.x,
-        &world.bodies[b].particles.x,
+        &world.bodies[a].particle_positions(),
+        &world.bodies[b].particle_positions(),
         dx,
     )
     .deep_particles

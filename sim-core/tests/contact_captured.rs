@@ -90,8 +90,7 @@ friction = 0.5
         }
         let o = &w.objects()[0];
         let lowest = w.bodies[0]
-            .particles
-            .x
+            .particle_positions()
             .iter()
             .map(|x| x.z)
             .fold(f32::INFINITY, f32::min);

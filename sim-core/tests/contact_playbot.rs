@@ -116,16 +116,15 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
                 // (1.2 %) without it.
                 let surface = w.background_collision.as_ref().expect("background surface");
                 let placed = surface.placed(glam::DVec3::ZERO, glam::Quat::IDENTITY);
-                let inside = robot
-                    .particles
-                    .x
+                let positions = robot.particle_positions();
+                let inside = positions
                     .iter()
                     .filter(|x| placed.geometry.distance(placed.pose.to_rest(**x)).0 < -0.01)
                     .count();
-                let share = inside as f64 / robot.particles.len() as f64;
+                let share = inside as f64 / positions.len() as f64;
                 println!(
                     "{kind:?}: {inside} of {} particles more than 1 cm inside the collision surface",
-                    robot.particles.len()
+                    positions.len()
                 );
                 assert!(
                     share < 0.005,

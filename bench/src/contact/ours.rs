@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use glam::{DQuat, DVec3};
-use splatphys_core::world::{World, measure};
+use splatphys_core::world::World;
 
 use super::scenes::{ContactScene, ContactSettings};
 use super::{EngineRun, FinalBody, MassProps, Progress};
@@ -31,7 +31,7 @@ pub fn build(
         .bodies
         .iter()
         .map(|b| {
-            let m = measure(&b.particles, world.dx_m());
+            let m = b.state();
             MassProps {
                 mass_kg: m.mass_kg,
                 com_m: m.com_m,

@@ -72,8 +72,8 @@ pub fn collision(
     };
     let mut occupied: HashSet<IVec3> = HashSet::new();
     for b in bodies {
-        for x in &b.particles.x {
-            let c = cell(*x, dx_m);
+        for x in b.particle_positions() {
+            let c = cell(x, dx_m);
             for z in -1..=1 {
                 for y in -1..=1 {
                     for xx in -1..=1 {

@@ -3,6 +3,11 @@
 //! grid, its rest state for the Gaussian kinematics, and its object-level state (the paper's
 //! eq. 2: mass-weighted means).
 //!
+//! A solid (rigid, static or kinematic object) is a rigid body: a pose (x, q), v, ω, mass and
+//! body-frame inertia, with its Gaussians stored in the body frame and placed only when a frame
+//! is published (μ = x + R μ_b, Σ = R Σ_b Rᵀ). It holds no live particles: they wait as a
+//! body-frame template ([`Body::template`]) that becoming deformable places by the pose.
+//!
 //! Effective radius (the paper's eq. 3 bounding sphere): the largest distance of a particle from
 //! the COM, plus half a grid cell so that spheres touch when particles share cells.
 
@@ -241,8 +246,17 @@ pub struct Body {
     pub friction: f32,
     /// Rolling resistance b (m): the couple against rolling is at most b times the normal force.
     pub rolling_resistance_m: f32,
-    /// Particles (world frame); `material` indexes `materials`.
+    /// A deformable object's particles (world frame); `material` indexes `materials`. Empty for
+    /// a solid, whose particles wait in [`Self::template`].
     pub particles: Particles,
+    /// `[N]` a solid's particles in its body frame: x the offset from the COM in the rest pose
+    /// (m), v = 0, F = I, C = 0, masses, volumes and plastic state as they were. Becoming
+    /// deformable places them by the pose (filling an object is expensive, so they are kept).
+    /// Empty for a deformable object.
+    pub template: Particles,
+    /// `[G]` a solid's Gaussian centres in its body frame: offsets from the COM in the rest pose
+    /// (m). Empty for a deformable object.
+    pub gaussian_offsets: Vec<Vec3A>,
     /// The object's material table (one entry).
     pub materials: Vec<Material>,
     /// Its own MPM grid.
@@ -251,9 +265,11 @@ pub struct Body {
     pub gaussians: crate::gaussians::GaussianCloud,
     /// `[G]` rest covariance Σ0 of each Gaussian (m², world frame at t = 0).
     pub sigma0: Vec<Mat3A>,
-    /// `[N]` particle offsets from the COM in the rest pose (m), for rigid motion.
+    /// `[N]` a deformable object's particle offsets from the COM in its rest pose (m), for its
+    /// best-fit orientation; empty for a solid (its [`Self::template`] holds them).
     pub rest_offsets: Vec<Vec3A>,
-    /// The largest of `rest_offsets`' lengths (m), computed with them.
+    /// The largest particle distance from the COM in the rest pose (m), computed with the rest
+    /// offsets.
     rest_arm_m: f64,
     /// `[G]` whether each Gaussian is published (false for fill particles).
     pub visible: Vec<bool>,
@@ -356,6 +372,8 @@ impl Body {
             friction: o.friction.max(0.0),
             rolling_resistance_m: o.rolling_resistance_m.max(0.0),
             particles,
+            template: Particles::default(),
+            gaussian_offsets: Vec::new(),
             materials: vec![material],
             solver: MpmSolver::new(dx_m),
             gaussians: g.clone(),
@@ -402,14 +420,11 @@ impl Body {
         body.capture_rigid_pose();
         if o.kind != ObjectKind::Deformable {
             body.build_collision(o.shape, o.shape_rotation);
-        }
-        if o.kind == ObjectKind::Kinematic {
-            // It moves only as commanded: the scene's initial velocity is its first command.
-            body.sync_rigid_particles();
-            body.max_speed_m_s = v0.length();
+            body.freeze();
         }
         if o.kind == ObjectKind::Static {
-            body.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
+            body.rigid.velocity_m_s = DVec3::ZERO;
+            body.rigid.omega_rad_s = DVec3::ZERO;
             body.max_speed_m_s = 0.0;
         }
         Ok(body)
@@ -500,10 +515,38 @@ impl Body {
         self.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
     }
 
-    /// Writes the rigid pose into the particles: x = com + R r0, v = v + ω × R r0, F = R, C = `[ω]×`.
-    /// Stepping moves only the pose; the world calls this once per frame (and before commands
-    /// and events), so a solid costs nothing per substep in proportion to its particles.
-    pub fn sync_rigid_particles(&mut self) {
+    /// Whether it is a solid whose particles wait in its template ([`Body::freeze`]).
+    #[inline]
+    pub fn is_frozen(&self) -> bool {
+        !self.template.is_empty()
+    }
+
+    /// Makes a solid of it (call after [`Self::capture_rigid_pose`]): its Gaussians' centres go
+    /// into the body frame ([`Self::gaussian_offsets`]), its particles into the
+    /// [`Self::template`], and it keeps no live particles.
+    pub fn freeze(&mut self) {
+        if self.is_frozen() || self.particles.is_empty() {
+            return; // frozen already, or nothing to freeze
+        }
+        let com = self.rigid.com_m.as_vec3a();
+        self.gaussian_offsets = (0..self.gaussian_count())
+            .map(|g| self.gaussian_pose(g).0 - com)
+            .collect();
+        let mut t = std::mem::take(&mut self.particles);
+        t.x = std::mem::take(&mut self.rest_offsets);
+        t.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
+        t.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
+        t.f.iter_mut().for_each(|f| *f = Mat3A::IDENTITY);
+        self.template = t;
+    }
+
+    /// Makes a deformable object of a solid: places its [`Self::template`] by the pose,
+    /// x = com + R r0, v = v + ω × R r0, F = R, C = `[ω]×` (a rigid motion as an APIC velocity
+    /// field), and drops the body-frame Gaussians (the particles carry them again).
+    pub fn thaw(&mut self) {
+        if !self.is_frozen() {
+            return;
+        }
         let r = Mat3A::from_quat(self.rigid.orientation);
         let com = self.rigid.com_m.as_vec3a();
         let v = self.rigid.velocity_m_s.as_vec3a();
@@ -513,19 +556,63 @@ impl Body {
             Vec3A::new(-w.z, 0.0, w.x),
             Vec3A::new(w.y, -w.x, 0.0),
         );
-        let p = &mut self.particles;
+        let mut p = std::mem::take(&mut self.template);
+        self.rest_offsets.clone_from(&p.x);
         for i in 0..p.len() {
-            let off = r * self.rest_offsets[i];
+            let off = r * p.x[i];
             p.x[i] = com + off;
             p.v[i] = v + w.cross(off);
             p.f[i] = r;
             p.c[i] = skew;
         }
+        self.max_speed_m_s = p.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+        self.particles = p;
+        self.gaussian_offsets = Vec::new();
+    }
+
+    /// The object-level state: measured from the particles of a deformable object, read from
+    /// the pose of a solid (its aabb the collision surface's box in place, or the sphere of its
+    /// arm without one).
+    pub fn state(&self) -> BodyState {
+        if self.kind == ObjectKind::Deformable {
+            return measure(&self.particles, self.dx_m());
+        }
+        let rs = &self.rigid;
+        let inertia = self.rigid_world_inertia();
+        let radius_m = self.rest_arm_m + self.dx_m() as f64 / 2.0;
+        let aabb_m = match &self.collision {
+            Some(c) => {
+                let (lo, hi) = c.placed(rs.com_m, rs.orientation).bounds_m;
+                (lo.as_dvec3(), hi.as_dvec3())
+            }
+            None => (rs.com_m - radius_m, rs.com_m + radius_m),
+        };
+        BodyState {
+            mass_kg: rs.mass_kg,
+            com_m: rs.com_m,
+            velocity_m_s: rs.velocity_m_s,
+            angular_momentum: inertia * rs.omega_rad_s,
+            inertia,
+            radius_m,
+            aabb_m,
+        }
+    }
+
+    /// Every particle's position now (m), world frame: a deformable object's particles, or a
+    /// solid's template placed by its pose.
+    pub fn particle_positions(&self) -> Vec<Vec3A> {
+        if !self.is_frozen() {
+            return self.particles.x.clone();
+        }
+        let r = Mat3A::from_quat(self.rigid.orientation);
+        let com = self.rigid.com_m.as_vec3a();
+        self.template.x.iter().map(|x| com + r * *x).collect()
     }
 
     /// Builds the collision surface in the current rest frame (call after
-    /// [`Self::capture_rigid_pose`]): `shape`'s exact surface turned by `rotation` about its
-    /// centre, or a level set of the particles with cells of `collision_cell_m`.
+    /// [`Self::capture_rigid_pose`] and before [`Self::freeze`]): `shape`'s exact surface turned
+    /// by `rotation` about its centre, or a level set of the particles with cells of
+    /// `collision_cell_m`.
     pub fn build_collision(&mut self, shape: Option<Shape>, rotation: Quat) {
         let dx = self.collision_cell_m;
         let geometry = match shape {
@@ -548,14 +635,19 @@ impl Body {
         self.rest_arm_m
     }
 
-    /// Gives rigid body impulse `j` (N s) at `point` (m). The particles follow at
-    /// [`Self::sync_rigid_particles`].
+    /// Gives rigid body impulse `j` (N s) at `point` (m).
     pub fn apply_rigid_impulse(&mut self, j: DVec3, point: DVec3) {
         let inv_i = inverse_or_zero(self.rigid_world_inertia());
         let rs = &mut self.rigid;
         rs.velocity_m_s += j / rs.mass_kg.max(f64::MIN_POSITIVE);
         rs.omega_rad_s += inv_i * (point - rs.com_m).cross(j);
         self.impulse_total_n_s += j.length();
+    }
+
+    /// The fastest speed of a point of the rigid state (m/s): |v| + |ω| times [`Self::arm_m`].
+    pub fn rigid_speed_m_s(&self) -> f32 {
+        (self.rigid.velocity_m_s.length() + self.rigid.omega_rad_s.length() * self.rest_arm_m)
+            as f32
     }
 
     /// World inertia of the rigid state, R I0 Rᵀ.

@@ -311,19 +311,27 @@ impl Carry {
 }
 
 impl Body {
-    /// Gaussians of this object (fill included): `gaussians`, `sigma0` and `visible` are indexed
-    /// by Gaussian, `particles` and `rest_offsets` by particle.
+    /// Gaussians of this object (fill included): `gaussians`, `sigma0`, `visible` and
+    /// `gaussian_offsets` are indexed by Gaussian, `particles`, `template` and `rest_offsets` by
+    /// particle.
     pub fn gaussian_count(&self) -> usize {
         self.gaussians.len()
     }
 
-    /// Gaussian `g`'s centre (m) and deformation gradient: its particle's without a carry, the
-    /// carried ones with it.
+    /// Gaussian `g`'s centre (m) and deformation gradient: a solid's placed by its pose
+    /// (x + R μ_b, R); a deformable object's particle's without a carry, the carried ones with it.
     ///
     /// # Panics
     /// When `g` is out of range.
     #[inline]
     pub fn gaussian_pose(&self, g: usize) -> (Vec3A, Mat3A) {
+        if self.is_frozen() {
+            let r = Mat3A::from_quat(self.rigid.orientation);
+            return (
+                self.rigid.com_m.as_vec3a() + r * self.gaussian_offsets[g],
+                r,
+            );
+        }
         match &self.carry {
             Some(c) => c.pose(g, &self.particles),
             None => {

@@ -2,7 +2,7 @@
 //! object; static objects refuse to move, kinematic objects refuse impulses (`set-pose` is in
 //! [`super::kinematic`]). Used by scene events and the server's command service.
 
-use glam::{DVec3, Mat3A, Vec3A};
+use glam::{DVec3, Vec3A};
 use splatphys_types::{Command, MaterialEdit};
 
 use super::{World, WorldError, coherence, measure};
@@ -120,7 +120,7 @@ impl World {
         match b.kind {
             ObjectKind::Rigid => {
                 b.apply_rigid_impulse(j_n_s.as_dvec3(), point);
-                b.sync_rigid_particles();
+                b.max_speed_m_s = b.rigid_speed_m_s();
             }
             _ => {
                 // The zone: particles within 3 cells of the point (all of them for the COM).
@@ -171,15 +171,15 @@ impl World {
                     b.rigid.omega_rad_s = w;
                 }
                 b.drive = super::kinematic::Drive::Velocity;
-                b.sync_rigid_particles();
+                b.max_speed_m_s = b.rigid_speed_m_s();
             }
             _ => {
                 let s = measure(&b.particles, dx);
                 let l = omega.map_or(s.angular_momentum, |w| s.inertia * w);
                 coherence::enforce(b, v_m_s.as_dvec3() * s.mass_kg, l, s.com_m);
+                b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
             }
         }
-        b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
         Ok(())
     }
 
@@ -230,12 +230,16 @@ impl World {
         if let Some(m) = checked {
             let rho = m.density_kg_m3();
             let ratio = (rho / b.materials[0].density_kg_m3()) as f64;
-            for (mass, vol) in b.particles.mass_kg.iter_mut().zip(&b.particles.volume0_m3) {
-                *mass = rho * vol;
-            }
-            if m.name() != b.materials[0].name() {
-                let p0 = m.initial_plastic_state();
-                b.particles.plastic.iter_mut().for_each(|p| *p = p0);
+            let p0 = m.initial_plastic_state();
+            let new_model = m.name() != b.materials[0].name();
+            // A solid's particles wait in its template; a deformable object's are live.
+            for p in [&mut b.particles, &mut b.template] {
+                for (mass, vol) in p.mass_kg.iter_mut().zip(&p.volume0_m3) {
+                    *mass = rho * vol;
+                }
+                if new_model {
+                    p.plastic.iter_mut().for_each(|p| *p = p0);
+                }
             }
             b.materials[0] = m;
             // One density throughout: mass and inertia scale, the pose and surface stay.
@@ -264,19 +268,22 @@ impl World {
             .ok_or_else(|| WorldError::UnknownObject(format!("#{id}")))?;
         let solid = |k: ObjectKind| k != ObjectKind::Deformable;
         if solid(kind) && !solid(b.kind) {
-            // The current shape becomes the rest shape and the collision surface.
+            // The current shape, as it is, becomes the rest shape and the collision surface;
+            // the particles wait in the body-frame template.
             b.capture_rigid_pose();
             b.build_collision(None, glam::Quat::IDENTITY);
-        } else if !solid(kind) {
-            b.collision = None;
+            b.freeze();
         }
         if matches!(kind, ObjectKind::Static | ObjectKind::Kinematic) {
             b.rigid.velocity_m_s = glam::DVec3::ZERO;
             b.rigid.omega_rad_s = glam::DVec3::ZERO;
             b.drive = super::kinematic::Drive::Velocity;
-            b.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
-            b.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
             b.max_speed_m_s = 0.0;
+        }
+        if !solid(kind) && solid(b.kind) {
+            // The template placed by the pose, moving as the body did.
+            b.collision = None;
+            b.thaw();
         }
         b.kind = kind;
         self.wake(id);

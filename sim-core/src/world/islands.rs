@@ -91,12 +91,9 @@ pub fn group(boxes: &[Option<Swept>]) -> Vec<Vec<usize>> {
 /// particles. A solid's come from its pose (its collision surface's box turned into place and
 /// its rigid velocities), with no pass over its particles.
 fn bounds_and_speed(b: &Body) -> Option<(Vec3A, Vec3A, f64)> {
-    if b.kind != ObjectKind::Deformable
-        && let Some(c) = &b.collision
-    {
-        let (lo, hi) = c.placed(b.rigid.com_m, b.rigid.orientation).bounds_m;
-        let speed = b.rigid.velocity_m_s.length() + b.rigid.omega_rad_s.length() * b.arm_m();
-        return Some((lo, hi, speed));
+    if b.kind != ObjectKind::Deformable {
+        let (lo, hi) = b.state().aabb_m;
+        return Some((lo.as_vec3a(), hi.as_vec3a(), f64::from(b.rigid_speed_m_s())));
     }
     let p = &b.particles;
     if p.is_empty() {
@@ -110,11 +107,7 @@ fn bounds_and_speed(b: &Body) -> Option<(Vec3A, Vec3A, f64)> {
         hi = hi.max(*x);
         v2 = v2.max(v.length_squared());
     }
-    let speed = match b.kind {
-        ObjectKind::Deformable => f64::from(v2.sqrt()),
-        _ => b.rigid.velocity_m_s.length() + b.rigid.omega_rad_s.length() * b.arm_m(),
-    };
-    Some((lo, hi, speed))
+    Some((lo, hi, f64::from(v2.sqrt())))
 }
 
 impl World {

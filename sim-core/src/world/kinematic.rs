@@ -66,9 +66,7 @@ impl Body {
                 self.arrive();
             }
         }
-        let rs = &self.rigid;
-        self.max_speed_m_s =
-            (rs.velocity_m_s.length() + rs.omega_rad_s.length() * self.arm_m()) as f32;
+        self.max_speed_m_s = self.rigid_speed_m_s();
     }
 
     /// Puts a kinematic object on its target pose, still.

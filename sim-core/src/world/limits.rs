@@ -12,7 +12,7 @@
 
 use glam::DVec3;
 
-use super::{World, WorldError, measure};
+use super::{World, WorldError};
 use crate::material::{ConstitutiveModel, Material, MaterialSpec};
 use crate::scene::ObjectKind;
 
@@ -39,7 +39,7 @@ impl World {
         point_m: Option<DVec3>,
     ) -> Result<(), WorldError> {
         let b = &self.bodies[id];
-        let s = measure(&b.particles, b.dx_m());
+        let s = b.state();
         if s.mass_kg <= 0.0 {
             return Ok(());
         }
@@ -81,7 +81,7 @@ impl World {
         let arm = match omega_rad_s {
             Some(_) => {
                 let b = &self.bodies[id];
-                measure(&b.particles, b.dx_m()).radius_m
+                b.state().radius_m
             }
             None => 0.0,
         };

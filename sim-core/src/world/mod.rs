@@ -449,7 +449,8 @@ impl World {
         self.frame >= self.total_frames()
     }
 
-    /// Total particles (fill included).
+    /// Live particles (fill included): those of deformable objects (a solid's wait in its
+    /// template).
     pub fn particle_count(&self) -> usize {
         self.bodies.iter().map(|b| b.particles.len()).sum()
     }
@@ -490,12 +491,6 @@ impl World {
         // there is more than one; one island steps as the whole world.
         let mut plan: Option<Vec<Vec<usize>>> = None;
         while end - self.time_s > 1e-9 {
-            if self
-                .next_event_s()
-                .is_some_and(|t| t <= self.time_s + 1e-12)
-            {
-                self.place_solids();
-            }
             self.apply_due_events()?;
             let islands = match &plan {
                 Some(p) => p,
@@ -514,30 +509,18 @@ impl World {
                 return Err(WorldError::Interrupted { frame: self.frame });
             }
         }
-        self.place_solids();
         self.time_s = end;
         self.frame += 1;
         Ok(substeps)
-    }
-
-    /// Places the particles of every moving solid at its pose
-    /// ([`Body::sync_rigid_particles`]): at the end of a frame and before commands, never per
-    /// substep.
-    fn place_solids(&mut self) {
-        for b in &mut self.bodies {
-            if b.moves_rigidly() {
-                b.sync_rigid_particles();
-            }
-        }
     }
 
     /// [`World::substep`] on a worker of the thread pool: a substep makes many short parallel
     /// calls, and from outside the pool each one is injected and waits for a worker to wake.
     fn substep_on_pool(&mut self, max_dt_s: f64) -> Result<f64, WorldError> {
         if rayon::current_thread_index().is_some() {
-            self.step_once(max_dt_s)
+            self.substep(max_dt_s)
         } else {
-            rayon::scope(|_| self.step_once(max_dt_s))
+            rayon::scope(|_| self.substep(max_dt_s))
         }
     }
 
@@ -585,13 +568,6 @@ impl World {
     /// # Errors
     /// [`WorldError::TimeStep`] or [`WorldError::Solver`].
     pub fn substep(&mut self, max_dt_s: f64) -> Result<f64, WorldError> {
-        let dt = self.step_once(max_dt_s)?;
-        self.place_solids();
-        Ok(dt)
-    }
-
-    /// [`World::substep`] without placing the solids' particles (frames place them once).
-    fn step_once(&mut self, max_dt_s: f64) -> Result<f64, WorldError> {
         self.drive_kinematic();
         // The CFL bound of the stepping objects: the smallest C dx / (c_p + |v|max) of any of
         // them, with |v|max over all of them and the active colliders (c_p includes the speed

@@ -4,7 +4,7 @@
 use glam::{DVec3, Mat3A, Quat};
 use rayon::prelude::*;
 
-use super::{Body, ObjectSummary, World, measure};
+use super::{Body, ObjectSummary, World};
 use crate::gaussians::GaussianCloud;
 use crate::kinematics::{GaussianState, gaussian_state};
 use crate::math::polar;
@@ -43,6 +43,15 @@ impl World {
             let (mine, tail) = rest.split_at_mut(n);
             rest = tail;
             let idx: Vec<usize> = (0..b.gaussian_count()).filter(|&i| b.visible[i]).collect();
+            if b.is_frozen() {
+                // A solid: μ = x + R μ_b, Σ = R Σ_b Rᵀ, with R formed once.
+                let r = Mat3A::from_quat(b.rigid.orientation);
+                let com = b.rigid.com_m.as_vec3a();
+                mine.par_iter_mut().zip(idx.par_iter()).for_each(|(o, &i)| {
+                    *o = gaussian_state(com + r * b.gaussian_offsets[i], r, b.sigma0[i]);
+                });
+                continue;
+            }
             mine.par_iter_mut().zip(idx.par_iter()).for_each(|(o, &i)| {
                 let (x, f) = b.gaussian_pose(i);
                 *o = gaussian_state(x, f, b.sigma0[i]);
@@ -59,7 +68,7 @@ impl World {
             .iter()
             .enumerate()
             .map(|(k, b)| {
-                let s = measure(&b.particles, b.dx_m());
+                let s = b.state();
                 let (q, w) = if b.kind != ObjectKind::Deformable {
                     (b.rigid.orientation, b.rigid.omega_rad_s)
                 } else {
@@ -86,8 +95,30 @@ impl World {
     pub fn diagnostics(&self) -> Diagnostics {
         self.bodies
             .iter()
-            .map(|b| Diagnostics::measure(&b.particles, &b.materials, self.gravity_m_s2, b.dx_m()))
+            .map(|b| match b.is_frozen() {
+                true => rigid_diagnostics(b, self.gravity_m_s2.as_dvec3()),
+                false => {
+                    Diagnostics::measure(&b.particles, &b.materials, self.gravity_m_s2, b.dx_m())
+                }
+            })
             .fold(Diagnostics::default(), |a, b| a.combine(&b))
+    }
+}
+
+/// A solid's diagnostics from its pose: momentum M v, angular momentum about the origin
+/// x × M v + I ω, kinetic energy ½ M |v|² + ½ ω·I ω, potential −M g·x, no elastic energy.
+fn rigid_diagnostics(b: &Body, gravity_m_s2: DVec3) -> Diagnostics {
+    let s = b.state();
+    let p = s.velocity_m_s * s.mass_kg;
+    let w = b.rigid.omega_rad_s;
+    Diagnostics {
+        mass_kg: s.mass_kg,
+        momentum_kg_m_s: p.to_array(),
+        angular_momentum_kg_m2_s: (s.com_m.cross(p) + s.angular_momentum).to_array(),
+        kinetic_j: 0.5 * (s.mass_kg * s.velocity_m_s.length_squared() + w.dot(s.inertia * w)),
+        elastic_j: 0.0,
+        potential_j: -s.mass_kg * gravity_m_s2.dot(s.com_m),
+        max_speed_m_s: s.velocity_m_s.length() + w.length() * b.arm_m(),
     }
 }
 

@@ -53,7 +53,5 @@ pub fn integrate_position(body: &mut Body, dt_s: f64, push_m_s: DVec3, push_rad_
     if inverse_or_zero(i0) != DMat3::ZERO {
         rs.omega_rad_s = omega_at(q1);
     }
-    let arm = body.arm_m();
-    let rs = &body.rigid;
-    body.max_speed_m_s = (rs.velocity_m_s.length() + rs.omega_rad_s.length() * arm) as f32;
+    body.max_speed_m_s = body.rigid_speed_m_s();
 }

@@ -118,7 +118,10 @@ impl World {
                 (Some(p), _) => p.bounds_m,
                 (None, Some(s)) => (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a()),
                 (None, None) => {
-                    let s = super::body::measure_bounds(&b.particles, dx);
+                    let s = match b.kind {
+                        ObjectKind::Deformable => super::body::measure_bounds(&b.particles, dx),
+                        _ => b.state(),
+                    };
                     (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a())
                 }
             };
