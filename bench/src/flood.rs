@@ -28,7 +28,7 @@ use splatphys_ipc::server::{ServerConfig, ServerReport, serve};
 use splatphys_ipc::{IpcError, Simulation};
 
 use crate::WorldSimFactory;
-use crate::ipc::Peer;
+use crate::peer::Peer;
 
 /// What the server steps during a flood run.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]

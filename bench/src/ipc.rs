@@ -26,7 +26,6 @@
 use std::io::{Read, Write};
 use std::os::unix::net::UnixListener;
 use std::path::PathBuf;
-use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context, Result, ensure};
@@ -37,6 +36,8 @@ use splatphys_ipc::backpressure::LagBook;
 use splatphys_ipc::server::frame_publisher;
 use splatphys_ipc::services::{Role, ServiceNames, create_node, frame_service};
 use splatphys_ipc::wire::{FrameGaussian, FrameHeader, LAYOUT_VERSION};
+
+use crate::peer::Peer;
 
 use crate::chart::{Series, line_chart, write_csv};
 use crate::peer::now_s;
@@ -77,55 +78,6 @@ pub struct IpcBenchArgs {
     /// Runs with and without the flood, alternating; medians are reported.
     #[arg(long, default_value_t = 2)]
     pub flood_repeats: u32,
-}
-
-/// A child process (a `bench ipc-peer`), killed if still running when dropped.
-pub struct Peer(pub Child);
-
-impl Drop for Peer {
-    fn drop(&mut self) {
-        if let Ok(None) = self.0.try_wait() {
-            let _ = self.0.kill();
-        }
-        let _ = self.0.wait();
-    }
-}
-
-impl Peer {
-    /// Starts `splatphys bench ipc-peer ARGS` with stdout piped.
-    pub fn spawn(args: &[String]) -> Result<Self> {
-        let exe = std::env::current_exe().context("locating the splatphys-bench binary")?;
-        let child = Process::new(exe)
-            .arg("ipc-peer")
-            .args(args)
-            .stdout(Stdio::piped())
-            .spawn()
-            .context("starting bench ipc-peer")?;
-        Ok(Self(child))
-    }
-
-    /// Waits (up to `timeout`) for the peer to exit successfully; returns its last stdout line
-    /// parsed as JSON.
-    pub fn finish(mut self, timeout: Duration) -> Result<Value> {
-        let t0 = Instant::now();
-        let status = loop {
-            if let Some(st) = self.0.try_wait()? {
-                break st;
-            }
-            ensure!(
-                t0.elapsed() < timeout,
-                "bench ipc-peer still running after {timeout:?}"
-            );
-            std::thread::sleep(Duration::from_millis(5));
-        };
-        let mut out = String::new();
-        if let Some(mut o) = self.0.stdout.take() {
-            o.read_to_string(&mut out)?;
-        }
-        ensure!(status.success(), "bench ipc-peer failed ({status})");
-        let line = out.lines().last().unwrap_or("{}");
-        serde_json::from_str(line).with_context(|| format!("bench ipc-peer printed {line:?}"))
-    }
 }
 
 /// Nearest-rank percentile `q` in 0..=1 of `v` (sorted in place); NaN when empty.

@@ -12,16 +12,17 @@
 //!
 //! Both sides read the wall clock (`CLOCK_REALTIME`, one clock for all processes of a host)
 //! relative to `--epoch-ns`, so latencies stay in f64 seconds with sub-nanosecond resolution.
-//! Every role prints one JSON line on stdout when it ends.
+//! Every role prints one JSON line on stdout when it ends; [`Peer`] starts one and reads it.
 
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::path::PathBuf;
+use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, bail, ensure};
 use clap::{Args, ValueEnum};
-use serde_json::json;
+use serde_json::{Value, json};
 use splatphys_ipc::IpcError;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::command::{Command, Reply};
@@ -238,4 +239,53 @@ fn flood(a: &PeerArgs) -> Result<()> {
         })
     );
     Ok(())
+}
+
+/// A child process (a `bench ipc-peer`), killed if still running when dropped.
+pub struct Peer(pub Child);
+
+impl Drop for Peer {
+    fn drop(&mut self) {
+        if let Ok(None) = self.0.try_wait() {
+            let _ = self.0.kill();
+        }
+        let _ = self.0.wait();
+    }
+}
+
+impl Peer {
+    /// Starts `splatphys bench ipc-peer ARGS` with stdout piped.
+    pub fn spawn(args: &[String]) -> Result<Self> {
+        let exe = std::env::current_exe().context("locating the splatphys-bench binary")?;
+        let child = Process::new(exe)
+            .arg("ipc-peer")
+            .args(args)
+            .stdout(Stdio::piped())
+            .spawn()
+            .context("starting bench ipc-peer")?;
+        Ok(Self(child))
+    }
+
+    /// Waits (up to `timeout`) for the peer to exit successfully; returns its last stdout line
+    /// parsed as JSON.
+    pub fn finish(mut self, timeout: Duration) -> Result<Value> {
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(st) = self.0.try_wait()? {
+                break st;
+            }
+            ensure!(
+                t0.elapsed() < timeout,
+                "bench ipc-peer still running after {timeout:?}"
+            );
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        let mut out = String::new();
+        if let Some(mut o) = self.0.stdout.take() {
+            o.read_to_string(&mut out)?;
+        }
+        ensure!(status.success(), "bench ipc-peer failed ({status})");
+        let line = out.lines().last().unwrap_or("{}");
+        serde_json::from_str(line).with_context(|| format!("bench ipc-peer printed {line:?}"))
+    }
 }

@@ -19,7 +19,7 @@ use anyhow::{Context, Result, bail, ensure};
 use serde_json::{Value, json};
 
 use crate::chart::{Series, line_chart, write_columns_csv};
-use crate::ipc::Peer;
+use crate::peer::Peer;
 
 /// Arguments of `splatphys bench soak`.
 #[derive(clap::Args, Debug)]

@@ -68,32 +68,6 @@ pub struct CameraSet {
     pub warnings: Vec<String>,
 }
 
-/// Reads cameras from `path`: a `.json` file is read as `transforms.json`, a folder as a COLMAP
-/// model (text preferred over binary; `sparse/0` inside it is tried too). `image_size_px` is used
-/// for `transforms.json` frames that state no `w`/`h` and whose image file cannot be read.
-///
-/// # Errors
-/// [`CameraFileError`] naming the file and the line, frame or record that is wrong.
-pub fn read_cameras(
-    path: &Path,
-    image_size_px: Option<[u32; 2]>,
-) -> Result<CameraSet, CameraFileError> {
-    if path.is_file() {
-        return read_transforms_json(path, image_size_px);
-    }
-    for dir in [path.to_path_buf(), path.join("sparse").join("0")] {
-        if dir.join("cameras.txt").is_file() && dir.join("images.txt").is_file() {
-            return crate::colmap::read_text(&dir);
-        }
-        if dir.join("cameras.bin").is_file() && dir.join("images.bin").is_file() {
-            return crate::colmap::read_binary(&dir);
-        }
-    }
-    Err(CameraFileError::Unrecognised {
-        path: path.to_path_buf(),
-    })
-}
-
 /// Pinhole intrinsics in the file's pixel convention (top-left corner at 0).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Intrinsics {
@@ -154,7 +128,7 @@ pub fn image_stem(name: &str) -> String {
         .unwrap_or_else(|| name.to_string())
 }
 
-fn read_transforms_json(
+pub(crate) fn read_transforms_json(
     path: &Path,
     image_size_px: Option<[u32; 2]>,
 ) -> Result<CameraSet, CameraFileError> {

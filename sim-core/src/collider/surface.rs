@@ -13,8 +13,10 @@
 
 use glam::Vec3A;
 
-/// How a surface treats grid velocity at its boundary nodes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// How a surface treats grid velocity at its boundary nodes (PhysGaussian's boundary
+/// conditions); in a scene file `"sticky"`, `"slip"` or `"separate"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Surface {
     /// Zero velocity relative to the collider.
     #[default]

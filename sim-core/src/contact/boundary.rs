@@ -28,7 +28,7 @@
 use glam::{DVec3, IVec3, Vec3A};
 use rayon::prelude::*;
 
-use super::manifold::Placed;
+use super::geometry::Placed;
 use crate::collider::{Surface, apply_surface};
 use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};

@@ -14,8 +14,7 @@ use parry3d_f64::math::{Pose as Iso, Vector};
 use parry3d_f64::query::{ContactManifold, DefaultQueryDispatcher, PersistentQueryDispatcher};
 use parry3d_f64::shape::{Ball, Cuboid, Cylinder, HalfSpace, Shape as ParryShape};
 
-use super::geometry::{Geometry, Pose};
-use super::manifold::RawContact;
+use super::geometry::{Geometry, Pose, RawContact};
 use crate::collider::{Collider, Shape as ColliderShape};
 use crate::procedural::Shape;
 

@@ -8,7 +8,6 @@
 use glam::{DVec3, Quat, Vec3A};
 
 use super::level_set::LevelSet;
-use super::manifold::Placed;
 use crate::collider::BoxShape;
 use crate::procedural::Shape;
 
@@ -337,6 +336,32 @@ impl Collision {
             bounds_m: (wlo, whi),
         }
     }
+}
+
+/// A surface placed in the world.
+#[derive(Debug, Clone, Copy)]
+pub struct Placed<'a> {
+    /// Its surface.
+    pub geometry: &'a Geometry,
+    /// Its surface points in the rest frame (m); empty: it only receives points.
+    pub points: &'a [Vec3A],
+    /// Rest frame to world.
+    pub pose: Pose,
+    /// World bounds of the object (m).
+    pub bounds_m: (Vec3A, Vec3A),
+}
+
+/// One contact point before solving.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RawContact {
+    /// Point (m).
+    pub point_m: Vec3A,
+    /// Unit normal from A to B.
+    pub normal: Vec3A,
+    /// Separation (m): negative when penetrating.
+    pub separation_m: f32,
+    /// Which surface point made it (bit 31: one of B's), for warm starting.
+    pub feature: u32,
 }
 
 #[cfg(test)]

@@ -22,38 +22,12 @@
 
 use glam::Vec3A;
 
-use super::geometry::{Geometry, Pose};
+use super::geometry::{Geometry, Placed, Pose, RawContact};
 use crate::collider::Collider;
 use crate::procedural::Shape;
 
 /// Most contact points one pair keeps.
 pub const MAX_POINTS: usize = 8;
-
-/// A surface placed in the world.
-#[derive(Debug, Clone, Copy)]
-pub struct Placed<'a> {
-    /// Its surface.
-    pub geometry: &'a Geometry,
-    /// Its surface points in the rest frame (m); empty: it only receives points.
-    pub points: &'a [Vec3A],
-    /// Rest frame to world.
-    pub pose: Pose,
-    /// World bounds of the object (m).
-    pub bounds_m: (Vec3A, Vec3A),
-}
-
-/// One contact point before solving.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RawContact {
-    /// Point (m).
-    pub point_m: Vec3A,
-    /// Unit normal from A to B.
-    pub normal: Vec3A,
-    /// Separation (m): negative when penetrating.
-    pub separation_m: f32,
-    /// Which surface point made it (bit 31: one of B's), for warm starting.
-    pub feature: u32,
-}
 
 /// A surface point counts when its own outward normal and the other surface's meet at more than
 /// about 72° (−n_own·n_other above this cosine).

@@ -24,12 +24,15 @@ pub mod geometry;
 pub mod level_set;
 pub mod manifold;
 pub mod patch;
+pub mod rows;
+pub mod settings;
 pub mod soft_step;
 pub mod solver;
 
 pub use geometry::{Collision, Geometry, Pose};
 pub use level_set::LevelSet;
-pub use solver::{ContactPoint, ContactSolver, SolverBody, SolverSettings};
+pub use rows::{ContactPoint, SolverBody};
+pub use settings::{ContactSolver, SolverSettings};
 
 /// The friction μ a sticky collider has against a solid: large, far above any real pair, but
 /// finite, so its grip is bounded by μ times the normal impulse like any friction: nothing

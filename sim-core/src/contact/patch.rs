@@ -6,7 +6,7 @@
 use glam::DVec3;
 
 use super::block::{MAX_BLOCK, NormalBlock};
-use super::solver::{ContactPoint, Row, SolverBody, apply_pair, apply_twist, effective, relative};
+use super::rows::{ContactPoint, Row, SolverBody, apply_pair, apply_twist, effective, relative};
 
 /// Points of one pair whose normals meet within this cosine (about 18°) share a friction patch.
 pub const PATCH_COS: f64 = 0.95;
@@ -337,5 +337,26 @@ fn inverse_2x2(k00: f64, k01: f64, k11: f64) -> [f64; 4] {
         [k11 / det, -k01 / det, -k01 / det, k00 / det]
     } else {
         [0.0; 4]
+    }
+}
+
+/// Each point keeps its share of its patch's friction, in proportion to its normal impulse,
+/// for the next warm start.
+pub(super) fn share_friction(contacts: &mut [ContactPoint], patches: &[ContactPatch]) {
+    for patch in patches {
+        let total: f64 = patch
+            .points
+            .iter()
+            .map(|&i| contacts[i].normal_impulse)
+            .sum();
+        for &i in &patch.points {
+            let w = if total > 0.0 {
+                contacts[i].normal_impulse / total
+            } else {
+                1.0 / patch.points.len() as f64
+            };
+            contacts[i].tangent_impulse = patch.tangent_impulse * w;
+            contacts[i].twist_impulse = patch.twist_impulse * w;
+        }
     }
 }

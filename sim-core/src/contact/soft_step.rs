@@ -34,10 +34,9 @@
 use glam::{DQuat, DVec3};
 
 use super::block::MAX_BLOCK;
-use super::patch::{ContactPatch, patches};
-use super::solver::{
-    ContactPoint, Row, SolverBody, SolverSettings, apply_pair, effective, relative,
-};
+use super::patch::{ContactPatch, patches, share_friction};
+use super::rows::{ContactPoint, Row, SolverBody, apply_pair, effective, relative};
+use super::settings::SolverSettings;
 
 /// Box2D's soft-constraint coefficients for a step of `h_s` (s): (bias rate b (1/s), mass
 /// scale s_m, impulse scale s_i). A frequency of zero is a hard constraint.
@@ -197,7 +196,7 @@ pub(super) fn solve(
         patch.tangent_impulse = t;
         patch.twist_impulse = twist;
     }
-    super::solver::share_friction(contacts, &patches);
+    share_friction(contacts, &patches);
     // The motion the velocities do not account for becomes the push-out pseudo-velocities.
     for ((b, m), &take_part) in bodies.iter_mut().zip(&motion).zip(&involved) {
         if take_part && !b.is_immovable() {

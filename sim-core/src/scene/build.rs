@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use super::SceneError;
+use super::context::Ctx;
 use super::model::*;
 use super::schema::{MaterialToml, ObjectToml, PlaneChoice, SceneFile, SelectToml};
 use super::transform::{apply_similarity, concat, euler_xyz_deg, subset, voxel_subsample};
@@ -21,41 +22,6 @@ use crate::selection::{SelectionError, geometric};
 /// Default material when an object gives none: jelly, E = 1e5 Pa, ν = 0.3, ρ = 1000 kg/m³.
 pub fn default_material() -> MaterialSpec {
     MaterialSpec::default()
-}
-
-/// Where a scene is being built from, for errors.
-pub(super) struct Ctx<'a> {
-    /// The scene file (or `<scene>` / `<builder>`).
-    pub(super) file: &'a Path,
-}
-
-impl Ctx<'_> {
-    pub(super) fn invalid(
-        &self,
-        key_path: impl Into<String>,
-        message: impl Into<String>,
-    ) -> SceneError {
-        SceneError::Invalid {
-            file: self.file.to_path_buf(),
-            key_path: key_path.into(),
-            message: message.into(),
-        }
-    }
-    pub(super) fn check(
-        &self,
-        ok: bool,
-        key: impl Into<String>,
-        msg: impl Into<String>,
-    ) -> Result<(), SceneError> {
-        if ok {
-            Ok(())
-        } else {
-            Err(self.invalid(key, msg))
-        }
-    }
-    fn finite3(&self, v: [f32; 3], key: String) -> Result<(), SceneError> {
-        self.check(v.iter().all(|x| x.is_finite()), key, "must be finite")
-    }
 }
 
 /// A placed source: world-frame cloud and which Gaussians an object already took.

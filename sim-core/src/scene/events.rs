@@ -5,7 +5,7 @@ use serde::Deserialize;
 use splatphys_types::{CommandToml, MaterialEdit};
 
 use super::SceneError;
-use super::build::Ctx;
+use super::context::Ctx;
 use super::model::{Command, EventSpec, MaterialSpec, ObjectKind, SceneObject};
 use super::schema::{ImpulseToml, SceneFile, SetMaterialToml, SetVelocityToml};
 

@@ -18,6 +18,7 @@
 pub mod build;
 pub mod builder;
 pub mod builtin;
+mod context;
 mod events;
 pub mod level_of_detail;
 pub mod model;

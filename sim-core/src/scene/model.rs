@@ -58,18 +58,7 @@ impl std::str::FromStr for Method {
 
 pub use splatphys_types::ObjectKind;
 
-/// Collider surface condition (PhysGaussian's boundary conditions).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Surface {
-    /// Velocity set to the collider's.
-    #[default]
-    Sticky,
-    /// Normal component removed (plus Coulomb friction).
-    Slip,
-    /// Only approaching normal component removed (plus Coulomb friction).
-    Separate,
-}
+pub use crate::collider::Surface;
 
 pub use crate::contact::ContactSolver;
 pub use crate::material::MaterialSpec;

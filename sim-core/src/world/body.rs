@@ -405,11 +405,7 @@ impl Body {
             contacts: 0,
             max_speed_m_s: v0.length(),
             impulse_total_n_s: 0.0,
-            surface: match o.surface {
-                crate::scene::Surface::Sticky => crate::collider::Surface::Sticky,
-                crate::scene::Surface::Slip => crate::collider::Surface::Slip,
-                crate::scene::Surface::Separate => crate::collider::Surface::Separate,
-            },
+            surface: o.surface,
             collision: None,
             collision_cell_m,
             push: (DVec3::ZERO, DVec3::ZERO),

@@ -18,7 +18,8 @@ use glam::{DVec3, Quat, Vec3A};
 
 use super::World;
 use super::body;
-use crate::contact::manifold::{self, Placed, RawContact};
+use crate::contact::geometry::{Placed, RawContact};
+use crate::contact::manifold;
 use crate::contact::{
     ContactPoint, SolverBody, SolverSettings, mix_friction, mix_restitution, solver,
 };

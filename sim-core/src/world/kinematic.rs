@@ -17,9 +17,9 @@
 
 use glam::{DQuat, DVec3};
 
-use super::limits::{MAX_COMMAND_SPEED_M_S, MAX_POSITION_M};
 use super::{Body, World, WorldError};
 use crate::scene::{Command, EventSpec, ObjectKind};
+use splatphys_types::limits::{MAX_COMMAND_SPEED_M_S, MAX_POSITION_M};
 
 /// What moves a kinematic object.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -43,15 +43,8 @@ impl World {
         if s.mass_kg <= 0.0 {
             return Ok(());
         }
-        let (inv_i, com) = if b.kind == ObjectKind::Rigid {
-            (
-                super::body::inverse_or_zero(b.rigid_world_inertia()),
-                b.rigid.com_m,
-            )
-        } else {
-            (super::body::inverse_or_zero(s.inertia), s.com_m)
-        };
-        let r = point_m.map_or(DVec3::ZERO, |p| p - com);
+        let inv_i = super::body::inverse_or_zero(s.inertia);
+        let r = point_m.map_or(DVec3::ZERO, |p| p - s.com_m);
         let spin = (inv_i * r.cross(j_n_s)).length() * s.radius_m;
         let speed = s.velocity_m_s.length() + j_n_s.length() / s.mass_kg + spin;
         if !speed.is_finite() || speed > MAX_COMMAND_SPEED_M_S {

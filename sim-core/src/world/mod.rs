@@ -268,11 +268,7 @@ fn collider_from_spec(c: &scene::ColliderSpec) -> Result<Collider, WorldError> {
                 .ok_or_else(|| bad("box needs min < max on every axis"))?,
         ),
     };
-    let surface = match c.surface {
-        scene::Surface::Sticky => Surface::Sticky,
-        scene::Surface::Slip => Surface::Slip,
-        scene::Surface::Separate => Surface::Separate,
-    };
+    let surface = c.surface;
     let velocity = Vec3A::from(c.velocity_m_s);
     let active_s = match c.active_s {
         Some([a, b]) => Some((a, b)),

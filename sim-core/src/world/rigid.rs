@@ -35,8 +35,8 @@ pub fn integrate_velocity(
 }
 
 /// Position half of a rigid step over `dt_s`: the COM moves with v + `push_m_s`, the orientation
-/// with ω + `push_rad_s` keeping L (module docs). The particles follow once per frame
-/// ([`Body::sync_rigid_particles`]).
+/// with ω + `push_rad_s` keeping L (module docs). Only the pose moves: the Gaussians are placed
+/// from it when a frame is published.
 pub fn integrate_position(body: &mut Body, dt_s: f64, push_m_s: DVec3, push_rad_s: DVec3) {
     let rs = &mut body.rigid;
     rs.com_m += (rs.velocity_m_s + push_m_s) * dt_s;

@@ -6,7 +6,7 @@
 use glam::DVec3;
 
 use super::narrow::Footprint;
-use crate::contact::solver::SolverBody;
+use crate::contact::SolverBody;
 
 /// A patch's accumulated impulse on B (−it on A): the force part `linear_n_s` (N s) at the
 /// contact point and the couple `angular_n_m_s` (N m s) of a pressure centre away from it.

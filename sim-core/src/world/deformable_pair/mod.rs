@@ -44,7 +44,7 @@ use rayon::prelude::*;
 use super::World;
 use super::body::{Body, BodyState, RigidFit, measure_bounds, measure_with_fit};
 use super::coherence::{self, Kick};
-use crate::contact::solver::SolverBody;
+use crate::contact::SolverBody;
 use crate::contact::{mix_friction, mix_restitution};
 use crate::scene::{Method, ObjectKind};
 use law::{Accumulated, PatchLaw, patch_impulse};
