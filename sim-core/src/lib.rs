@@ -8,8 +8,6 @@
 pub mod collider;
 pub mod contact;
 pub mod fill;
-pub mod formats;
-pub mod gaussians;
 pub mod kinematics;
 pub mod material;
 pub mod math;
@@ -18,3 +16,6 @@ pub mod procedural;
 pub mod scene;
 pub mod selection;
 pub mod world;
+
+pub use splatphys_formats as formats;
+pub use splatphys_formats::gaussians;

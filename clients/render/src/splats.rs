@@ -7,7 +7,7 @@
 //! evaluated in the Gaussian's rest frame as Rᵀ d, so a rotated object looks the same from the
 //! rotated direction.
 
-use splatphys_core::gaussians::{GaussianCloud, sh_coeffs_per_channel};
+use splatphys_formats::gaussians::{GaussianCloud, sh_coeffs_per_channel};
 
 /// Bad renderer input: mismatched array lengths or an unsupported SH degree.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

@@ -64,7 +64,7 @@ pub struct ViewArgs {
 /// Loads a 3DGS file into renderer input, capped at `sh_degree`, and its trimmed bounds.
 fn load(path: &Path, view: &ViewArgs) -> Result<(Splats, Bounds)> {
     let start = Instant::now();
-    let cloud = splatphys_core::formats::read_gaussians(path)
+    let cloud = splatphys_formats::read_gaussians(path)
         .with_context(|| format!("reading {}", path.display()))?;
     let mut splats = Splats::from_cloud(&cloud);
     splats.truncate_sh(view.sh_degree.min(3));

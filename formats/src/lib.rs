@@ -1,11 +1,16 @@
+//! splatphys-formats: 3D Gaussian Splatting files and the Gaussians they hold, without the
+//! simulation, so renderers, recorders and the engine share one reader.
+//!
 //! 3DGS file formats: INRIA PLY (Kerbl et al. 2023, read and write), antimatter15 `.splat`
-//! and SuperSplat/PlayCanvas compressed PLY (read), and a file report for `splatphys inspect`.
+//! and SuperSplat/PlayCanvas compressed PLY (read), and a file report for `splatphys inspect`;
+//! [`gaussians`] is the cloud they read into, with the SH rotation that turns its colours.
 //!
 //! Every reader returns a [`GaussianCloud`] in the file's own frame and units with the values
 //! exactly as the file stores them (log scales, opacity logits, raw quaternions). Bad input gives
 //! a [`FormatError`] naming the file, element and property; no reader panics on input.
 
 pub mod compressed;
+pub mod gaussians;
 pub mod inspect;
 pub mod npy;
 pub mod ply;

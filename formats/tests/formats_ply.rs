@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use splatphys_core::formats::{self, FormatError, inspect, ply};
-use splatphys_core::gaussians::GaussianCloud;
+use splatphys_formats::gaussians::GaussianCloud;
+use splatphys_formats::{self as formats, FormatError, inspect, ply};
 
 fn data(name: &str) -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))

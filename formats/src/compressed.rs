@@ -16,8 +16,8 @@ use std::path::Path;
 
 use super::splat::{SH_C0, alpha_to_logit};
 use super::{FormatError, read_bytes};
-use crate::formats::ply::parse_raw;
 use crate::gaussians::GaussianCloud;
+use crate::ply::parse_raw;
 
 /// Gaussians per chunk.
 pub const CHUNK_SIZE: usize = 256;
@@ -47,7 +47,7 @@ const VERTEX_PROPS: [&str; 4] = [
 /// Reads a compressed PLY file.
 ///
 /// # Errors
-/// As [`crate::formats::ply::read_ply`], plus [`FormatError::Layout`] when the chunk count is
+/// As [`crate::ply::read_ply`], plus [`FormatError::Layout`] when the chunk count is
 /// not `ceil(vertices / 256)` or the `sh` element's count differs from the vertex count.
 pub fn read_compressed_ply(path: impl AsRef<Path>) -> Result<GaussianCloud, FormatError> {
     let path = path.as_ref();
@@ -196,7 +196,7 @@ pub fn parse_compressed_ply(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, 
             );
         }
     }
-    cloud.sh_degree = crate::formats::ply::effective_sh_degree(&cloud.sh_rest, n_rest);
+    cloud.sh_degree = crate::ply::effective_sh_degree(&cloud.sh_rest, n_rest);
     if let Some(i) = cloud
         .positions
         .iter()
