@@ -19,3 +19,18 @@ pub mod world;
 
 pub use splatphys_formats as formats;
 pub use splatphys_formats::gaussians;
+
+/// What a program that builds and steps a scene in-process uses, in one import:
+/// `use splatphys_core::prelude::*;` (the runnable example is `cargo run --release -p
+/// splatphys-core --example step_scene`).
+pub mod prelude {
+    pub use crate::contact::ContactSolver;
+    pub use crate::formats::read_gaussians;
+    pub use crate::gaussians::GaussianCloud;
+    pub use crate::kinematics::GaussianState;
+    pub use crate::scene::{
+        ColliderSpec, Command, EventSpec, MaterialSpec, Method, ObjectBuilder, ObjectKind, Scene,
+        SceneBuilder, SceneError, SceneObject, Surface, load_scene,
+    };
+    pub use crate::world::{ObjectSummary, World, WorldError};
+}
