@@ -241,6 +241,7 @@ mod tests {
             placed: Placed {
                 geometry: g,
                 points: &[],
+                groups: None,
                 pose: crate::contact::Pose {
                     rest_com_m: Vec3A::ZERO,
                     com_m: Vec3A::ZERO,

@@ -286,6 +286,8 @@ pub struct Collision {
     pub rest_com_m: Vec3A,
     /// Bounds of the surface points, rest frame (m).
     pub rest_bounds_m: (Vec3A, Vec3A),
+    /// The points grouped in space, so that a query skips a group far from the other surface.
+    pub groups: PointGroups,
 }
 
 impl Collision {
@@ -301,11 +303,13 @@ impl Collision {
         if points.is_empty() {
             (lo, hi) = (rest_com_m, rest_com_m);
         }
+        let groups = PointGroups::new(&points, GROUP_CELLS * spacing_m.max(1e-6));
         Self {
             geometry,
             points,
             rest_com_m,
             rest_bounds_m: (lo, hi),
+            groups,
         }
     }
 
@@ -332,8 +336,76 @@ impl Collision {
         Placed {
             geometry: &self.geometry,
             points: &self.points,
+            groups: Some(&self.groups),
             pose,
             bounds_m: (wlo, whi),
+        }
+    }
+}
+
+/// Surface points per group: a group is the points of one cube of this many point spacings.
+const GROUP_CELLS: f32 = 8.0;
+
+/// How fast a surface's signed distance can change with position, at most (m per m): 1 for an
+/// exact distance; a level set's trilinear interpolation of exact node distances has a gradient
+/// of at most √3, and outside its grid it adds the distance to the grid (√3 + 1).
+pub const DISTANCE_LIPSCHITZ: f32 = 3.0;
+
+/// Surface points grouped in space (cubes of [`GROUP_CELLS`] spacings): a query whose distance
+/// at a group's centre exceeds its margin plus [`DISTANCE_LIPSCHITZ`] times the group's radius
+/// can skip every point of the group, since no point of it can come closer.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PointGroups {
+    /// Point indices, group after group (ascending within a group).
+    order: Vec<u32>,
+    /// Each group: its centre (m, rest frame), the radius holding its points (m) and its range
+    /// of `order`.
+    groups: Vec<(Vec3A, f32, std::ops::Range<usize>)>,
+}
+
+impl PointGroups {
+    /// Groups `points` (rest frame, m) by cubes of side `cube_m` (m), in a fixed order.
+    pub fn new(points: &[Vec3A], cube_m: f32) -> Self {
+        let key = |p: Vec3A| (p / cube_m).floor().as_ivec3();
+        let mut order: Vec<u32> = (0..points.len() as u32).collect();
+        order.sort_by_key(|&i| {
+            let k = key(points[i as usize]);
+            (k.z, k.y, k.x, i)
+        });
+        let mut groups = Vec::new();
+        let mut start = 0;
+        while start < order.len() {
+            let k = key(points[order[start] as usize]);
+            let end = start
+                + order[start..]
+                    .iter()
+                    .take_while(|&&i| key(points[i as usize]) == k)
+                    .count();
+            let members = || order[start..end].iter().map(|&i| points[i as usize]);
+            let centre = members().sum::<Vec3A>() / (end - start) as f32;
+            let radius = members()
+                .map(|p| (p - centre).length())
+                .fold(0.0f32, f32::max);
+            // f32 rounding of the centre and lengths: widen by a relative 1e-5.
+            groups.push((centre, radius * (1.0 + 1e-5) + 1e-7, start..end));
+            start = end;
+        }
+        Self { order, groups }
+    }
+
+    /// Calls `visit(i)` for every point `i` of every group for which `near(centre (m, rest frame),
+    /// radius (m))` holds, group by group.
+    pub fn for_each_near(
+        &self,
+        mut near: impl FnMut(Vec3A, f32) -> bool,
+        mut visit: impl FnMut(usize),
+    ) {
+        for (centre, radius, range) in &self.groups {
+            if near(*centre, *radius) {
+                self.order[range.clone()]
+                    .iter()
+                    .for_each(|&i| visit(i as usize));
+            }
         }
     }
 }
@@ -345,6 +417,9 @@ pub struct Placed<'a> {
     pub geometry: &'a Geometry,
     /// Its surface points in the rest frame (m); empty: it only receives points.
     pub points: &'a [Vec3A],
+    /// The points grouped in space, when they are ([`PointGroups`]); `None`: every point is
+    /// examined.
+    pub groups: Option<&'a PointGroups>,
     /// Rest frame to world.
     pub pose: Pose,
     /// World bounds of the object (m).

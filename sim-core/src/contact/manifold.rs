@@ -22,7 +22,7 @@
 
 use glam::Vec3A;
 
-use super::geometry::{Geometry, Placed, Pose, RawContact};
+use super::geometry::{DISTANCE_LIPSCHITZ, Geometry, Placed, Pose, RawContact};
 use crate::collider::Collider;
 use crate::procedural::Shape;
 
@@ -43,30 +43,62 @@ fn inside(bounds: (Vec3A, Vec3A), x: Vec3A, margin: f32) -> bool {
     x.cmpge(bounds.0 - margin).all() && x.cmple(bounds.1 + margin).all()
 }
 
+/// Calls `visit(i, rest point)` for the points of `from` that `near(world centre, radius)` of
+/// their group admits (every point when `from` has no groups), in ascending `i`: a group far
+/// from the other surface costs one distance instead of one per point.
+fn candidates(
+    from: &Placed,
+    mut near: impl FnMut(Vec3A, f32) -> bool,
+    mut visit: impl FnMut(usize, Vec3A),
+) {
+    match from.groups {
+        Some(groups) => {
+            let mut admitted = Vec::new();
+            groups.for_each_near(|c, r| near(from.pose.to_world(c), r), |i| admitted.push(i));
+            admitted.sort_unstable();
+            admitted.into_iter().for_each(|i| visit(i, from.points[i]));
+        }
+        None => from
+            .points
+            .iter()
+            .enumerate()
+            .for_each(|(i, p0)| visit(i, *p0)),
+    }
+}
+
 /// Points of `from` within `margin_m` of `into`'s surface, normals out of `into`.
 fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<RawContact>) {
     let rot = into.pose.rotation;
-    for (i, p0) in from.points.iter().enumerate() {
-        let p = from.pose.to_world(*p0);
+    // A group whose centre lies farther than the margin plus its radius (times how fast the
+    // distance can change) holds no point within the margin.
+    let near = |c: Vec3A, r: f32| {
+        if !inside(into.bounds_m, c, margin_m + r) {
+            return false;
+        }
+        let (phi, _) = into.geometry.distance(into.pose.to_rest(c));
+        !(phi.is_finite() && phi > margin_m + DISTANCE_LIPSCHITZ * r)
+    };
+    candidates(from, near, |i, p0| {
+        let p = from.pose.to_world(p0);
         if !inside(into.bounds_m, p, margin_m) {
-            continue;
+            return;
         }
         let (phi, n0) = into.geometry.distance(into.pose.to_rest(p));
         if !(phi < margin_m && phi.is_finite()) {
-            continue;
+            return;
         }
         let normal = rot * n0;
         // The surfaces must face each other: a point on a side face that merely lies on the
         // other's edge plane is not a contact.
-        let (_, own) = from.geometry.distance(*p0);
+        let (_, own) = from.geometry.distance(p0);
         let own = from.pose.rotation * own;
         if own.dot(normal) > -FACING {
-            continue;
+            return;
         }
         // A face point of `from` against an edge of `into`: the normal is the face's (the
         // edge's own normal turns from face to face across it and would push sideways).
         let normal =
-            if into.geometry.near_edge(into.pose.to_rest(p)) && !from.geometry.near_edge(*p0) {
+            if into.geometry.near_edge(into.pose.to_rest(p)) && !from.geometry.near_edge(p0) {
                 -own
             } else {
                 normal
@@ -77,7 +109,7 @@ fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<R
             separation_m: phi,
             feature: i as u32 | flag,
         });
-    }
+    });
 }
 
 /// The manifold a pair keeps: at most [`MAX_POINTS`] points, four spanning the largest area as
@@ -358,11 +390,18 @@ pub fn against_collider(
         return sphere_contact(s, a.pose, |x| collider.signed_distance(x, time_s), margin_m);
     }
     let mut out = Vec::new();
-    for (i, p0) in a.points.iter().enumerate() {
-        let p = a.pose.to_world(*p0);
+    // A collider's distance is exact (1-Lipschitz): a group farther than the margin plus its
+    // radius holds no point within the margin.
+    let near = |c: Vec3A, r: f32| {
+        collider
+            .signed_distance(c, time_s)
+            .is_some_and(|(phi, _)| !(phi.is_finite() && phi > margin_m + r))
+    };
+    candidates(a, near, |i, p0| {
+        let p = a.pose.to_world(p0);
         if let Some((phi, n)) = collider.signed_distance(p, time_s)
             && phi < margin_m
-            && (a.pose.rotation * a.geometry.distance(*p0).1).dot(n) <= -FACING
+            && (a.pose.rotation * a.geometry.distance(p0).1).dot(n) <= -FACING
         {
             out.push(RawContact {
                 point_m: p,
@@ -371,7 +410,7 @@ pub fn against_collider(
                 feature: i as u32,
             });
         }
-    }
+    });
     reduce(out, margin_m)
 }
 
@@ -399,6 +438,7 @@ mod tests {
         Placed {
             geometry: g,
             points: pts,
+            groups: None,
             pose,
             bounds_m: (lo, hi),
         }
@@ -565,5 +605,58 @@ mod tests {
             c.iter()
                 .all(|p| p.normal.z > 0.999 && p.separation_m.abs() < 1e-5)
         );
+    }
+
+    fn ungrouped(p: Placed<'_>) -> Placed<'_> {
+        Placed { groups: None, ..p }
+    }
+
+    #[test]
+    fn skipping_far_groups_of_points_finds_exactly_the_contacts_of_every_point() {
+        // A sampled (level-set) body of irregular shape, turned and moved through contact with
+        // another sampled body, an exact box and a plane collider: the grouped probes must find
+        // the same points, in the same order, as probing every point.
+        let blob: Vec<Vec3A> = (0..4000)
+            .map(|i| {
+                let t = i as f32 * 0.618_034;
+                let d = Vec3A::new((t * 2.1).sin(), (t * 3.7).cos(), (t * 1.3).sin()).normalize();
+                d * (0.05 + 0.015 * (t * 5.0).sin())
+            })
+            .collect();
+        let ls = crate::contact::LevelSet::from_points(&blob, 0.005, 1 << 22).unwrap();
+        let a = crate::contact::Collision::new(Geometry::Sampled(ls.clone()), 0.005, Vec3A::ZERO);
+        let b = crate::contact::Collision::new(Geometry::Sampled(ls), 0.005, Vec3A::ZERO);
+        let slab = crate::contact::Collision::new(cube([-0.2, -0.2, -0.1], 0.2), 0.01, Vec3A::ZERO);
+        let floor = Collider::fixed(
+            crate::collider::Shape::Plane(
+                crate::collider::Plane::new(Vec3A::ZERO, Vec3A::Z).unwrap(),
+            ),
+            crate::collider::Surface::Slip,
+            0.5,
+        );
+        let mut contacts = 0;
+        for k in 0..12 {
+            let turn = Quat::from_euler(glam::EulerRot::XYZ, 0.3 * k as f32, 0.7, -0.2 * k as f32);
+            let lift = 0.03 + 0.004 * k as f32;
+            let pa = a.placed(glam::DVec3::new(0.0, 0.0, lift as f64), turn);
+            let pb = b.placed(
+                glam::DVec3::new(0.07, 0.01, lift as f64 + 0.02),
+                Quat::IDENTITY,
+            );
+            let ps = slab.placed(glam::DVec3::new(0.0, 0.0, -0.0), Quat::IDENTITY);
+            for (x, y) in [(pa, pb), (pb, pa), (pa, ps)] {
+                let grouped = between(&x, &y, 0.01);
+                assert_eq!(
+                    grouped,
+                    between(&ungrouped(x), &ungrouped(y), 0.01),
+                    "pose {k}"
+                );
+                contacts += grouped.len();
+            }
+            let grouped = against_collider(&pa, &floor, 0.0, 0.01);
+            assert_eq!(grouped, against_collider(&ungrouped(pa), &floor, 0.0, 0.01));
+            contacts += grouped.len();
+        }
+        assert!(contacts > 50, "the poses made only {contacts} contacts");
     }
 }
