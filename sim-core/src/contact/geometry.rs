@@ -351,7 +351,7 @@ const GROUP_CELLS: f32 = 8.0;
 /// of at most √3, and outside its grid it adds the distance to the grid (√3 + 1).
 pub const DISTANCE_LIPSCHITZ: f32 = 3.0;
 
-/// Surface points grouped in space (cubes of [`GROUP_CELLS`] spacings): a query whose distance
+/// Surface points grouped in space (cubes of 8 point spacings): a query whose distance
 /// at a group's centre exceeds its margin plus [`DISTANCE_LIPSCHITZ`] times the group's radius
 /// can skip every point of the group, since no point of it can come closer.
 #[derive(Debug, Clone, Default, PartialEq)]
