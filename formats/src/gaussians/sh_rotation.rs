@@ -109,7 +109,7 @@ fn sample_direction(s: usize) -> DVec3 {
 ///
 /// ```
 /// use glam::{DMat3, DVec3};
-/// use splatphys_core::gaussians::sh_rotation::{ShRotation, sh_basis};
+/// use splatphys_formats::gaussians::sh_rotation::{ShRotation, sh_basis};
 ///
 /// let r = DMat3::from_rotation_x(-std::f64::consts::FRAC_PI_2); // y-down capture to z-up
 /// let rot = ShRotation::from_mat3(r);
