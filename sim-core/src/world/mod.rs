@@ -233,8 +233,6 @@ pub struct World {
     /// Coulomb friction of the captured background.
     pub background_friction: f32,
     contact_cache: contact::ContactCache,
-    /// This substep's deformable–solid grid contacts: (deformable, solid, impulse on it in N s).
-    boundary_touches: Vec<(usize, impact::SolidOf, glam::DVec3)>,
     /// Resting patches of deformable pairs in the last substep, warm-started into the next
     /// (`deformable_pair/`).
     resting_patches: Vec<deformable_pair::RestingPatch>,
@@ -399,7 +397,6 @@ impl World {
             background_report,
             background_friction: BACKGROUND_FRICTION,
             contact_cache: Default::default(),
-            boundary_touches: Vec::new(),
             max_particle_substeps_per_frame: limits::DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME,
             impacts: Default::default(),
             resting_patches: Vec::new(),
@@ -603,13 +600,15 @@ impl World {
         if self.settings.method == Method::Com {
             self.warm_start_deformable_pairs(dt as f64);
         }
-        let mut reactions = match self.settings.method {
+        let mpm_step::GridContacts {
+            mut reactions,
+            touches,
+        } = match self.settings.method {
             Method::Mpm => self.mpm_shared_substep(dt)?,
             Method::MultiField => self.multi_field_substep(dt)?,
             Method::Com => self.mpm_per_object_substep(dt)?,
         };
         let t1 = Instant::now();
-        let touches = std::mem::take(&mut self.boundary_touches);
         self.boundary_restitution(&touches);
         self.rolling_resistance(&touches, &mut reactions);
         self.rigid_velocities(dt as f64, &reactions);

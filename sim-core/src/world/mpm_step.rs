@@ -146,6 +146,15 @@ fn project_out_of_solids(
 /// Which solid an obstacle is.
 type ObstacleOf = super::impact::SolidOf;
 
+/// What the deformable objects' grids did to the solids in one substep: `reactions[k]` the
+/// impulse and angular impulse solid k received, `touches` each grid contact as (deformable,
+/// solid, impulse the grid gave the deformable in N s) for the restitution law and rolling
+/// resistance.
+pub(super) struct GridContacts {
+    pub(super) reactions: Vec<Reaction>,
+    pub(super) touches: Vec<(usize, ObstacleOf, DVec3)>,
+}
+
 impl World {
     /// The solids near `bounds` (m) as boundaries for a deformable of friction `friction` on a
     /// grid of cell `dx_m` (m).
@@ -219,10 +228,7 @@ impl World {
 
     /// Method `com`: every awake deformable object runs a whole substep on its own grid, with
     /// the solids as boundaries.
-    pub(super) fn mpm_per_object_substep(
-        &mut self,
-        dt_s: f32,
-    ) -> Result<Vec<Reaction>, WorldError> {
+    pub(super) fn mpm_per_object_substep(&mut self, dt_s: f32) -> Result<GridContacts, WorldError> {
         let mut reactions = vec![Reaction::default(); self.bodies.len()];
         let mut touches = Vec::new();
         for k in 0..self.bodies.len() {
@@ -258,13 +264,12 @@ impl World {
             b.mpm_wall_s += started.elapsed().as_secs_f64();
             step.finish(&mut self.stats, b, r)?;
         }
-        self.boundary_touches = touches;
-        Ok(reactions)
+        Ok(GridContacts { reactions, touches })
     }
 
     /// Method `multi-field`: per-object P2G and grid update, multi-field contact at shared
     /// nodes, the solids as boundaries, per-object G2P.
-    pub(super) fn multi_field_substep(&mut self, dt_s: f32) -> Result<Vec<Reaction>, WorldError> {
+    pub(super) fn multi_field_substep(&mut self, dt_s: f32) -> Result<GridContacts, WorldError> {
         let dx_m = self.dx_m();
         let mut reactions = vec![Reaction::default(); self.bodies.len()];
         let mut touches = Vec::new();
@@ -324,13 +329,12 @@ impl World {
             }
             step.finish(&mut self.stats, &mut self.bodies[k], r)?;
         }
-        self.boundary_touches = touches;
-        Ok(reactions)
+        Ok(GridContacts { reactions, touches })
     }
 
     /// Method `mpm`: every awake deformable object on one shared grid; each object's particles
     /// are copied in, stepped together and copied back.
-    pub(super) fn mpm_shared_substep(&mut self, dt_s: f32) -> Result<Vec<Reaction>, WorldError> {
+    pub(super) fn mpm_shared_substep(&mut self, dt_s: f32) -> Result<GridContacts, WorldError> {
         let mut reactions = vec![Reaction::default(); self.bodies.len()];
         let ids: Vec<usize> = (0..self.bodies.len())
             .filter(|&k| simulated(&self.bodies[k]))
@@ -373,7 +377,9 @@ impl World {
             b.max_speed_m_s = r.max_speed_m_s;
             start = end;
         }
-        self.boundary_touches.clear();
-        Ok(reactions)
+        Ok(GridContacts {
+            reactions,
+            touches: Vec::new(),
+        })
     }
 }
