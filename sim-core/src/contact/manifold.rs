@@ -44,20 +44,19 @@ fn inside(bounds: (Vec3A, Vec3A), x: Vec3A, margin: f32) -> bool {
 }
 
 /// Calls `visit(i, rest point)` for the points of `from` that `near(world centre, radius)` of
-/// their group admits (every point when `from` has no groups), in ascending `i`: a group far
-/// from the other surface costs one distance instead of one per point.
+/// their group admits (every point when `from` has no groups), group by group: a group far from
+/// the other surface costs one distance instead of one per point. The order is not ascending
+/// `i`; callers sort the few contacts they keep by feature.
 fn candidates(
     from: &Placed,
     mut near: impl FnMut(Vec3A, f32) -> bool,
     mut visit: impl FnMut(usize, Vec3A),
 ) {
     match from.groups {
-        Some(groups) => {
-            let mut admitted = Vec::new();
-            groups.for_each_near(|c, r| near(from.pose.to_world(c), r), |i| admitted.push(i));
-            admitted.sort_unstable();
-            admitted.into_iter().for_each(|i| visit(i, from.points[i]));
-        }
+        Some(groups) => groups.for_each_near(
+            |c, r| near(from.pose.to_world(c), r),
+            |i| visit(i, from.points[i]),
+        ),
         None => from
             .points
             .iter()
@@ -66,9 +65,11 @@ fn candidates(
     }
 }
 
-/// Points of `from` within `margin_m` of `into`'s surface, normals out of `into`.
+/// Points of `from` within `margin_m` of `into`'s surface, normals out of `into`, appended to
+/// `out` in feature order.
 fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<RawContact>) {
     let rot = into.pose.rotation;
+    let start = out.len();
     // A group whose centre lies farther than the margin plus its radius (times how fast the
     // distance can change) holds no point within the margin.
     let near = |c: Vec3A, r: f32| {
@@ -110,6 +111,7 @@ fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<R
             feature: i as u32 | flag,
         });
     });
+    out[start..].sort_unstable_by_key(|c| c.feature);
 }
 
 /// The manifold a pair keeps: at most [`MAX_POINTS`] points, four spanning the largest area as
@@ -411,6 +413,7 @@ pub fn against_collider(
             });
         }
     });
+    out.sort_unstable_by_key(|c| c.feature);
     reduce(out, margin_m)
 }
 
