@@ -126,7 +126,7 @@ pub struct RunSummary {
 impl RunSummary {
     /// The fields every mode takes from the world at the end of a run.
     pub fn from_world(mode: &str, scene: &str, world: &World, wall_s: f64) -> Self {
-        let stats = world.stats;
+        let stats = *world.stats();
         Self {
             mode: mode.into(),
             scene: scene.into(),
@@ -134,10 +134,10 @@ impl RunSummary {
             method: method_name(world),
             particles: world.particle_count(),
             gaussians: world.published_count(),
-            objects: world.bodies.len(),
+            objects: world.bodies().len(),
             substeps: stats.substeps,
-            frames: world.frame,
-            simulated_s: world.time_s,
+            frames: world.frame(),
+            simulated_s: world.time_s(),
             frames_rendered: 0,
             frame_pngs: 0,
             wall_s,
@@ -196,7 +196,7 @@ impl RunSummary {
 
 /// The method's scene-file name.
 pub fn method_name(world: &World) -> String {
-    world.settings.method.name().to_string()
+    world.settings().method.name().to_string()
 }
 
 fn com_layer_fraction(s: &WorldStats) -> f64 {

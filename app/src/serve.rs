@@ -173,7 +173,7 @@ fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
         WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
     eprintln!(
         "splatphys serve: scene {name:?}: {} objects, {} particles, {} Gaussians published, {} frames",
-        sim.world.bodies.len(),
+        sim.world.bodies().len(),
         sim.world.particle_count(),
         sim.world.published_count(),
         sim.world.total_frames()
@@ -190,22 +190,22 @@ fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
         stopped: format!("{:?}", report.reason),
         particles: w.particle_count(),
         gaussians: w.published_count(),
-        objects: w.bodies.len(),
+        objects: w.bodies().len(),
         frames_published: report.frames_published,
         last_step: report.step,
-        simulated_s: w.time_s,
-        substeps: w.stats.substeps,
+        simulated_s: w.time_s(),
+        substeps: w.stats().substeps,
         wall_s,
         step_wall_s: report.step_wall_s,
         publish_wall_s: report.publish_wall_s,
-        mpm_particle_substeps: w.stats.mpm_particle_substeps,
-        particle_substeps_per_s: w.stats.mpm_particle_substeps as f64
+        mpm_particle_substeps: w.stats().mpm_particle_substeps,
+        particle_substeps_per_s: w.stats().mpm_particle_substeps as f64
             / report.step_wall_s.max(1e-9),
         frames_dropped_by_clients: report.frames_dropped,
         frames_lost_by_recorder: report.recorder_frames_lost,
         commands_received: report.commands_received,
         commands_rejected: report.commands_rejected,
-        stats: w.stats,
+        stats: *w.stats(),
         diagnostics: w.diagnostics(),
         explain: w.explain(),
     };

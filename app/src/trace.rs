@@ -84,7 +84,7 @@ pub fn run_scene_within(scene: &Scene, pb: &ProgressBar, max_wall_s: f64) -> Res
         let o = w.objects();
         com.push(ids.iter().map(|&k| DVec3::from(o[k].com_m)).collect());
         object_mpm_s_whole_frames.clear();
-        object_mpm_s_whole_frames.extend(w.bodies.iter().map(|b| b.mpm_wall_s));
+        object_mpm_s_whole_frames.extend(w.bodies().iter().map(|b| b.stats().mpm_wall_s));
         pb.inc(1);
     }
     // Whole loop (the per-frame COM measurement is a few 0.1 ms of it): /proc counts in 10 ms
@@ -95,23 +95,23 @@ pub fn run_scene_within(scene: &Scene, pb: &ProgressBar, max_wall_s: f64) -> Res
     // Published order: each object's visible Gaussians in object order, then the background.
     let mut gaussians = Vec::new();
     let mut at = 0;
-    for b in &w.bodies {
-        let n = b.visible.iter().filter(|v| **v).count();
-        if b.kind != ObjectKind::Static {
+    for b in w.bodies() {
+        let n = b.visible().iter().filter(|v| **v).count();
+        if b.kind() != ObjectKind::Static {
             gaussians.extend(out[at..at + n].iter().map(|s| Vec3A::from(s.position_m)));
         }
         at += n;
     }
     Ok(Trace {
-        frames_run: w.time_s / w.frame_dt_s(),
+        frames_run: w.time_s() / w.frame_dt_s(),
         com,
         com0,
         gaussians,
         wall_s,
         cpu_s: cpu,
         build_s,
-        particles: ids.iter().map(|&k| w.bodies[k].particles.len()).sum(),
-        substeps: w.stats.substeps,
+        particles: ids.iter().map(|&k| w.bodies()[k].particles().len()).sum(),
+        substeps: w.stats().substeps,
         explain: w.explain(),
         object_mpm_s_whole_frames,
     })

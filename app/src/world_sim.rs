@@ -47,10 +47,10 @@ impl WorldSim {
     pub fn new(name: &str, scene: &Scene) -> Result<Self, WorldError> {
         let world = World::from_scene(scene)?;
         let sh_degree = world
-            .bodies
+            .bodies()
             .iter()
-            .map(|b| b.gaussians.sh_degree)
-            .chain(std::iter::once(world.background.sh_degree))
+            .map(|b| b.gaussians().sh_degree)
+            .chain(std::iter::once(world.background().sh_degree))
             .max()
             .unwrap_or(0) as u32;
         Ok(Self {
@@ -68,16 +68,16 @@ impl Simulation for WorldSim {
         &self.name
     }
     fn scene_generation(&self) -> u32 {
-        self.world.generation
+        self.world.generation()
     }
     fn gaussian_count(&self) -> usize {
         self.world.published_count()
     }
     fn object_count(&self) -> usize {
-        self.world.bodies.len()
+        self.world.bodies().len()
     }
     fn object_name(&self, id: u32) -> Option<&str> {
-        self.world.bodies.get(id as usize).map(|b| b.name.as_str())
+        self.world.bodies().get(id as usize).map(|b| b.name())
     }
     fn sh_degree(&self) -> u32 {
         self.sh_degree
@@ -86,10 +86,10 @@ impl Simulation for WorldSim {
         self.world.frame_dt_s()
     }
     fn step(&self) -> u64 {
-        self.world.frame
+        self.world.frame()
     }
     fn time_s(&self) -> f64 {
-        self.world.time_s
+        self.world.time_s()
     }
     fn substeps(&self) -> u64 {
         self.substeps
@@ -119,7 +119,7 @@ impl Simulation for WorldSim {
         &mut self,
         keep_going: &mut dyn FnMut() -> bool,
     ) -> Result<Advance, SimulationError> {
-        let step = self.world.frame + 1;
+        let step = self.world.frame() + 1;
         let n = self
             .world
             .advance_frame_with(keep_going)
@@ -134,7 +134,7 @@ impl Simulation for WorldSim {
         Ok(Advance {
             steps: 1,
             substeps: n,
-            time_s: self.world.time_s,
+            time_s: self.world.time_s(),
         })
     }
 
@@ -179,11 +179,11 @@ impl Simulation for WorldSim {
     }
 
     fn apply(&mut self, command: &Command) -> Result<u64, String> {
-        let at = self.world.frame + 1;
+        let at = self.world.frame() + 1;
         self.world.apply(command).map_err(|e| e.to_string())?;
         if *command == Command::Reset {
             self.substeps = 0;
-            return Ok(self.world.frame);
+            return Ok(self.world.frame());
         }
         Ok(at)
     }

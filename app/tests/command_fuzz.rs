@@ -155,7 +155,7 @@ fn ten_thousand_hostile_commands_never_panic_stall_or_leave_a_non_finite_state()
     assert!(particles <= 2000, "{particles} particles");
     let server = std::thread::spawn(move || {
         let report = serve(&mut sim, &cfg).expect("the server never fails");
-        (report, sim.world.bodies.len())
+        (report, sim.world.bodies().len())
     });
 
     let mut opts = ClientOptions::new("t/fuzz");

@@ -138,7 +138,7 @@ fn accuracy(a: &CompareBenchArgs) -> Result<()> {
             let law2 = (p + m1 * e * (v1 - v2)) / (m1 + m2);
             let (u1, u2) = (o[0].velocity_m_s[0], o[1].velocity_m_s[0]);
             let error = (u1 - law1).abs().max((u2 - law2).abs()) / (v1 - v2);
-            let s = w.stats;
+            let s = w.stats();
             let com_fraction = s.com_layer_wall_s / (s.mpm_wall_s + s.com_layer_wall_s);
             let row = json!({
                 "bench": "compare_accuracy",
@@ -229,13 +229,13 @@ fn scaling(a: &CompareBenchArgs) -> Result<()> {
                 for _ in 0..2 {
                     w.substep(f64::INFINITY)?;
                 }
-                let before = w.stats;
+                let before = *w.stats();
                 let t = Instant::now();
                 for _ in 0..a.substeps {
                     w.substep(f64::INFINITY)?;
                 }
                 let per_substep = t.elapsed().as_secs_f64() / a.substeps.max(1) as f64;
-                let s = w.stats;
+                let s = w.stats();
                 let mpm = s.mpm_wall_s - before.mpm_wall_s;
                 let com = s.com_layer_wall_s - before.com_layer_wall_s;
                 let row = json!({

@@ -479,7 +479,7 @@ pub fn run(a: &ContactBenchArgs) -> Result<()> {
         let span_ms = (duration_s * 1e3) as u64;
         pb.set_message(format!("{name}: {OURS}"));
         let (mut world, mass) = ours::build(scene, &settings, *duration_s)?;
-        let gravity = world.gravity_m_s2.as_dvec3();
+        let gravity = world.gravity_m_s2().as_dvec3();
         let progress = Progress {
             pb: Some(&pb),
             base_ms,

@@ -79,7 +79,7 @@ fn run_once(scene: &Scene) -> Result<Run> {
             world
                 .objects()
                 .iter()
-                .zip(&world.bodies)
+                .zip(world.bodies())
                 .map(|(o, b)| (DVec3::from(o.com_m), b.particle_positions()))
                 .collect(),
         );
@@ -145,24 +145,24 @@ pub fn run(a: &IslandsBenchArgs) -> Result<()> {
         let wall_min = walls.iter().copied().fold(f64::INFINITY, f64::min);
         let wall_max = walls.iter().copied().fold(0.0, f64::max);
         let w = &runs[i][0].world;
-        for (k, b) in w.bodies.iter().enumerate() {
+        for (k, b) in w.bodies().iter().enumerate() {
             let (com_off, particle_off, com_final) = offsets(&runs[i][0], whole, k);
             let row = json!({
                 "bench": "islands",
                 "islands": islands,
-                "object": b.name,
+                "object": b.name(),
                 "youngs_modulus_pa": scene.objects[k].material.youngs_modulus_pa,
-                "particles": b.particles.len(),
-                "substeps": b.substeps_taken,
-                "dt_min_s": if b.substeps_taken > 0 { b.dt_range_s[0] } else { 0.0 },
-                "dt_max_s": b.dt_range_s[1],
-                "particle_substeps": (b.substeps_taken - b.substeps_skipped) * b.particles.len() as u64,
+                "particles": b.particles().len(),
+                "substeps": b.stats().substeps_taken,
+                "dt_min_s": if b.stats().substeps_taken > 0 { b.stats().dt_range_s[0] } else { 0.0 },
+                "dt_max_s": b.stats().dt_range_s[1],
+                "particle_substeps": (b.stats().substeps_taken - b.stats().substeps_skipped) * b.particles().len() as u64,
                 "com_off_max_m": com_off,
                 "com_off_final_m": com_final,
                 "particle_off_max_m": particle_off,
                 "wall_min_s": wall_min,
                 "wall_max_s": wall_max,
-                "island_escapes": w.stats.island_escapes,
+                "island_escapes": w.stats().island_escapes,
             });
             println!("{row}");
             rows.push(row);

@@ -137,7 +137,7 @@ type Heights = (f64, f64, f64);
 
 /// [`Heights`] along `up` of body `k`'s particles.
 fn heights(w: &World, k: usize, up: DVec3) -> Heights {
-    let p = &w.bodies[k].particles;
+    let p = w.bodies()[k].particles();
     let (mut m, mut mh, mut lo, mut hi) = (0.0f64, 0.0f64, f64::MAX, f64::MIN);
     for (x, &mi) in p.x.iter().zip(&p.mass_kg) {
         let h = x.as_dvec3().dot(up);
@@ -218,7 +218,7 @@ pub fn run(a: &SagBenchArgs) -> Result<()> {
             let mut window = vec![heights(&w, k, up)];
             while !w.is_finished() {
                 w.advance_frame()?;
-                if w.time_s > duration - a.window_s {
+                if w.time_s() > duration - a.window_s {
                     window.push(heights(&w, k, up));
                 }
             }
@@ -238,7 +238,7 @@ pub fn run(a: &SagBenchArgs) -> Result<()> {
             .first()
             .and_then(|r| r["sag_m"].as_f64())
             .unwrap_or(sag);
-        let p = &w.bodies[k].particles;
+        let p = w.bodies()[k].particles();
         let row = json!({
             "bench": "sag",
             "dx_m": dx,
@@ -249,7 +249,7 @@ pub fn run(a: &SagBenchArgs) -> Result<()> {
             "sag_vs_first": sag / first,
             "height_loss_m": loss,
             "com_swing_m": swing,
-            "substeps": w.stats.substeps,
+            "substeps": w.stats().substeps,
             "wall_s": t.elapsed().as_secs_f64(),
         });
         println!("{row}");

@@ -373,8 +373,8 @@ fn run_one(s: &RunSpec) -> Result<Outcome> {
                 WorldError::TimeStep { .. } => "time_step_refused",
                 _ => "other",
             });
-            out.failure_substep = Some(w.stats.substeps);
-            out.failure_time_s = Some(w.time_s);
+            out.failure_substep = Some(w.stats().substeps);
+            out.failure_time_s = Some(w.time_s());
             break;
         }
         let d = w.diagnostics();
@@ -385,8 +385,8 @@ fn run_one(s: &RunSpec) -> Result<Outcome> {
         let drift = (0..3).map(|k| (p[k] - p0[k]).powi(2)).sum::<f64>().sqrt() / p0_norm;
         out.momentum_drift = out.momentum_drift.max(drift);
         let (a, b) = (
-            &w.bodies[0].particle_positions(),
-            &w.bodies[1].particle_positions(),
+            &w.bodies()[0].particle_positions(),
+            &w.bodies()[1].particle_positions(),
         );
         let depth = overlap::penetration(a, b, dx)
             .depth_cells
@@ -394,15 +394,15 @@ fn run_one(s: &RunSpec) -> Result<Outcome> {
         out.penetration_cells = out.penetration_cells.max(depth);
         if !(ratio.is_finite() && ratio <= BLOWUP) {
             out.failure = Some("energy_blowup");
-            out.failure_substep = Some(w.stats.substeps);
-            out.failure_time_s = Some(w.time_s);
+            out.failure_substep = Some(w.stats().substeps);
+            out.failure_time_s = Some(w.time_s());
             break;
         }
     }
     out.finished = out.failure.is_none();
-    out.substeps = w.stats.substeps;
-    out.dt_min_s = w.stats.dt_min_s;
-    out.dt_max_s = w.stats.dt_max_s;
+    out.substeps = w.stats().substeps;
+    out.dt_min_s = w.stats().dt_min_s;
+    out.dt_max_s = w.stats().dt_max_s;
     out.wall_s = t.elapsed().as_secs_f64();
     Ok(out)
 }

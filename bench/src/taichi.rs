@@ -67,7 +67,7 @@ pub fn spheres(a: &SpheresArgs) -> Result<()> {
     })?;
     let o = w.objects();
     let (v1, v2) = (o[0].velocity_m_s[0] as f64, o[1].velocity_m_s[0] as f64);
-    let substeps = w.stats.substeps;
+    let substeps = w.stats().substeps;
     let ours = json!({
         "bench": "spheres",
         "impl": "splatphys",

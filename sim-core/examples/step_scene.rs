@@ -37,13 +37,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ball = world.object_index("ball").ok_or("no ball")?;
     let mut gaussians = vec![GaussianState::default(); world.published_count()];
     while !world.is_finished() {
-        if world.frame == 15 {
+        if world.frame() == 15 {
             // 0.02 N s sideways at the ball's centre of mass.
             world.apply_impulse(ball, glam::Vec3A::new(0.02, 0.0, 0.0), None)?;
         }
         world.advance_frame()?;
         world.write_gaussians(&mut gaussians);
-        if world.frame % 3 == 0 {
+        if world.frame() % 3 == 0 {
             let rows: Vec<String> = world
                 .objects()
                 .iter()
@@ -56,12 +56,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     )
                 })
                 .collect();
-            println!("t = {:.2} s: {}", world.time_s, rows.join("; "));
+            println!("t = {:.2} s: {}", world.time_s(), rows.join("; "));
         }
     }
     println!(
         "{} frames, {} Gaussians each, {} live particles",
-        world.frame,
+        world.frame(),
         gaussians.len(),
         world.particle_count()
     );

@@ -57,7 +57,7 @@ fn head_on_collision_follows_the_restitution_law() {
                 (u1 - v1e).abs() <= 0.02 && (u2 - v2e).abs() <= 0.02,
                 "e={e} ratio={ratio}"
             );
-            assert!(w.stats.contact_impulses > 0);
+            assert!(w.stats().contact_impulses > 0);
         }
     }
 }
@@ -85,7 +85,7 @@ fn baselines_are_recorded_and_conserve_momentum() {
         // Both baselines turn the spheres around; multi-field contact lets them part freely.
         assert!(u1 < 0.0 && u2 > 0.0, "{method}: {u1} {u2}");
         if method == Method::MultiField {
-            assert!(w.stats.contact_nodes > 0);
+            assert!(w.stats().contact_nodes > 0);
         }
     }
 }
@@ -160,19 +160,23 @@ fn rigid_box_rests_on_a_static_plane_and_a_resting_object_sleeps() {
     }
     println!("rigid box moved at most {worst:e} m over 1 s");
     assert!(worst <= 1e-4, "rigid box moved {worst:e} m");
-    let jelly = &w.bodies[1];
+    let jelly = &w.bodies()[1];
     println!(
         "jelly skipped {} of {} substeps asleep",
-        jelly.substeps_skipped, jelly.substeps_taken
+        jelly.stats().substeps_skipped,
+        jelly.stats().substeps_taken
     );
-    assert!(jelly.sleeping, "a jelly at rest on the floor should sleep");
-    assert!(jelly.substeps_skipped > 0);
+    assert!(
+        jelly.is_sleeping(),
+        "a jelly at rest on the floor should sleep"
+    );
+    assert!(jelly.stats().substeps_skipped > 0);
     // Asleep costs no MPM work: only the awake substeps were computed (the box is rigid and,
     // out of the jelly's reach, steps in an island of its own).
-    let awake = jelly.substeps_taken - jelly.substeps_skipped;
+    let awake = jelly.stats().substeps_taken - jelly.stats().substeps_skipped;
     assert_eq!(
-        w.stats.mpm_particle_substeps,
-        awake * jelly.particles.len() as u64
+        w.stats().mpm_particle_substeps,
+        awake * jelly.particles().len() as u64
     );
 }
 
@@ -183,13 +187,13 @@ fn bits(threads: usize, method: Method) -> Vec<u32> {
         .unwrap();
     pool.install(|| {
         let w = run(&two_spheres(method, 0.5, 2000.0, 0.02));
-        w.bodies
+        w.bodies()
             .iter()
             .flat_map(|b| {
-                b.particles
+                b.particles()
                     .x
                     .iter()
-                    .chain(b.particles.v.iter())
+                    .chain(b.particles().v.iter())
                     .flat_map(|v| v.to_array())
             })
             .map(f32::to_bits)

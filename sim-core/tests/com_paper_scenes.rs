@@ -58,8 +58,8 @@ fn sticky_floor() -> ColliderSpec {
 /// Particles of body `a` in interior cells of body `b` (at least a cell deep).
 fn deep_particles(world: &World, a: usize, b: usize, dx: f32) -> usize {
     penetration(
-        &world.bodies[a].particle_positions(),
-        &world.bodies[b].particle_positions(),
+        &world.bodies()[a].particle_positions(),
+        &world.bodies()[b].particle_positions(),
         dx,
     )
     .deep_particles
@@ -72,7 +72,7 @@ fn run_checked(name: &str, scene: SceneBuilder, floor_z: Option<f32>) -> (World,
     let scene = scene.build().expect("scene");
     let mut w = World::from_scene(&scene).expect("world");
     let dx = w.dx_m();
-    let n = w.bodies.len();
+    let n = w.bodies().len();
     let mut worst_below = 0.0f32;
     let mut lowest = f32::INFINITY;
     while !w.is_finished() {
@@ -82,13 +82,15 @@ fn run_checked(name: &str, scene: SceneBuilder, floor_z: Option<f32>) -> (World,
                 if a != b {
                     let deep = deep_particles(&w, a, b, dx);
                     assert_eq!(
-                        deep, 0,
+                        deep,
+                        0,
                         "{name}, frame {frame}: {deep} particles of {} more than a cell inside {}",
-                        w.bodies[a].name, w.bodies[b].name
+                        w.bodies()[a].name(),
+                        w.bodies()[b].name()
                     );
                 }
             }
-            for x in &w.bodies[a].particles.x {
+            for x in &w.bodies()[a].particles().x {
                 assert!(x.is_finite(), "{name}, frame {frame}: non-finite particle");
                 lowest = lowest.min(x.z);
                 if let Some(z) = floor_z {
@@ -105,7 +107,8 @@ fn run_checked(name: &str, scene: SceneBuilder, floor_z: Option<f32>) -> (World,
     }
     println!(
         "{name}: {} substeps, {} contact impulses, deepest below floor {worst_below:.4} m",
-        w.stats.substeps, w.stats.contact_impulses
+        w.stats().substeps,
+        w.stats().contact_impulses
     );
     (w, lowest)
 }
@@ -162,7 +165,7 @@ fn two_elastic_objects_collide_on_a_sticky_table() {
         ))
         .collider(sticky_floor());
     let (w, _) = run_checked("table collision", scene, Some(0.0));
-    assert!(w.stats.contact_impulses > 0, "the objects never met");
+    assert!(w.stats().contact_impulses > 0, "the objects never met");
 }
 
 #[test]
@@ -185,7 +188,7 @@ fn snow_ball_against_rubber_ball_head_on() {
             [-1.0, 0.0, 0.0],
         ));
     let (w, _) = run_checked("snow vs rubber", scene, None);
-    assert!(w.stats.contact_impulses > 0, "the balls never met");
+    assert!(w.stats().contact_impulses > 0, "the balls never met");
     // Momentum moves from the snow ball to the rubber ball.
     let o = w.objects();
     assert!(o[1].velocity_m_s[0] > -1.0, "{:?}", o[1].velocity_m_s);

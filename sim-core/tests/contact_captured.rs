@@ -89,7 +89,7 @@ friction = 0.5
             w.advance_frame().expect("step");
         }
         let o = &w.objects()[0];
-        let lowest = w.bodies[0]
+        let lowest = w.bodies()[0]
             .particle_positions()
             .iter()
             .map(|x| x.z)
@@ -147,17 +147,17 @@ plane = {{ point_m = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0] }}
     while !w.is_finished() {
         w.advance_frame().expect("step");
         let (mut n, mut j) = (glam::DVec3::ZERO, 0.0);
-        for c in w.last_contacts.iter().filter(|c| c.b == Other::Object(1)) {
+        for c in w.last_contacts().iter().filter(|c| c.b == Other::Object(1)) {
             n += c.normal * c.normal_impulse_n_s;
             j += c.normal_impulse_n_s;
         }
         if first_normal.is_none() && j > 0.0 {
             first_normal = Some(n.normalize());
         }
-        if w.time_s > 0.3 {
+        if w.time_s() > 0.3 {
             break;
         }
-        let com = w.bodies[0].rigid.com_m;
+        let com = w.bodies()[0].rigid().com_m;
         let off =
             ((com.x - f64::from(cx + 0.015)).powi(2) + (com.y - f64::from(cy)).powi(2)).sqrt();
         farthest = farthest.max(off);

@@ -37,14 +37,14 @@ fn an_offset_column_of_jelly_cubes_stands_without_sinking_or_sliding() {
     let start: Vec<[f64; 3]> = w.objects().iter().map(|o| o.com_m).collect();
     let mut at = Vec::new();
     for t in [1.0, 4.0] {
-        while w.time_s < t - 1e-9 {
+        while w.time_s() < t - 1e-9 {
             w.advance_frame().expect("step");
         }
         let coms: Vec<[f64; 3]> = w.objects().iter().map(|o| o.com_m).collect();
         println!("t = {t} s: COMs {coms:.5?} m");
         at.push(coms);
     }
-    let st = &w.stats;
+    let st = &w.stats();
     println!(
         "COM layer {:.1} % of the step ({} substeps)",
         100.0 * st.com_layer_wall_s / (st.com_layer_wall_s + st.mpm_wall_s),
@@ -180,12 +180,12 @@ fn a_jelly_ball_thrown_along_a_jelly_slab_rolls_on() {
         println!(
             "rolling jelly ball at t = {:.2} s: v {v:.3?} m/s, ω {omega:.2?} rad/s, \
              ω_y R {:.3} m/s",
-            w.time_s,
+            w.time_s(),
             omega[1] * 0.04
         );
         // Rolling, not sliding or stuck: ω_y R = v_x within a quarter (the ball is soft, and
         // its ω is a fit to its particles).
-        if w.time_s > 0.1 - 1e-9 {
+        if w.time_s() > 0.1 - 1e-9 {
             assert!(
                 (omega[1] * 0.04 - v[0]).abs() < 0.25 * v[0],
                 "not rolling: v {v:?}, ω {omega:?}"

@@ -8,10 +8,10 @@ use splatphys_core::world::World;
 
 /// Kinetic energy ½ Σ m |v|² of every particle (J).
 fn kinetic_energy(w: &World) -> f64 {
-    w.bodies
+    w.bodies()
         .iter()
         .map(|b| {
-            let p = &b.particles;
+            let p = b.particles();
             (0..p.len())
                 .map(|i| 0.5 * p.mass_kg[i] as f64 * p.v[i].as_dvec3().length_squared())
                 .sum::<f64>()
@@ -46,7 +46,7 @@ fn an_elastic_impact_gains_no_kinetic_energy_head_on_or_grazing() {
             let e0 = kinetic_energy(&w);
             // Every substep, so that a kick's energy is seen before MPM turns it into strain.
             let mut peak: f64 = 0.0;
-            while w.time_s < 0.12 {
+            while w.time_s() < 0.12 {
                 w.substep(0.01).unwrap();
                 peak = peak.max(kinetic_energy(&w));
             }
@@ -58,7 +58,7 @@ fn an_elastic_impact_gains_no_kinetic_energy_head_on_or_grazing() {
                 end / e0
             );
             assert!(
-                w.stats.contact_impulses > 0,
+                w.stats().contact_impulses > 0,
                 "offset {offset_y}: no contact"
             );
             // The bound: never more than 1 % above the start.

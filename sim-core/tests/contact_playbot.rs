@@ -14,7 +14,7 @@ use splatphys_core::world::World;
 /// The highest opaque background Gaussian within `reach_m` in x and y of each query point (m),
 /// from a hash of the background on columns of `reach_m`.
 fn ground_heights(world: &World, points: &[[f32; 3]], reach_m: f32) -> Vec<Option<f32>> {
-    let bg = &world.background;
+    let bg = &world.background();
     let mut columns: std::collections::HashMap<(i32, i32), Vec<[f32; 3]>> = Default::default();
     for g in (0..bg.len()).filter(|&g| bg.opacity(g) >= 0.5) {
         let p = bg.positions[g];
@@ -66,9 +66,9 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
         let o = &w.objects()[0];
         let speed = o.velocity_m_s.iter().map(|v| v * v).sum::<f64>().sqrt();
         // The robot's opaque Gaussians where they are now.
-        let robot = &w.bodies[0];
-        let points: Vec<[f32; 3]> = (0..robot.gaussians.len())
-            .filter(|&g| robot.gaussians.opacity(g) >= 0.5)
+        let robot = &w.bodies()[0];
+        let points: Vec<[f32; 3]> = (0..robot.gaussians().len())
+            .filter(|&g| robot.gaussians().opacity(g) >= 0.5)
             .map(|g| robot.gaussian_pose(g).0.to_array())
             .collect();
         let ground = ground_heights(&w, &points, 0.01);
@@ -114,7 +114,7 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
                 // particle-level push-out brings them back out over 0.05 s. Particles more
                 // than a quarter cell (1 cm) inside: 16 of 13,227 (0.12 %) with it, 159
                 // (1.2 %) without it.
-                let surface = w.background_collision.as_ref().expect("background surface");
+                let surface = w.background_collision().expect("background surface");
                 let placed = surface.placed(glam::DVec3::ZERO, glam::Quat::IDENTITY);
                 let positions = robot.particle_positions();
                 let inside = positions

@@ -34,11 +34,11 @@ fn throw(solver: ContactSolver, e: f32) -> (f64, f64, f64) {
         .expect("scene");
     let mut w = World::from_scene(&scene).expect("world");
     let (mut farthest, mut deepest) = (f64::NEG_INFINITY, 0.0f64);
-    while w.time_s < 0.05 {
+    while w.time_s() < 0.05 {
         // Substep by substep, so a pass through the wall between frames would show.
         w.substep(0.01).expect("substep");
         farthest = farthest.max(w.objects()[0].com_m[0]);
-        for c in &w.last_contacts {
+        for c in w.last_contacts() {
             deepest = deepest.max(-c.separation_m);
         }
     }

@@ -27,11 +27,11 @@ fn settle(boxes: &[([f32; 3], u32)]) -> Vec<[f64; 3]> {
     }
     let mut world = World::from_scene(&s.build().expect("scene")).expect("world");
     let rest: Vec<[f64; 3]> = world
-        .bodies
+        .bodies()
         .iter()
         .zip(boxes)
         .map(|(b, (_, gaps))| {
-            let c = b.rigid.com_m;
+            let c = b.rigid().com_m;
             [c.x, c.y, c.z - f64::from(*gaps) * f64::from(GAP_M)]
         })
         .collect();
@@ -39,11 +39,11 @@ fn settle(boxes: &[([f32; 3], u32)]) -> Vec<[f64; 3]> {
         world.advance_frame().expect("step");
     }
     world
-        .bodies
+        .bodies()
         .iter()
         .zip(&rest)
         .map(|(b, r)| {
-            let c = b.rigid.com_m;
+            let c = b.rigid().com_m;
             [c.x - r[0], c.y - r[1], c.z - r[2]]
         })
         .collect()

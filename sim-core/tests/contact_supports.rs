@@ -16,7 +16,7 @@ fn com(w: &World, k: usize) -> ([f64; 3], [f64; 3]) {
 }
 
 fn run_until(w: &mut World, t_s: f64) {
-    while w.time_s < t_s - 1e-9 && !w.is_finished() {
+    while w.time_s() < t_s - 1e-9 && !w.is_finished() {
         w.advance_frame().expect("step");
     }
 }
@@ -264,13 +264,13 @@ fn impacts_on_two_supports_stay_symmetric_and_follow_e() {
             "{kind:?} e = {e}: sideways {sideways:.4} m/s"
         );
         if kind == ObjectKind::Rigid {
-            let b = &w.bodies[2];
-            let ke = 0.5 * b.rigid.mass_kg * b.rigid.velocity_m_s.length_squared()
+            let b = &w.bodies()[2];
+            let ke = 0.5 * b.rigid().mass_kg * b.rigid().velocity_m_s.length_squared()
                 + 0.5
-                    * b.rigid
+                    * b.rigid()
                         .omega_rad_s
-                        .dot(b.rigid_world_inertia() * b.rigid.omega_rad_s);
-            let ke0 = 0.5 * b.rigid.mass_kg;
+                        .dot(b.rigid_world_inertia() * b.rigid().omega_rad_s);
+            let ke0 = 0.5 * b.rigid().mass_kg;
             if e == 0.0 {
                 assert!(v[2].abs() <= 0.01, "bounced at {} m/s", v[2]);
             } else {
@@ -474,7 +474,7 @@ fn a_sand_column_collapsing_against_a_static_box_stops_at_it() {
         let mut w = World::from_scene(&scene.build().expect("scene")).expect("world");
         run_until(&mut w, 0.8);
         // The farthest grain in +x below the wall's top, m.
-        let sand = &w.bodies[0].particles;
+        let sand = w.bodies()[0].particles();
         let reach = sand
             .x
             .iter()

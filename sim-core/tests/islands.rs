@@ -44,36 +44,36 @@ fn soft_and_stiff(islands: bool, only: Option<&str>) -> World {
 fn objects_out_of_each_others_reach_step_as_they_would_alone() {
     let apart = soft_and_stiff(true, None);
     let whole = soft_and_stiff(false, None);
-    let (soft, stiff) = (&apart.bodies[0], &apart.bodies[1]);
+    let (soft, stiff) = (&apart.bodies()[0], &apart.bodies()[1]);
     println!(
         "islands: soft {} substeps ({:.2e}..{:.2e} s), stiff {} ({:.2e}..{:.2e} s); as one: {} each",
-        soft.substeps_taken,
-        soft.dt_range_s[0],
-        soft.dt_range_s[1],
-        stiff.substeps_taken,
-        stiff.dt_range_s[0],
-        stiff.dt_range_s[1],
-        whole.bodies[0].substeps_taken
+        soft.stats().substeps_taken,
+        soft.stats().dt_range_s[0],
+        soft.stats().dt_range_s[1],
+        stiff.stats().substeps_taken,
+        stiff.stats().dt_range_s[0],
+        stiff.stats().dt_range_s[1],
+        whole.bodies()[0].stats().substeps_taken
     );
     // c_p grows with sqrt(E): 10x here. With the falling speed (up to 1 m/s) in both bounds the
     // soft sphere's substep is still several times the stiff one's.
-    assert!(soft.substeps_taken * 3 < stiff.substeps_taken);
+    assert!(soft.stats().substeps_taken * 3 < stiff.stats().substeps_taken);
     assert_eq!(
-        whole.bodies[0].substeps_taken,
-        whole.bodies[1].substeps_taken
+        whole.bodies()[0].stats().substeps_taken,
+        whole.bodies()[1].stats().substeps_taken
     );
-    assert_eq!(apart.stats.island_escapes, 0);
+    assert_eq!(apart.stats().island_escapes, 0);
     // Each steps exactly as it would alone: the same substeps, the same state to the bit.
     for (k, name) in ["soft", "stiff"].into_iter().enumerate() {
         let alone = soft_and_stiff(true, Some(name));
         assert_eq!(
-            apart.bodies[k].substeps_taken,
-            alone.bodies[k].substeps_taken
+            apart.bodies()[k].stats().substeps_taken,
+            alone.bodies()[k].stats().substeps_taken
         );
         assert_eq!(apart.objects()[k].com_m, alone.objects()[k].com_m, "{name}");
         assert_eq!(
-            apart.bodies[k].particle_positions(),
-            alone.bodies[k].particle_positions(),
+            &apart.bodies()[k].particle_positions(),
+            &alone.bodies()[k].particle_positions(),
             "{name}"
         );
     }
@@ -127,7 +127,7 @@ fn objects_heading_for_each_other_join_one_island_before_they_meet() {
     );
     assert_eq!(whole.plan_islands(whole.frame_dt_s()), vec![vec![0, 1]]);
     apart.advance_frame().expect("step");
-    let end = apart.time_s + apart.frame_dt_s();
+    let end = apart.time_s() + apart.frame_dt_s();
     assert_eq!(apart.plan_islands(end), vec![vec![0, 1]]);
     while !apart.is_finished() {
         apart.advance_frame().expect("step");
@@ -135,7 +135,7 @@ fn objects_heading_for_each_other_join_one_island_before_they_meet() {
     while !whole.is_finished() {
         whole.advance_frame().expect("step");
     }
-    assert_eq!(apart.stats.island_escapes, 0);
+    assert_eq!(apart.stats().island_escapes, 0);
     // They met and bounced apart in both runs, the same within 1 % of the approach speed and
     // 1 mm.
     for (a, b) in apart.objects().iter().zip(whole.objects()) {

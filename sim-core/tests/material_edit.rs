@@ -27,7 +27,7 @@ fn snow_world() -> World {
 #[test]
 fn editing_youngs_modulus_of_snow_keeps_its_model_parameters() {
     let mut world = snow_world();
-    let before = world.bodies[0].materials[0].spec();
+    let before = world.bodies()[0].material().spec();
     world
         .apply(&Command::EditMaterial {
             object: 0,
@@ -37,7 +37,7 @@ fn editing_youngs_modulus_of_snow_keeps_its_model_parameters() {
             },
         })
         .unwrap();
-    let after = world.bodies[0].materials[0].spec();
+    let after = world.bodies()[0].material().spec();
     assert_eq!(after.model, MaterialModel::Snow);
     assert_eq!(after.youngs_modulus_pa, 2.0e5);
     // The solver keeps f32: compare what it holds.
@@ -51,7 +51,7 @@ fn editing_youngs_modulus_of_snow_keeps_its_model_parameters() {
 #[test]
 fn an_edit_of_contact_coefficients_leaves_the_material_alone() {
     let mut world = snow_world();
-    let before = world.bodies[0].materials[0].clone();
+    let before = world.bodies()[0].material().clone();
     world
         .apply(&Command::EditMaterial {
             object: 0,
@@ -62,7 +62,7 @@ fn an_edit_of_contact_coefficients_leaves_the_material_alone() {
             },
         })
         .unwrap();
-    assert_eq!(world.bodies[0].materials[0], before);
-    assert_eq!(world.bodies[0].restitution, 0.25);
-    assert_eq!(world.bodies[0].friction, 0.6);
+    assert_eq!(world.bodies()[0].material(), &before);
+    assert_eq!(world.bodies()[0].restitution(), 0.25);
+    assert_eq!(world.bodies()[0].friction(), 0.6);
 }

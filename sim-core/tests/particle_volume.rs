@@ -151,10 +151,10 @@ fn donut(fill_m: Option<f32>, dx_m: f32) -> Vec<f32> {
     assert_eq!(scene.simulation.grid_dx_m as f32, dx_m);
     let world = splatphys_core::world::World::from_scene(&scene).expect("world");
     // In the scene's Gaussian order: particles are stored in block order, which depends on dx.
-    let b = &world.bodies[0];
-    b.gaussian_particle
+    let b = &world.bodies()[0];
+    b.gaussian_particle()
         .iter()
-        .map(|&j| b.particles.volume0_m3[j as usize])
+        .map(|&j| b.particles().volume0_m3[j as usize])
         .collect()
 }
 

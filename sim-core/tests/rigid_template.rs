@@ -60,18 +60,21 @@ fn a_rigid_object_keeps_no_particles_and_publishes_its_gaussians_from_its_pose()
             .kind(ObjectKind::Rigid),
         1.0,
     );
-    let b = &w.bodies[0];
-    assert!(b.particles.is_empty(), "a rigid body holds live particles");
-    assert_eq!(b.template.len(), b.gaussian_count());
+    let b = &w.bodies()[0];
+    assert!(
+        b.particles().is_empty(),
+        "a rigid body holds live particles"
+    );
+    assert_eq!(b.template().len(), b.gaussian_count());
     assert_eq!(w.particle_count(), 0);
     let axis = principal_axis_nearest(b.rigid_world_inertia(), DVec3::Z);
     let (v, omega) = (DVec3::new(0.2, 0.0, 0.0), axis * 3.0);
     w.set_velocity(0, v.as_vec3a(), Some(omega.as_vec3a()))
         .expect("set-velocity");
-    let c0 = w.bodies[0].rigid.com_m;
+    let c0 = w.bodies()[0].rigid().com_m;
     let start = published(&w);
     run_for(&mut w, 30);
-    let t = w.time_s;
+    let t = w.time_s();
     let r = Mat3A::from_quat(Quat::from_axis_angle(
         axis.as_vec3(),
         (omega.length() * t) as f32,
@@ -94,8 +97,12 @@ fn a_rigid_object_keeps_no_particles_and_publishes_its_gaussians_from_its_pose()
     assert!(ds < 1e-4, "a covariance is off by {ds} of its size");
     // Diagnostics come from the pose: p = M v, E = ½ M |v|² + ½ ω·I ω.
     let d = w.diagnostics();
-    let b = &w.bodies[0];
-    let (m, v, omega) = (b.rigid.mass_kg, b.rigid.velocity_m_s, b.rigid.omega_rad_s);
+    let b = &w.bodies()[0];
+    let (m, v, omega) = (
+        b.rigid().mass_kg,
+        b.rigid().velocity_m_s,
+        b.rigid().omega_rad_s,
+    );
     let p = DVec3::from(d.momentum_kg_m_s);
     assert!(
         (p - v * m).length() < 1e-12 * m,
@@ -140,16 +147,16 @@ fn set_kind_round_trip_places_the_template_by_the_pose_and_moves_no_gaussian() {
             ball = ball.physics_spacing_m(h);
         }
         let mut w = world(ball, 1.0);
-        let n = w.bodies[0].particles.len();
+        let n = w.bodies()[0].particles().len();
         assert!(n > 100, "{subset:?}: {n} particles");
         w.set_kind(0, ObjectKind::Rigid).expect("rigid");
-        assert!(w.bodies[0].particles.is_empty() && w.bodies[0].template.len() == n);
+        assert!(w.bodies()[0].particles().is_empty() && w.bodies()[0].template().len() == n);
         let (v, omega) = (DVec3::new(0.1, -0.05, 0.02), DVec3::new(1.0, 2.0, -4.0));
         w.set_velocity(0, v.as_vec3a(), Some(omega.as_vec3a()))
             .expect("set-velocity");
         run_for(&mut w, 15);
         let before = published(&w);
-        let rigid = w.bodies[0].rigid;
+        let rigid = *w.bodies()[0].rigid();
         w.set_kind(0, ObjectKind::Deformable).expect("deformable");
         let (dx, ds) = largest_change(&before, &published(&w));
         assert!(dx < 1e-6, "{subset:?}: a Gaussian moved {dx} m on thawing");
@@ -158,18 +165,18 @@ fn set_kind_round_trip_places_the_template_by_the_pose_and_moves_no_gaussian() {
             "{subset:?}: a covariance changed by {ds} on thawing"
         );
         // The particles are back, moving with the rigid motion: v_i = v + ω × (x_i − c).
-        let b = &w.bodies[0];
-        assert_eq!(b.particles.len(), n);
-        assert!(b.template.is_empty() && b.gaussian_offsets.is_empty());
+        let b = &w.bodies()[0];
+        assert_eq!(b.particles().len(), n);
+        assert!(b.template().is_empty() && b.gaussian_offsets().is_empty());
         let c = rigid.com_m;
-        for (x, vi) in b.particles.x.iter().zip(&b.particles.v) {
+        for (x, vi) in b.particles().x.iter().zip(&b.particles().v) {
             let want = rigid.velocity_m_s + rigid.omega_rad_s.cross(x.as_dvec3() - c);
             assert!(
                 (vi.as_dvec3() - want).length() < 1e-5,
                 "{subset:?}: {vi} vs {want}"
             );
         }
-        let s = measure(&b.particles, b.dx_m());
+        let s = measure(b.particles(), b.dx_m());
         assert!(
             (s.com_m - c).length() < 1e-6,
             "{subset:?}: COM {} vs {c}",
@@ -186,7 +193,7 @@ fn set_kind_round_trip_places_the_template_by_the_pose_and_moves_no_gaussian() {
         run_for(&mut w, 1);
         let before = published(&w);
         w.set_kind(0, ObjectKind::Rigid).expect("rigid again");
-        assert!(w.bodies[0].particles.is_empty() && w.bodies[0].template.len() == n);
+        assert!(w.bodies()[0].particles().is_empty() && w.bodies()[0].template().len() == n);
         let (dx, ds) = largest_change(&before, &published(&w));
         assert!(dx < 1e-6, "{subset:?}: a Gaussian moved {dx} m on freezing");
         assert!(

@@ -52,10 +52,10 @@ fn published(w: &World) -> Vec<GaussianState> {
 }
 
 fn particle_bits(w: &World) -> Vec<u32> {
-    w.bodies
+    w.bodies()
         .iter()
         .flat_map(|b| {
-            let p = &b.particles;
+            let p = b.particles();
             p.x.iter()
                 .chain(&p.v)
                 .flat_map(|v| v.to_array())
@@ -79,22 +79,22 @@ fn without_physics_spacing_every_gaussian_is_its_own_particle_bit_for_bit() {
     // The code path: no key, no carry, one particle per Gaussian at its centre, and every
     // published Gaussian is exactly its particle's state.
     let mut plain = world(sphere_scene(ball(0.08), true, 0.15));
-    let b = &plain.bodies[0];
-    assert!(b.carry.is_none());
-    assert_eq!(b.particles.len(), b.gaussians.len());
-    for (&j, p) in b.gaussian_particle.iter().zip(&b.gaussians.positions) {
-        assert_eq!(b.particles.x[j as usize].to_array(), *p);
+    let b = &plain.bodies()[0];
+    assert!(b.carry().is_none());
+    assert_eq!(b.particles().len(), b.gaussians().len());
+    for (&j, p) in b.gaussian_particle().iter().zip(&b.gaussians().positions) {
+        assert_eq!(b.particles().x[j as usize].to_array(), *p);
     }
     // Particles are stored in block order, Gaussians in the scene's: the lattice's x-fastest
     // order is not block order, and frames still publish Gaussian g as the scene's g-th.
     assert!(
-        b.gaussian_particle
+        b.gaussian_particle()
             .iter()
             .enumerate()
             .any(|(g, &j)| g != j as usize)
     );
     let at_rest: Vec<[f32; 3]> = published(&plain).iter().map(|o| o.position_m).collect();
-    assert_eq!(at_rest, plain.bodies[0].gaussians.positions);
+    assert_eq!(at_rest, plain.bodies()[0].gaussians().positions);
     // A spacing of 0.1 mm puts each Gaussian of the 5 mm lattice in a cube of its own: the
     // subset construction (volume-weighted mean and summed volume) must give back the very
     // same particles, and the run must match bit for bit, through a landing on the floor.
@@ -103,17 +103,17 @@ fn without_physics_spacing_every_gaussian_is_its_own_particle_bit_for_bit() {
         true,
         0.15,
     ));
-    assert!(tiny.bodies[0].carry.is_none());
+    assert!(tiny.bodies()[0].carry().is_none());
     assert_eq!(particle_bits(&plain), particle_bits(&tiny));
     finish(&mut plain);
     finish(&mut tiny);
     assert_eq!(particle_bits(&plain), particle_bits(&tiny));
     let out = published(&plain);
     assert_eq!(state_bits(&out), state_bits(&published(&tiny)));
-    let b = &plain.bodies[0];
+    let b = &plain.bodies()[0];
     for (i, o) in out.iter().enumerate() {
-        let j = b.gaussian_particle[i] as usize;
-        let want = gaussian_state(b.particles.x[j], b.particles.f[j], b.sigma0[i]);
+        let j = b.gaussian_particle()[i] as usize;
+        let want = gaussian_state(b.particles().x[j], b.particles().f[j], b.sigma0()[i]);
         assert_eq!(state_bits(&[*o]), state_bits(&[want]), "Gaussian {i}");
     }
 }
@@ -130,10 +130,10 @@ fn check_mass_and_com(scene: &Scene, spacings: &[f32]) {
             .iter_mut()
             .for_each(|o| o.physics_spacing_m = Some(h));
         let sub = World::from_scene(&s).expect("world");
-        for (a, b) in full.bodies.iter().zip(&sub.bodies) {
-            assert!(b.carry.is_some(), "h = {h}: no subset built");
-            assert!(b.particles.len() < a.particles.len());
-            let (ma, mb) = (measure(&a.particles, dx), measure(&b.particles, dx));
+        for (a, b) in full.bodies().iter().zip(sub.bodies()) {
+            assert!(b.carry().is_some(), "h = {h}: no subset built");
+            assert!(b.particles().len() < a.particles().len());
+            let (ma, mb) = (measure(a.particles(), dx), measure(b.particles(), dx));
             let rel = (mb.mass_kg - ma.mass_kg).abs() / ma.mass_kg;
             assert!(
                 rel <= 1e-6,
@@ -164,23 +164,23 @@ fn subset_keeps_the_objects_mass_and_centre_of_mass() {
 /// Sets the particles of object 0 to x_j = A X_j⁰ + t, F_j = A and checks every published
 /// Gaussian against x_g = A X_g + t and Σ_g = A Σ0_g Aᵀ.
 fn check_affine(w: &mut World, a: Mat3A, t: Vec3A) {
-    let b = &mut w.bodies[0];
-    let carry = b.carry.clone().expect("a subset");
+    let b = w.body_mut(0).expect("object 0");
+    let carry = b.carry().cloned().expect("a subset");
     let rest_g = carry.rest_gaussians.clone();
     for (j, x0) in carry.rest_particles.iter().enumerate() {
-        b.particles.x[j] = a * *x0 + t;
-        b.particles.f[j] = a;
+        b.particles_mut().x[j] = a * *x0 + t;
+        b.particles_mut().f[j] = a;
     }
     let out = published(w);
-    let b = &w.bodies[0];
-    assert_eq!(out.len(), b.gaussians.len());
+    let b = &w.bodies()[0];
+    assert_eq!(out.len(), b.gaussians().len());
     let mut worst = (0.0f32, 0.0f32);
     for (g, o) in out.iter().enumerate() {
         let want = a * rest_g[g] + t;
         worst.0 = worst
             .0
             .max((Vec3A::from(o.position_m) - want).abs().max_element());
-        let cov = pack_symmetric(a * b.sigma0[g] * a.transpose());
+        let cov = pack_symmetric(a * b.sigma0()[g] * a.transpose());
         let scale = cov.iter().fold(0.0f32, |m, v| m.max(v.abs()));
         for (c, e) in o.covariance_m2.iter().zip(cov) {
             worst.1 = worst.1.max((c - e).abs() / scale);
@@ -194,13 +194,13 @@ fn check_affine(w: &mut World, a: Mat3A, t: Vec3A) {
 #[test]
 fn affine_motion_of_the_particles_carries_every_gaussian_exactly() {
     let mut w = world(sphere_scene(ball(0.3).physics_spacing_m(0.02), false, 0.1));
-    let b = &w.bodies[0];
+    let b = &w.bodies()[0];
     // 2 cm cubes over a 5 mm lattice: about 1/64 as many particles as Gaussians (more at the
     // surface, where cubes are partly empty).
     assert!(
-        b.particles.len() * 20 < b.gaussians.len(),
+        b.particles().len() * 20 < b.gaussians().len(),
         "{}",
-        b.particles.len()
+        b.particles().len()
     );
     // Rigid: rotation about a tilted axis plus a translation.
     let r = Mat3A::from_quat(Quat::from_axis_angle(
@@ -224,10 +224,10 @@ fn rigid_subset_object_carries_its_gaussians_with_the_rigid_pose() {
         false,
         0.3,
     ));
-    assert!(w.bodies[0].carry.is_some());
-    let com0 = w.bodies[0].rigid.com_m.as_vec3a();
-    let rest: Vec<Vec3A> = w.bodies[0]
-        .gaussians
+    assert!(w.bodies()[0].carry().is_some());
+    let com0 = w.bodies()[0].rigid().com_m.as_vec3a();
+    let rest: Vec<Vec3A> = w.bodies()[0]
+        .gaussians()
         .positions
         .iter()
         .map(|p| Vec3A::from(*p))
@@ -240,11 +240,11 @@ fn rigid_subset_object_carries_its_gaussians_with_the_rigid_pose() {
     )
     .unwrap();
     finish(&mut w);
-    let b = &w.bodies[0];
-    let q = b.rigid.orientation;
+    let b = &w.bodies()[0];
+    let q = b.rigid().orientation;
     assert!(q.angle_between(Quat::IDENTITY) > 0.1, "it did not turn");
     let r = Mat3A::from_quat(q);
-    let com = b.rigid.com_m.as_vec3a();
+    let com = b.rigid().com_m.as_vec3a();
     let out = published(&w);
     let worst = out
         .iter()
@@ -261,12 +261,13 @@ fn free_fall_of_a_subset_matches_the_full_run() {
     // On the scene's grid, so that both take the same substeps.
     let sub_ball = ball(1.0).physics_spacing_m(0.01).grid_dx_m(0.01);
     let mut sub = world(sphere_scene(sub_ball, false, 0.4));
-    let ratio = full.bodies[0].particles.len() as f64 / sub.bodies[0].particles.len() as f64;
+    let ratio =
+        full.bodies()[0].particles().len() as f64 / sub.bodies()[0].particles().len() as f64;
     assert!(ratio > 4.0, "ratio {ratio}");
     let dx = full.dx_m();
     let (m_full, m_sub) = (
-        measure(&full.bodies[0].particles, dx).mass_kg,
-        measure(&sub.bodies[0].particles, dx).mass_kg,
+        measure(full.bodies()[0].particles(), dx).mass_kg,
+        measure(sub.bodies()[0].particles(), dx).mass_kg,
     );
     assert!(
         (m_sub - m_full).abs() <= 1e-6 * m_full,
@@ -282,14 +283,14 @@ fn free_fall_of_a_subset_matches_the_full_run() {
         assert!(
             (a - b).abs() <= 1e-3 * a.abs(),
             "frame {}: {b} vs {a}",
-            full.frame
+            full.frame()
         );
     }
-    let t = full.time_s;
+    let t = full.time_s();
     let exact = z0 - 0.5 * 9.81 * t * t;
     let z = sub.objects()[0].com_m[2];
     // Symplectic Euler lags the closed form by g t dt / 2 (~0.7 mm here); allow twice that.
-    let lag = 9.81 * t * sub.stats.dt_max_s;
+    let lag = 9.81 * t * sub.stats().dt_max_s;
     assert!((z - exact).abs() <= lag, "{z} vs {exact} (allowed {lag} m)");
     // The carried Gaussians fall with the particles: within a hundredth of a cell of the
     // full run's (uniform motion, F = I: the carry is exact).
@@ -304,7 +305,7 @@ fn free_fall_of_a_subset_matches_the_full_run() {
 
 #[test]
 fn a_coarse_subset_gets_a_grid_of_two_spacings_and_still_falls_as_the_closed_form() {
-    let dx_of = |b: ObjectBuilder| world(sphere_scene(b, false, 0.1)).bodies[0].dx_m();
+    let dx_of = |b: ObjectBuilder| world(sphere_scene(b, false, 0.1)).bodies()[0].dx_m();
     // Two particles per cell per axis when that is coarser than the scene's 1 cm cell; never
     // finer than it by default; an explicit cell wins.
     assert_eq!(dx_of(ball(1.0).physics_spacing_m(0.02)), 0.04);
@@ -317,22 +318,22 @@ fn a_coarse_subset_gets_a_grid_of_two_spacings_and_still_falls_as_the_closed_for
     // The baselines share one grid: the scene's.
     let shared = sphere_scene(ball(1.0).physics_spacing_m(0.02), false, 0.1)
         .method(splatphys_core::scene::Method::Mpm);
-    assert_eq!(world(shared).bodies[0].dx_m(), 0.01);
+    assert_eq!(world(shared).bodies()[0].dx_m(), 0.01);
 
     let mut w = world(sphere_scene(ball(1.0).physics_spacing_m(0.02), false, 0.4));
     let m_full = measure(
-        &world(sphere_scene(ball(1.0), false, 0.1)).bodies[0].particles,
+        world(sphere_scene(ball(1.0), false, 0.1)).bodies()[0].particles(),
         0.01,
     );
-    let s0 = measure(&w.bodies[0].particles, w.bodies[0].dx_m());
+    let s0 = measure(w.bodies()[0].particles(), w.bodies()[0].dx_m());
     assert!((s0.mass_kg - m_full.mass_kg).abs() <= 1e-6 * m_full.mass_kg);
     let z0 = s0.com_m.z;
     finish(&mut w);
-    let t = w.time_s;
+    let t = w.time_s();
     let z = w.objects()[0].com_m[2];
     let exact = z0 - 0.5 * 9.81 * t * t;
     // Symplectic Euler lags the closed form by g t dt / 2 at its own, 4x longer, substep.
-    let lag = 9.81 * t * w.bodies[0].dt_range_s[1];
+    let lag = 9.81 * t * w.bodies()[0].stats().dt_range_s[1];
     assert!((z - exact).abs() <= lag, "{z} vs {exact} (allowed {lag} m)");
     // The same subset on the scene's 1 cm grid takes about 4x the substeps (CFL: dx / c_p).
     let mut fine = world(sphere_scene(
@@ -341,7 +342,10 @@ fn a_coarse_subset_gets_a_grid_of_two_spacings_and_still_falls_as_the_closed_for
         0.4,
     ));
     finish(&mut fine);
-    let (coarse_n, fine_n) = (w.bodies[0].substeps_taken, fine.bodies[0].substeps_taken);
+    let (coarse_n, fine_n) = (
+        w.bodies()[0].stats().substeps_taken,
+        fine.bodies()[0].stats().substeps_taken,
+    );
     assert!(coarse_n * 5 < fine_n * 2, "{coarse_n} vs {fine_n} substeps");
 }
 
@@ -423,7 +427,7 @@ fn physics_spacing_is_validated_with_its_key_path() {
     assert_eq!(s.objects[0].physics_spacing_m, Some(0.02));
     assert_eq!(s.objects[1].physics_spacing_m, None);
     let w = World::from_scene(&s).unwrap();
-    assert!(w.bodies[0].carry.is_some() && w.bodies[1].carry.is_none());
+    assert!(w.bodies()[0].carry().is_some() && w.bodies()[1].carry().is_none());
 }
 
 #[test]
@@ -432,8 +436,8 @@ fn becoming_rigid_keeps_the_carried_gaussians_where_they_are() {
     // the rest state (Σ0 ← F Σ0 Fᵀ, X ← x), so nothing published may jump.
     let mut w = world(sphere_scene(ball(0.08).physics_spacing_m(0.01), true, 0.15));
     finish(&mut w);
-    let strain = w.bodies[0]
-        .particles
+    let strain = w.bodies()[0]
+        .particles()
         .f
         .iter()
         .flat_map(|f| (*f - Mat3A::IDENTITY).to_cols_array())

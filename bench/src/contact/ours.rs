@@ -28,7 +28,7 @@ pub fn build(
         .with_context(|| format!("building the {name} scene"))?;
     let world = World::from_scene(&s).with_context(|| format!("building the {name} world"))?;
     let mass = world
-        .bodies
+        .bodies()
         .iter()
         .map(|b| {
             let m = b.state();
@@ -53,9 +53,9 @@ pub fn run(world: &mut World, progress: &Progress<'_>) -> Result<EngineRun> {
         let t = Instant::now();
         world
             .advance_frame()
-            .with_context(|| format!("splatphys world at t = {:.3} s", world.time_s))?;
+            .with_context(|| format!("splatphys world at t = {:.3} s", world.time_s()))?;
         wall_s += t.elapsed().as_secs_f64();
-        progress.at(world.time_s);
+        progress.at(world.time_s());
     }
     let cpu_s = cpu0.zip(process_cpu_s()).map(|(a, b)| b - a);
     let bodies = world
@@ -72,10 +72,10 @@ pub fn run(world: &mut World, progress: &Progress<'_>) -> Result<EngineRun> {
             }
         })
         .collect();
-    let st = &world.stats;
+    let st = &world.stats();
     Ok(EngineRun {
         steps: st.substeps,
-        simulated_s: world.time_s,
+        simulated_s: world.time_s(),
         dt_range_s: [st.dt_min_s, st.dt_max_s],
         wall_s,
         cpu_s,

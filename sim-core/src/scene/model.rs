@@ -92,7 +92,7 @@ pub struct SimulationSettings {
     /// Objects that stay still put to sleep (skip all work until touched). Default true.
     pub sleep: bool,
     /// Under method `com`, objects that cannot touch before the next frame step apart, each
-    /// island at its own CFL substep ([`crate::world::islands`]). Default true.
+    /// island at its own CFL substep (`world/islands.rs`). Default true.
     pub islands: bool,
     /// The captured background (Gaussians no object selects) is a static collision surface.
     /// Default true.

@@ -1,220 +1,22 @@
 //! One object of the world: its particles (one per Gaussian, fill particles included, or a
 //! voxel subset that carries the Gaussians along, [`super::carry`]), its material, its own MPM
-//! grid, its rest state for the Gaussian kinematics, and its object-level state (the paper's
-//! eq. 2: mass-weighted means).
+//! grid, its rest state for the Gaussian kinematics, and its object-level state
+//! ([`super::measure`]).
 //!
 //! A solid (rigid, static or kinematic object) is a rigid body: a pose (x, q), v, ω, mass and
 //! body-frame inertia, with its Gaussians stored in the body frame and placed only when a frame
 //! is published (μ = x + R μ_b, Σ = R Σ_b Rᵀ). It holds no live particles: they wait as a
 //! body-frame template ([`Body::template`]) that becoming deformable places by the pose.
-//!
-//! Effective radius (the paper's eq. 3 bounding sphere): the largest distance of a particle from
-//! the COM, plus half a grid cell so that spheres touch when particles share cells.
 
 use glam::{DMat3, DVec3, Mat3A, Quat, Vec3A};
 
 use super::WorldError;
+use super::measure::{BodyState, inverse_or_zero, measure};
 use crate::contact::{Collision, Geometry, LevelSet};
 use crate::material::{ConstitutiveModel, Material};
 use crate::mpm::{MpmSolver, Particles};
 use crate::procedural::Shape;
 use crate::scene::{ObjectKind, SceneObject};
-
-/// Object-level state, measured from the particles in f64 in index order.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct BodyState {
-    /// Total mass (kg).
-    pub mass_kg: f64,
-    /// Centre of mass (m).
-    pub com_m: DVec3,
-    /// COM velocity (m/s).
-    pub velocity_m_s: DVec3,
-    /// Angular momentum about the COM (kg m²/s), APIC spin term included.
-    pub angular_momentum: DVec3,
-    /// Inertia tensor about the COM (kg m²).
-    pub inertia: DMat3,
-    /// Effective radius (m): max particle distance from the COM + dx/2.
-    pub radius_m: f64,
-    /// Axis-aligned bounds (m).
-    pub aabb_m: (DVec3, DVec3),
-}
-
-impl BodyState {
-    /// Angular velocity ω = I⁻¹ L (rad/s); zero for a degenerate inertia.
-    pub fn angular_velocity(&self) -> DVec3 {
-        inverse_or_zero(self.inertia) * self.angular_momentum
-    }
-}
-
-/// I⁻¹, or zero when I is singular (a single particle, a line of particles).
-pub fn inverse_or_zero(i: DMat3) -> DMat3 {
-    let d = i.determinant();
-    let scale = i.x_axis.length() + i.y_axis.length() + i.z_axis.length();
-    if d.abs() > 1e-12 * scale.powi(3) && d.is_finite() {
-        i.inverse()
-    } else {
-        DMat3::ZERO
-    }
-}
-
-/// Mass, COM, COM velocity and bounding box of `p` in one pass (f64 sums in particle order);
-/// `None` when it has no mass.
-fn zeroth_and_first_moments(p: &Particles) -> Option<(f64, DVec3, DVec3, (DVec3, DVec3))> {
-    let mut m = 0.0f64;
-    let mut mx = DVec3::ZERO;
-    let mut mv = DVec3::ZERO;
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for i in 0..p.len() {
-        let mi = p.mass_kg[i] as f64;
-        let x = p.x[i].as_dvec3();
-        m += mi;
-        mx += x * mi;
-        mv += p.v[i].as_dvec3() * mi;
-        lo = lo.min(x);
-        hi = hi.max(x);
-    }
-    (m > 0.0).then(|| (m, mx / m, mv / m, (lo, hi)))
-}
-
-/// The part of [`measure`] the broad phase needs, at a fraction of its cost: mass, COM,
-/// velocity, radius and box. `angular_momentum` and `inertia` are left zero; call [`measure`]
-/// for a body whose contact is resolved.
-pub fn measure_bounds(p: &Particles, dx_m: f32) -> BodyState {
-    let Some((m, com, vel, (lo, hi))) = zeroth_and_first_moments(p) else {
-        return BodyState::default();
-    };
-    let c = com.as_vec3a();
-    let r2max =
-        p.x.iter()
-            .map(|x| (*x - c).length_squared())
-            .fold(0.0f32, f32::max) as f64;
-    BodyState {
-        mass_kg: m,
-        com_m: com,
-        velocity_m_s: vel,
-        angular_momentum: DVec3::ZERO,
-        inertia: DMat3::ZERO,
-        // f32 distances: widen by a relative 1e-6 so the sphere still holds every particle.
-        radius_m: r2max.sqrt() * (1.0 + 1e-6) + dx_m as f64 / 2.0,
-        aabb_m: (lo, hi),
-    }
-}
-
-/// Measures mass, COM, velocity, angular momentum and inertia of `p` (cell size `dx_m` for the
-/// APIC spin term and the radius margin).
-pub fn measure(p: &Particles, dx_m: f32) -> BodyState {
-    measure_with_fit(p, dx_m).0
-}
-
-/// The particles' rigid fit: the rigid motion (COM velocity and ω) that carries their momentum
-/// and orbital angular momentum, and the kinetic energy of their motion relative to it.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct RigidFit {
-    /// COM (m).
-    pub com_m: DVec3,
-    /// COM velocity (m/s).
-    pub velocity_m_s: DVec3,
-    /// (Σ m (|r|² 1 − r rᵀ))⁻¹ about the COM, orbital only (no APIC spin, no particle spread)
-    /// (1/(kg m²)); zero when singular.
-    pub inverse_orbital_inertia: DMat3,
-    /// ω = I⁻¹ Σ m r × v (rad/s).
-    pub omega_rad_s: DVec3,
-    /// ½ Σ m |v − v_com|² − ½ ω · Σ m r × v (J): the energy no rigid motion accounts for.
-    pub relative_energy_j: f64,
-}
-
-impl RigidFit {
-    /// The fit of the same particles (same positions, hence the same COM and inertia) after
-    /// their velocities changed: `momentum` Σ m v (kg m/s), `orbital` Σ m r × v about the COM
-    /// (kg m²/s) and `twice_energy` Σ m |v|² (J × 2), of total mass `mass_kg`.
-    pub fn with_velocities(
-        &self,
-        mass_kg: f64,
-        momentum: DVec3,
-        orbital: DVec3,
-        twice_energy: f64,
-    ) -> Self {
-        let velocity = momentum / mass_kg;
-        let omega = self.inverse_orbital_inertia * orbital;
-        Self {
-            velocity_m_s: velocity,
-            omega_rad_s: omega,
-            relative_energy_j: 0.5 * (twice_energy - mass_kg * velocity.length_squared())
-                - 0.5 * omega.dot(orbital),
-            ..*self
-        }
-    }
-}
-
-/// [`measure`] and the particles' [`RigidFit`], in the same two passes.
-pub fn measure_with_fit(p: &Particles, dx_m: f32) -> (BodyState, RigidFit) {
-    let Some((m, com, vel, (lo, hi))) = zeroth_and_first_moments(p) else {
-        return Default::default();
-    };
-    let d = (dx_m as f64).powi(2) / 4.0;
-    let mut l = DVec3::ZERO;
-    let mut spin = DVec3::ZERO;
-    let mut twice_relative = 0.0f64;
-    // Second moments Σ m r rᵀ: diagonal and (xy, xz, yz).
-    let mut diag = DVec3::ZERO;
-    let mut off = DVec3::ZERO;
-    let mut r2max = 0.0f64;
-    for i in 0..p.len() {
-        let mi = p.mass_kg[i] as f64;
-        let r = p.x[i].as_dvec3() - com;
-        let v = p.v[i].as_dvec3() - vel;
-        let c = p.c[i];
-        spin += DVec3::new(
-            (c.y_axis.z - c.z_axis.y) as f64,
-            (c.z_axis.x - c.x_axis.z) as f64,
-            (c.x_axis.y - c.y_axis.x) as f64,
-        ) * mi;
-        l += r.cross(v) * mi;
-        twice_relative += mi * v.length_squared();
-        let mr = r * mi;
-        diag += mr * r;
-        off += DVec3::new(mr.x * r.y, mr.x * r.z, mr.y * r.z);
-        r2max = r2max.max(r.length_squared());
-    }
-    let inverse_orbital_inertia = inverse_or_zero(inertia_from_second_moments(diag, off, 0.0));
-    let omega = inverse_orbital_inertia * l;
-    let fit = RigidFit {
-        com_m: com,
-        velocity_m_s: vel,
-        inverse_orbital_inertia,
-        omega_rad_s: omega,
-        relative_energy_j: 0.5 * twice_relative - 0.5 * omega.dot(l),
-    };
-    // Plus each particle's own spread m d (2 on the diagonal).
-    let inertia = inertia_from_second_moments(diag, off, 2.0 * d * m);
-    let state = BodyState {
-        mass_kg: m,
-        com_m: com,
-        velocity_m_s: vel,
-        angular_momentum: l + spin * d,
-        inertia,
-        radius_m: r2max.sqrt() + dx_m as f64 / 2.0,
-        aabb_m: (lo, hi),
-    };
-    (state, fit)
-}
-
-/// The inertia tensor Σ m (|r|² 1 − r rᵀ) + `spread` 1 (kg m²) from the second moments Σ m r rᵀ:
-/// `diag` its diagonal, `off` its (xy, xz, yz) entries.
-pub fn inertia_from_second_moments(diag: DVec3, off: DVec3, spread: f64) -> DMat3 {
-    let trace = diag.x + diag.y + diag.z + spread;
-    DMat3::from_cols(
-        DVec3::new(trace - diag.x, -off.x, -off.y),
-        DVec3::new(-off.x, trace - diag.y, -off.z),
-        DVec3::new(-off.y, -off.z, trace - diag.z),
-    )
-}
-
-/// a bᵀ.
-pub fn outer(a: DVec3, b: DVec3) -> DMat3 {
-    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
-}
 
 /// Rigid-body state of a rigid object (its particles follow x = com + R r0, F = R).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -233,61 +35,10 @@ pub struct RigidState {
     pub mass_kg: f64,
 }
 
-/// A simulated or static object.
-#[derive(Debug, Clone)]
-pub struct Body {
-    /// Name from the scene.
-    pub name: String,
-    /// Deformable, rigid, static or kinematic.
-    pub kind: ObjectKind,
-    /// Coefficient of restitution e in [0, 1].
-    pub restitution: f32,
-    /// Coulomb friction coefficient.
-    pub friction: f32,
-    /// Rolling resistance b (m): the couple against rolling is at most b times the normal force.
-    pub rolling_resistance_m: f32,
-    /// A deformable object's particles (world frame); `material` indexes `materials`. Empty for
-    /// a solid, whose particles wait in [`Self::template`].
-    pub particles: Particles,
-    /// `[N]` a solid's particles in its body frame: x the offset from the COM in the rest pose
-    /// (m), v = 0, F = I, C = 0, masses, volumes and plastic state as they were. Becoming
-    /// deformable places them by the pose (filling an object is expensive, so they are kept).
-    /// Empty for a deformable object.
-    pub template: Particles,
-    /// `[G]` a solid's Gaussian centres in its body frame: offsets from the COM in the rest pose
-    /// (m). Empty for a deformable object.
-    pub gaussian_offsets: Vec<Vec3A>,
-    /// The object's material table (one entry).
-    pub materials: Vec<Material>,
-    /// Its own MPM grid.
-    pub solver: MpmSolver,
-    /// `[G]` the object's Gaussians (world frame at t = 0): SH, opacity, scales for publishing.
-    pub gaussians: crate::gaussians::GaussianCloud,
-    /// `[G]` rest covariance Σ0 of each Gaussian (m², world frame at t = 0).
-    pub sigma0: Vec<Mat3A>,
-    /// `[N]` a deformable object's particle offsets from the COM in its rest pose (m), for its
-    /// best-fit orientation; empty for a solid (its [`Self::template`] holds them).
-    pub rest_offsets: Vec<Vec3A>,
-    /// The largest particle distance from the COM in the rest pose (m), computed with the rest
-    /// offsets.
-    rest_arm_m: f64,
-    /// `[G]` whether each Gaussian is published (false for fill particles).
-    pub visible: Vec<bool>,
-    /// How the `[G]` Gaussians follow the `[N]` particles; `None`: G = N and each Gaussian is a
-    /// particle, [`Self::gaussian_particle`] (no `physics_spacing_m`).
-    pub carry: Option<super::carry::Carry>,
-    /// `[G]` the particle that is Gaussian g when there is no carry (particles are stored in
-    /// block order, Gaussians in the scene's, [`super::block_order`]); empty with a carry.
-    pub gaussian_particle: Vec<u32>,
-    /// Rigid state (kept for every body; used when `kind` is rigid).
-    pub rigid: RigidState,
-    /// Asleep: skips all work until woken.
-    pub sleeping: bool,
-    /// Object-level state of a static or sleeping object (it does not change until woken or
-    /// edited); `None` while the object moves.
-    pub state_cache: Option<BodyState>,
-    /// Simulated time the body has been still (s).
-    pub still_s: f64,
+/// What one object did: counters of the run so far and accumulators of the current frame. Not
+/// simulation state: nothing in a step reads them back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyStats {
     /// Substeps skipped while asleep or static.
     pub substeps_skipped: u64,
     /// Substeps of its island it took part in (every substep of the world unless islands step
@@ -299,28 +50,111 @@ pub struct Body {
     /// state (method `com` only; zero for objects without MPM and under the shared-grid
     /// baselines).
     pub mpm_wall_s: f64,
-    /// Contacts with other objects in the last published frame.
-    pub contacts: u32,
-    /// Largest particle speed after the last substep (m/s).
-    pub max_speed_m_s: f32,
     /// Contact impulses received, summed over the run (N s).
     pub impulse_total_n_s: f64,
-    /// The boundary rule it imposes, as a static or rigid object, on deformable objects' grids.
-    pub surface: crate::collider::Surface,
-    /// Collision surface of a rigid or static object (`None` for a deformable one).
-    pub collision: Option<Collision>,
-    /// Cell of the collision surface when it is sampled from particles, m
-    /// ([`crate::scene::SimulationSettings::collision_cell_m`]).
-    pub collision_cell_m: f32,
-    /// The contact solver's push-out pseudo-velocities (m/s, rad/s) for this substep.
-    pub push: (DVec3, DVec3),
-    /// What moves a kinematic object (unused for other kinds).
-    pub drive: super::kinematic::Drive,
+    /// Contacts with other objects in the current frame (the last published one between frames).
+    pub contacts: u32,
     /// Contact impulses a solid object received this frame, from the contact solver, deformable
     /// objects' grids and the restitution law (N s); over the frame time, its contact force.
     pub frame_impulse_n_s: DVec3,
     /// Their moment about the object's COM (N m s); over the frame time, its contact torque.
     pub frame_angular_impulse_n_m_s: DVec3,
+}
+
+impl Default for BodyStats {
+    fn default() -> Self {
+        Self {
+            substeps_skipped: 0,
+            substeps_taken: 0,
+            dt_range_s: [f64::INFINITY, 0.0],
+            mpm_wall_s: 0.0,
+            impulse_total_n_s: 0.0,
+            contacts: 0,
+            frame_impulse_n_s: DVec3::ZERO,
+            frame_angular_impulse_n_m_s: DVec3::ZERO,
+        }
+    }
+}
+
+impl BodyStats {
+    /// Clears the accumulators of the current frame.
+    pub(crate) fn begin_frame(&mut self) {
+        self.contacts = 0;
+        self.frame_impulse_n_s = DVec3::ZERO;
+        self.frame_angular_impulse_n_m_s = DVec3::ZERO;
+    }
+}
+
+/// A simulated or static object.
+#[derive(Debug, Clone)]
+pub struct Body {
+    /// Name from the scene.
+    pub(crate) name: String,
+    /// Deformable, rigid, static or kinematic.
+    pub(crate) kind: ObjectKind,
+    /// Coefficient of restitution e in [0, 1].
+    pub(crate) restitution: f32,
+    /// Coulomb friction coefficient.
+    pub(crate) friction: f32,
+    /// Rolling resistance b (m): the couple against rolling is at most b times the normal force.
+    pub(crate) rolling_resistance_m: f32,
+    /// A deformable object's particles (world frame); `material` indexes `materials`. Empty for
+    /// a solid, whose particles wait in [`Self::template`].
+    pub(crate) particles: Particles,
+    /// `[N]` a solid's particles in its body frame: x the offset from the COM in the rest pose
+    /// (m), v = 0, F = I, C = 0, masses, volumes and plastic state as they were. Becoming
+    /// deformable places them by the pose (filling an object is expensive, so they are kept).
+    /// Empty for a deformable object.
+    pub(crate) template: Particles,
+    /// `[G]` a solid's Gaussian centres in its body frame: offsets from the COM in the rest pose
+    /// (m). Empty for a deformable object.
+    pub(crate) gaussian_offsets: Vec<Vec3A>,
+    /// The object's material table (one entry).
+    pub(crate) materials: Vec<Material>,
+    /// Its own MPM grid.
+    pub(crate) solver: MpmSolver,
+    /// `[G]` the object's Gaussians (world frame at t = 0): SH, opacity, scales for publishing.
+    pub(crate) gaussians: crate::gaussians::GaussianCloud,
+    /// `[G]` rest covariance Σ0 of each Gaussian (m², world frame at t = 0).
+    pub(crate) sigma0: Vec<Mat3A>,
+    /// `[N]` a deformable object's particle offsets from the COM in its rest pose (m), for its
+    /// best-fit orientation; empty for a solid (its [`Self::template`] holds them).
+    pub(crate) rest_offsets: Vec<Vec3A>,
+    /// The largest particle distance from the COM in the rest pose (m), computed with the rest
+    /// offsets.
+    rest_arm_m: f64,
+    /// `[G]` whether each Gaussian is published (false for fill particles).
+    pub(crate) visible: Vec<bool>,
+    /// How the `[G]` Gaussians follow the `[N]` particles; `None`: G = N and each Gaussian is a
+    /// particle, [`Self::gaussian_particle`] (no `physics_spacing_m`).
+    pub(crate) carry: Option<super::carry::Carry>,
+    /// `[G]` the particle that is Gaussian g when there is no carry (particles are stored in
+    /// block order, Gaussians in the scene's, [`super::block_order`]); empty with a carry.
+    pub(crate) gaussian_particle: Vec<u32>,
+    /// Rigid state (kept for every body; used when `kind` is rigid).
+    pub(crate) rigid: RigidState,
+    /// Asleep: skips all work until woken.
+    pub(crate) sleeping: bool,
+    /// Object-level state of a static or sleeping object (it does not change until woken or
+    /// edited); `None` while the object moves.
+    pub(crate) state_cache: Option<BodyState>,
+    /// Simulated time the body has been still (s).
+    pub(crate) still_s: f64,
+    /// Largest particle speed after the last substep (m/s).
+    pub(crate) max_speed_m_s: f32,
+    /// The boundary rule it imposes, as a static or rigid object, on deformable objects' grids.
+    pub(crate) surface: crate::collider::Surface,
+    /// Collision surface of a rigid or static object (`None` for a deformable one).
+    pub(crate) collision: Option<Collision>,
+    /// Cell of the collision surface when it is sampled from particles, m
+    /// ([`crate::scene::SimulationSettings::collision_cell_m`]).
+    pub(crate) collision_cell_m: f32,
+    /// The contact solver's push-out pseudo-velocities (m/s, rad/s) for this substep.
+    pub(crate) push: (DVec3, DVec3),
+    /// What moves a kinematic object (unused for other kinds).
+    pub(crate) drive: super::kinematic::Drive,
+    /// Counters of its run so far and of the current frame.
+    pub(crate) stats: BodyStats,
 }
 
 /// Most cells of an object's sampled surface before its cell size grows.
@@ -335,7 +169,7 @@ impl Body {
     ///
     /// # Errors
     /// [`WorldError::Material`] when the object's material is refused.
-    pub fn from_object(
+    pub(crate) fn from_object(
         object: &SceneObject,
         index: u32,
         dx_m: f32,
@@ -398,20 +232,13 @@ impl Body {
             sleeping: false,
             state_cache: None,
             still_s: 0.0,
-            substeps_skipped: 0,
-            substeps_taken: 0,
-            mpm_wall_s: 0.0,
-            dt_range_s: [f64::INFINITY, 0.0],
-            contacts: 0,
             max_speed_m_s: v0.length(),
-            impulse_total_n_s: 0.0,
+            stats: BodyStats::default(),
             surface: o.surface,
             collision: None,
             collision_cell_m,
             push: (DVec3::ZERO, DVec3::ZERO),
             drive: Default::default(),
-            frame_impulse_n_s: DVec3::ZERO,
-            frame_angular_impulse_n_m_s: DVec3::ZERO,
         };
         body.capture_rigid_pose();
         if o.kind != ObjectKind::Deformable {
@@ -431,10 +258,125 @@ impl Body {
         self.solver.dx_m
     }
 
+    /// Name from the scene.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Deformable, rigid, static or kinematic.
+    pub fn kind(&self) -> ObjectKind {
+        self.kind
+    }
+
+    /// Coefficient of restitution e in [0, 1].
+    pub fn restitution(&self) -> f32 {
+        self.restitution
+    }
+
+    /// Coulomb friction coefficient μ.
+    pub fn friction(&self) -> f32 {
+        self.friction
+    }
+
+    /// Rolling resistance b (m): the couple against rolling is at most b times the normal force.
+    pub fn rolling_resistance_m(&self) -> f32 {
+        self.rolling_resistance_m
+    }
+
+    /// The boundary rule it imposes, as a solid, on deformable objects' grids.
+    pub fn surface(&self) -> crate::collider::Surface {
+        self.surface
+    }
+
+    /// Its material.
+    pub fn material(&self) -> &Material {
+        &self.materials[0]
+    }
+
+    /// `[N]` a deformable object's particles (world frame); empty for a solid, whose particles
+    /// wait in [`Self::template`] (see [`Self::particle_positions`] for either).
+    pub fn particles(&self) -> &Particles {
+        &self.particles
+    }
+
+    /// `[N]` a deformable object's particles, to edit (positions, velocities, F, C). What is
+    /// written here is what the next substep starts from: keep it finite (NaN is refused only
+    /// at the command boundary, not here) and call nothing but tests and tools with it.
+    pub fn particles_mut(&mut self) -> &mut Particles {
+        &mut self.particles
+    }
+
+    /// `[G]` the rest covariance Σ0 of each Gaussian (m², world frame at t = 0).
+    pub fn sigma0(&self) -> &[Mat3A] {
+        &self.sigma0
+    }
+
+    /// `[G]` a solid's Gaussian centres in its body frame: offsets from the COM in the rest pose
+    /// (m); empty for a deformable object.
+    pub fn gaussian_offsets(&self) -> &[Vec3A] {
+        &self.gaussian_offsets
+    }
+
+    /// `[N]` a solid's particles in its body frame: x the offset from the COM in the rest pose
+    /// (m), v = 0, F = I, C = 0; empty for a deformable object.
+    pub fn template(&self) -> &Particles {
+        &self.template
+    }
+
+    /// `[G]` the object's Gaussians as loaded (world frame at t = 0): SH, opacity, scales.
+    pub fn gaussians(&self) -> &crate::gaussians::GaussianCloud {
+        &self.gaussians
+    }
+
+    /// `[G]` whether each Gaussian is published (false for fill particles).
+    pub fn visible(&self) -> &[bool] {
+        &self.visible
+    }
+
+    /// How the `[G]` Gaussians follow the `[N]` particles; `None`: each Gaussian is a particle,
+    /// [`Self::gaussian_particle`].
+    pub fn carry(&self) -> Option<&super::carry::Carry> {
+        self.carry.as_ref()
+    }
+
+    /// `[G]` the particle that is Gaussian g when there is no carry (particles are stored in
+    /// block order, Gaussians in the scene's); empty with a carry.
+    pub fn gaussian_particle(&self) -> &[u32] {
+        &self.gaussian_particle
+    }
+
+    /// The rigid pose and velocities (kept for every body; current for a solid).
+    pub fn rigid(&self) -> &RigidState {
+        &self.rigid
+    }
+
+    /// Asleep: it skips all work until woken.
+    pub fn is_sleeping(&self) -> bool {
+        self.sleeping
+    }
+
+    /// Largest particle speed after the last substep (m/s).
+    pub fn max_speed_m_s(&self) -> f32 {
+        self.max_speed_m_s
+    }
+
+    /// Collision surface of a solid (`None` for a deformable object).
+    pub fn collision(&self) -> Option<&Collision> {
+        self.collision.as_ref()
+    }
+
+    /// Counters of its run so far and of the current frame.
+    pub fn stats(&self) -> &BodyStats {
+        &self.stats
+    }
+
     /// Counts a substep of `dt_s` (s) it took part in.
-    pub fn count_substep(&mut self, dt_s: f64) {
-        self.substeps_taken += 1;
-        self.dt_range_s = [self.dt_range_s[0].min(dt_s), self.dt_range_s[1].max(dt_s)];
+    pub(crate) fn count_substep(&mut self, dt_s: f64) {
+        self.stats.substeps_taken += 1;
+        self.stats.dt_range_s = [
+            self.stats.dt_range_s[0].min(dt_s),
+            self.stats.dt_range_s[1].max(dt_s),
+        ];
     }
 
     /// Whether the body moves at all this substep.
@@ -453,7 +395,7 @@ impl Body {
     }
 
     /// Inverse mass (1/kg): zero for static and kinematic objects.
-    pub fn inverse_mass(&self, state: &BodyState) -> f64 {
+    pub(crate) fn inverse_mass(&self, state: &BodyState) -> f64 {
         if self.is_immovable() || state.mass_kg <= 0.0 {
             0.0
         } else {
@@ -462,7 +404,7 @@ impl Body {
     }
 
     /// Inverse inertia about the COM (1/(kg m²)): zero for static and kinematic objects.
-    pub fn inverse_inertia(&self, state: &BodyState) -> DMat3 {
+    pub(crate) fn inverse_inertia(&self, state: &BodyState) -> DMat3 {
         if self.is_immovable() {
             DMat3::ZERO
         } else {
@@ -471,7 +413,7 @@ impl Body {
     }
 
     /// Re-derives the rigid state from the particles (on creation or when the kind changes).
-    pub fn capture_rigid_pose(&mut self) {
+    pub(crate) fn capture_rigid_pose(&mut self) {
         let s = measure(&self.particles, self.solver.dx_m);
         let com = s.com_m.as_vec3a();
         self.rest_offsets = self.particles.x.iter().map(|x| *x - com).collect();
@@ -513,14 +455,14 @@ impl Body {
 
     /// Whether it is a solid whose particles wait in its template ([`Body::freeze`]).
     #[inline]
-    pub fn is_frozen(&self) -> bool {
+    pub(crate) fn is_frozen(&self) -> bool {
         !self.template.is_empty()
     }
 
     /// Makes a solid of it (call after [`Self::capture_rigid_pose`]): its Gaussians' centres go
     /// into the body frame ([`Self::gaussian_offsets`]), its particles into the
     /// [`Self::template`], and it keeps no live particles.
-    pub fn freeze(&mut self) {
+    pub(crate) fn freeze(&mut self) {
         if self.is_frozen() || self.particles.is_empty() {
             return; // frozen already, or nothing to freeze
         }
@@ -539,7 +481,7 @@ impl Body {
     /// Makes a deformable object of a solid: places its [`Self::template`] by the pose,
     /// x = com + R r0, v = v + ω × R r0, F = R, C = `[ω]×` (a rigid motion as an APIC velocity
     /// field), and drops the body-frame Gaussians (the particles carry them again).
-    pub fn thaw(&mut self) {
+    pub(crate) fn thaw(&mut self) {
         if !self.is_frozen() {
             return;
         }
@@ -609,7 +551,7 @@ impl Body {
     /// [`Self::capture_rigid_pose`] and before [`Self::freeze`]): `shape`'s exact surface turned
     /// by `rotation` about its centre, or a level set of the particles with cells of
     /// `collision_cell_m`.
-    pub fn build_collision(&mut self, shape: Option<Shape>, rotation: Quat) {
+    pub(crate) fn build_collision(&mut self, shape: Option<Shape>, rotation: Quat) {
         let dx = self.collision_cell_m;
         let geometry = match shape {
             Some(shape) if rotation == Quat::IDENTITY => Geometry::Analytic(shape),
@@ -632,12 +574,12 @@ impl Body {
     }
 
     /// Gives rigid body impulse `j` (N s) at `point` (m).
-    pub fn apply_rigid_impulse(&mut self, j: DVec3, point: DVec3) {
+    pub(crate) fn apply_rigid_impulse(&mut self, j: DVec3, point: DVec3) {
         let inv_i = inverse_or_zero(self.rigid_world_inertia());
         let rs = &mut self.rigid;
         rs.velocity_m_s += j / rs.mass_kg.max(f64::MIN_POSITIVE);
         rs.omega_rad_s += inv_i * (point - rs.com_m).cross(j);
-        self.impulse_total_n_s += j.length();
+        self.stats.impulse_total_n_s += j.length();
     }
 
     /// The fastest speed of a point of the rigid state (m/s): |v| + |ω| times [`Self::arm_m`].

@@ -18,7 +18,7 @@
 //! the volume-weighted (at one density: mass-weighted) mean of its Gaussians. So the subset has
 //! the object's mass and centre of mass, to rounding, and keeps its first moment per cube; a
 //! Gaussian picked from the cube would not. Particles are ordered by the first Gaussian of their
-//! cube (the body then stores them in block order, [`super::block_order`]), and a cube holding
+//! cube (the body then stores them in block order, `world/block_order.rs`), and a cube holding
 //! one Gaussian gives back that Gaussian's own particle bit for bit (one product and one
 //! quotient, both exact in f64), so when every Gaussian has a cube of its own the object is the
 //! one-particle-per-Gaussian object and no carry is built.
@@ -140,7 +140,7 @@ pub fn physics_particles(x: &[Vec3A], dx_m: f32, spacing_m: Option<f32>) -> Phys
 
 impl PhysicsParticles {
     /// The same particles stored in block order for a grid of cell `dx_m` (m)
-    /// ([`super::block_order`]), with the carry's neighbour lists renamed to match; and, when
+    /// (`world/block_order.rs`), with the carry's neighbour lists renamed to match; and, when
     /// there is no carry, `[G]` the particle each Gaussian became (empty with a carry).
     pub fn into_block_order(self, dx_m: f32) -> (PhysicsParticles, Vec<u32>) {
         let order = super::block_order::block_order(&self.x, dx_m);

@@ -19,7 +19,8 @@
 
 use glam::{DVec3, Mat3A, Vec3A};
 
-use super::body::{Body, BodyState, RigidFit, inverse_or_zero, measure, measure_with_fit};
+use super::body::Body;
+use super::measure::{BodyState, RigidFit, inverse_or_zero, measure, measure_with_fit};
 
 /// Share of a contact impulse given to the contact zone (the rest spreads over the object).
 pub const ZONE_SHARE: f64 = 0.5;

@@ -180,7 +180,7 @@ impl World {
                 b.rigid.velocity_m_s,
                 b.rigid.omega_rad_s,
                 1.0 / b.rigid.mass_kg.max(f64::MIN_POSITIVE),
-                body::inverse_or_zero(b.rigid_world_inertia()),
+                super::measure::inverse_or_zero(b.rigid_world_inertia()),
             );
             s.external_m_s = self.gravity_m_s2.as_dvec3() * dt_s;
             s
@@ -353,9 +353,9 @@ impl World {
             })
             .collect();
         for (a, other, _) in &raw {
-            self.bodies[*a].contacts += 1;
+            self.bodies[*a].stats.contacts += 1;
             if let Other::Object(j) = other {
-                self.bodies[*j as usize].contacts += 1;
+                self.bodies[*j as usize].stats.contacts += 1;
             }
         }
         // Write back: impulses received (normal at each point, friction at its patch's anchor),
@@ -364,7 +364,7 @@ impl World {
             let on_b = p.normal * p.normal_impulse + p.tangent_impulse;
             for (k, sign) in [(p.a, -1.0), (p.b, 1.0)] {
                 if k < n {
-                    self.bodies[k].impulse_total_n_s += on_b.length();
+                    self.bodies[k].stats.impulse_total_n_s += on_b.length();
                     self.bodies[k].record_contact(p.normal * p.normal_impulse * sign, p.point_m);
                 }
             }
@@ -374,7 +374,8 @@ impl World {
                 if k < n {
                     let b = &mut self.bodies[k];
                     b.record_contact(patch.tangent_impulse * sign, patch.anchor_m);
-                    b.frame_angular_impulse_n_m_s += patch.normal * patch.twist_impulse * sign;
+                    b.stats.frame_angular_impulse_n_m_s +=
+                        patch.normal * patch.twist_impulse * sign;
                 }
             }
         }

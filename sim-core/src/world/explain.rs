@@ -3,7 +3,7 @@
 //! sparse-grid blocks it touched, how many substeps it slept through, and its own CFL limit
 //! dt = C·dx / (c_p + |v|max) (Courant-Friedrichs-Lewy; c_p = sqrt((λ + 2μ)/ρ) of its material),
 //! so a user sees which object and material set the substep. Objects that step in separate
-//! islands ([`super::islands`]) show their own substep counts and ranges, and each object's own
+//! islands (`world/islands.rs`) show their own substep counts and ranges, and each object's own
 //! MPM wall time says where a frame's time goes.
 
 use serde::{Deserialize, Serialize};
@@ -132,20 +132,23 @@ impl World {
                         0
                     },
                     dx_m: b.solver.dx_m,
-                    substeps: b.substeps_taken,
-                    dt_range_s: if b.substeps_taken > 0 {
-                        b.dt_range_s
+                    substeps: b.stats.substeps_taken,
+                    dt_range_s: if b.stats.substeps_taken > 0 {
+                        b.stats.dt_range_s
                     } else {
                         [0.0, 0.0]
                     },
-                    substeps_computed: b.substeps_taken.saturating_sub(b.substeps_skipped),
-                    substeps_slept: b.substeps_skipped.min(b.substeps_taken),
+                    substeps_computed: b
+                        .stats
+                        .substeps_taken
+                        .saturating_sub(b.stats.substeps_skipped),
+                    substeps_slept: b.stats.substeps_skipped.min(b.stats.substeps_taken),
                     wave_speed_m_s: wave.filter(|_| deformable),
                     max_speed_m_s: b.max_speed_m_s,
                     dt_limit_s: wave
                         .filter(|_| deformable)
                         .map(|c| cfl_dt_s(cfl, b.solver.dx_m, c, b.max_speed_m_s)),
-                    mpm_wall_s: b.mpm_wall_s,
+                    mpm_wall_s: b.stats.mpm_wall_s,
                 }
             })
             .collect();

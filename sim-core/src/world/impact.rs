@@ -26,7 +26,7 @@
 use glam::DVec3;
 
 use super::World;
-use super::body::measure_bounds;
+use super::measure::measure_bounds;
 use crate::contact::mix_restitution;
 use crate::scene::ObjectKind;
 

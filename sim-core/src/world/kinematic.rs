@@ -99,8 +99,8 @@ impl Body {
 
     /// Adds a contact impulse `j_n_s` (N s) received at `point_m` (m) to this frame's sums.
     pub(super) fn record_contact(&mut self, j_n_s: DVec3, point_m: DVec3) {
-        self.frame_impulse_n_s += j_n_s;
-        self.frame_angular_impulse_n_m_s += (point_m - self.rigid.com_m).cross(j_n_s);
+        self.stats.frame_impulse_n_s += j_n_s;
+        self.stats.frame_angular_impulse_n_m_s += (point_m - self.rigid.com_m).cross(j_n_s);
     }
 }
 

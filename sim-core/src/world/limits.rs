@@ -16,9 +16,9 @@ use super::{World, WorldError};
 use crate::material::{ConstitutiveModel, Material, MaterialSpec};
 use crate::scene::ObjectKind;
 
-pub use splatphys_types::limits::{
+pub(crate) use splatphys_types::limits::{
     DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME, DENSITY_RANGE_KG_M3, MAX_COMMAND_SPEED_M_S,
-    MAX_POISSON_RATIO, MAX_POSITION_M, MAX_YOUNGS_MODULUS_PA,
+    MAX_POISSON_RATIO, MAX_YOUNGS_MODULUS_PA,
 };
 
 impl World {
@@ -43,7 +43,7 @@ impl World {
         if s.mass_kg <= 0.0 {
             return Ok(());
         }
-        let inv_i = super::body::inverse_or_zero(s.inertia);
+        let inv_i = super::measure::inverse_or_zero(s.inertia);
         let r = point_m.map_or(DVec3::ZERO, |p| p - s.com_m);
         let spin = (inv_i * r.cross(j_n_s)).length() * s.radius_m;
         let speed = s.velocity_m_s.length() + j_n_s.length() / s.mass_kg + spin;

@@ -4,18 +4,18 @@
 //! COM method, one substep (DESIGN.md "Objects and the COM layer"; docs/com-layer.md):
 //! 1. each awake deformable object runs P2G, grid update and G2P on its own grid ([`Body`]),
 //!    with grid colliders, static and rigid objects and the captured background as boundary
-//!    nodes ([`crate::contact::boundary`]; the background's surface in [`background`]);
+//!    nodes ([`crate::contact::boundary`]; the background's surface in `world/background.rs`);
 //! 2. the restitution law where a deformable object's grid contact with a solid ends
 //!    (`impact.rs`), and rolling resistance while it lasts (`rolling.rs`);
-//! 3. rigid objects' velocity half: gravity and the grids' reactions ([`rigid`]);
+//! 3. rigid objects' velocity half: gravity and the grids' reactions (`world/rigid.rs`);
 //! 4. deformable pairs: the COM-level impulse law per contact patch (`deformable_pair/`,
-//!    [`coherence`]);
+//!    `world/coherence.rs`);
 //! 5. one contact solve for rigid and static objects, colliders and the background
 //!    ([`contact`], [`crate::contact::solver`]);
-//! 6. rigid objects' position half, kinematic objects' motion ([`kinematic`]: their velocities
+//! 6. rigid objects' position half, kinematic objects' motion (`world/kinematic.rs`: their velocities
 //!    for the substep are set before its dt is chosen), then sleeping (`sleep.rs`).
 //!
-//! Objects that cannot reach each other before the frame's end step apart, each [`islands`]
+//! Objects that cannot reach each other before the frame's end step apart, each `world/islands.rs`
 //! island at its own CFL substep.
 //!
 //! [`overlap`] measures how deep objects lie inside each other, on occupied cells; [`explain`]
@@ -27,25 +27,26 @@
 //! the shared node lattice and fields meet through the multi-field contact rule
 //! ([`crate::mpm::multi_field`]). In both baselines the COM layer still resolves contacts that
 //! involve a rigid or static object. The MPM part of a substep, per method, is in `mpm_step.rs`;
-//! commands are checked against [`limits`] before they apply.
+//! commands are checked against `world/limits.rs` before they apply.
 
-pub mod background;
-pub mod block_order;
-pub mod body;
+pub(crate) mod background;
+pub(crate) mod block_order;
+pub(crate) mod body;
 pub mod carry;
-pub mod coherence;
+pub(crate) mod coherence;
 mod commands;
 pub mod contact;
 mod deformable_pair;
 pub mod explain;
 mod impact;
-pub mod islands;
-pub mod kinematic;
-pub mod limits;
+pub(crate) mod islands;
+pub(crate) mod kinematic;
+pub(crate) mod limits;
+pub mod measure;
 mod mpm_step;
 mod output;
 pub mod overlap;
-pub mod rigid;
+pub(crate) mod rigid;
 mod rolling;
 mod sleep;
 
@@ -54,7 +55,8 @@ use std::time::Instant;
 
 use glam::{Mat3A, Vec3A};
 
-pub use body::{Body, BodyState, RigidState, measure};
+pub use body::{Body, RigidState};
+pub use measure::{BodyState, measure};
 pub use sleep::{SLEEP_AFTER_S, SLEEP_SPEED_M_S};
 
 use crate::collider::{BoxShape, Collider, Plane, Shape, Surface};
@@ -161,7 +163,7 @@ pub struct WorldStats {
     pub dt_min_s: f64,
     /// Largest substep (s).
     pub dt_max_s: f64,
-    /// Objects found outside their swept box after an interval of island stepping ([`islands`]):
+    /// Objects found outside their swept box after an interval of island stepping (`world/islands.rs`):
     /// zero unless something moved faster than the plan allowed for.
     #[serde(default)]
     pub island_escapes: u64,
@@ -200,38 +202,38 @@ pub struct ObjectSummary {
 #[derive(Debug, Clone)]
 pub struct World {
     /// Scene settings.
-    pub settings: scene::SimulationSettings,
+    pub(crate) settings: scene::SimulationSettings,
     /// Objects in scene order.
-    pub bodies: Vec<Body>,
+    pub(crate) bodies: Vec<Body>,
     /// The bodies as built, for [`World::reset`] (shared: a checkpoint clone copies no more than
     /// the state that changes).
     initial: Arc<Vec<Body>>,
     /// Gaussians no object claimed (static, published).
-    pub background: Arc<GaussianCloud>,
+    pub(crate) background: Arc<GaussianCloud>,
     background_state: Arc<Vec<GaussianState>>,
     /// Grid colliders.
-    pub colliders: Vec<Collider>,
+    pub(crate) colliders: Vec<Collider>,
     /// Gravity (m/s²).
-    pub gravity_m_s2: Vec3A,
+    pub(crate) gravity_m_s2: Vec3A,
     /// Substep sizing.
-    pub policy: TimeStepPolicy,
+    pub(crate) policy: TimeStepPolicy,
     events: Vec<EventSpec>,
     next_event: usize,
     /// Simulated time (s).
-    pub time_s: f64,
+    pub(crate) time_s: f64,
     /// Frames completed.
-    pub frame: u64,
+    pub(crate) frame: u64,
     /// Scene generation (bumped on reset).
-    pub generation: u32,
+    pub(crate) generation: u32,
     shared: MpmSolver,
     /// Counters.
-    pub stats: WorldStats,
+    pub(crate) stats: WorldStats,
     /// The captured background's collision surface (`None`: it does not collide).
-    pub background_collision: Option<Arc<crate::contact::Collision>>,
+    pub(crate) background_collision: Option<Arc<crate::contact::Collision>>,
     /// What the background became.
-    pub background_report: background::BackgroundReport,
+    pub(crate) background_report: background::BackgroundReport,
     /// Coulomb friction of the captured background.
-    pub background_friction: f32,
+    pub(crate) background_friction: f32,
     contact_cache: contact::ContactCache,
     /// Resting patches of deformable pairs in the last substep, warm-started into the next
     /// (`deformable_pair/`).
@@ -239,9 +241,9 @@ pub struct World {
     /// Open deformable–solid impacts (`impact.rs`).
     impacts: std::collections::HashMap<(usize, impact::SolidOf), impact::Impact>,
     /// The contact points of the last substep.
-    pub last_contacts: Vec<contact::ContactReport>,
+    pub(crate) last_contacts: Vec<contact::ContactReport>,
     /// Most particle-substeps per frame a material edit may require ([`limits`]).
-    pub max_particle_substeps_per_frame: f64,
+    pub(crate) max_particle_substeps_per_frame: f64,
     /// While one island steps ([`islands`]): which objects are in it. `None`: every object steps.
     island: Option<Vec<bool>>,
 }
@@ -343,7 +345,7 @@ fn background_state(background: &GaussianCloud) -> Vec<GaussianState> {
 }
 
 impl World {
-    /// Builds the world from a scene: one [`Body`] per object ([`Body::from_object`]).
+    /// Builds the world from a scene: one [`Body`] per object (`Body::from_object`).
     ///
     /// # Errors
     /// [`WorldError`] for a refused material, a degenerate collider or unusable settings.
@@ -419,6 +421,71 @@ impl World {
         self.stepping(k) || self.bodies[k].kind == ObjectKind::Static
     }
 
+    /// Scene settings.
+    pub fn settings(&self) -> &scene::SimulationSettings {
+        &self.settings
+    }
+
+    /// `[objects]` the bodies in scene order; an object's id is its index.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies
+    }
+
+    /// Body `id`, to edit its particles ([`Body::particles_mut`]); `None` past the last object.
+    pub fn body_mut(&mut self, id: usize) -> Option<&mut Body> {
+        self.bodies.get_mut(id)
+    }
+
+    /// `[G]` the Gaussians no object claimed (static, published).
+    pub fn background(&self) -> &GaussianCloud {
+        &self.background
+    }
+
+    /// The grid colliders.
+    pub fn colliders(&self) -> &[Collider] {
+        &self.colliders
+    }
+
+    /// Gravity (m/s²).
+    pub fn gravity_m_s2(&self) -> Vec3A {
+        self.gravity_m_s2
+    }
+
+    /// Simulated time (s).
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// Frames completed.
+    pub fn frame(&self) -> u64 {
+        self.frame
+    }
+
+    /// Scene generation: bumped by every [`World::reset`].
+    pub fn generation(&self) -> u32 {
+        self.generation
+    }
+
+    /// Counters of the run so far.
+    pub fn stats(&self) -> &WorldStats {
+        &self.stats
+    }
+
+    /// The captured background's collision surface (`None`: it does not collide).
+    pub fn background_collision(&self) -> Option<&crate::contact::Collision> {
+        self.background_collision.as_deref()
+    }
+
+    /// What the background became.
+    pub fn background_report(&self) -> &background::BackgroundReport {
+        &self.background_report
+    }
+
+    /// The contact points of the last substep.
+    pub fn last_contacts(&self) -> &[contact::ContactReport] {
+        &self.last_contacts
+    }
+
     /// The scene's grid cell size (m): the baselines' shared grid, the contact margins, and
     /// every object's grid unless it has its own ([`Body::dx_m`]).
     pub fn dx_m(&self) -> f32 {
@@ -476,9 +543,7 @@ impl World {
         let end = (self.frame + 1) as f64 * self.frame_dt_s();
         let mut substeps = 0;
         for b in &mut self.bodies {
-            b.contacts = 0;
-            b.frame_impulse_n_s = glam::DVec3::ZERO;
-            b.frame_angular_impulse_n_m_s = glam::DVec3::ZERO;
+            b.stats.begin_frame();
         }
         // Islands are planned at the frame's start and again at every event within it when
         // there is more than one; one island steps as the whole world.
@@ -640,8 +705,8 @@ impl World {
         let stepping: Vec<bool> = (0..self.bodies.len()).map(|k| self.stepping(k)).collect();
         for (k, b) in self.bodies.iter_mut().enumerate() {
             let r = reactions.get(k).copied().unwrap_or_default();
-            b.frame_impulse_n_s += r.impulse_n_s;
-            b.frame_angular_impulse_n_m_s += r.angular_impulse_n_m_s;
+            b.stats.frame_impulse_n_s += r.impulse_n_s;
+            b.stats.frame_angular_impulse_n_m_s += r.angular_impulse_n_m_s;
             if b.kind != ObjectKind::Rigid || !stepping[k] {
                 continue;
             }

@@ -236,7 +236,7 @@ impl World {
                 continue;
             }
             if !simulated(&self.bodies[k]) {
-                self.bodies[k].substeps_skipped += 1;
+                self.bodies[k].stats.substeps_skipped += 1;
                 continue;
             }
             let started = std::time::Instant::now();
@@ -261,7 +261,7 @@ impl World {
             let b = &mut self.bodies[k];
             b.solver = solver;
             b.particles = particles;
-            b.mpm_wall_s += started.elapsed().as_secs_f64();
+            b.stats.mpm_wall_s += started.elapsed().as_secs_f64();
             step.finish(&mut self.stats, b, r)?;
         }
         Ok(GridContacts { reactions, touches })
@@ -276,7 +276,7 @@ impl World {
         let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
         for b in &mut self.bodies {
             if !simulated(b) {
-                b.substeps_skipped += 1;
+                b.stats.substeps_skipped += 1;
                 continue;
             }
             let input = step.input(&b.materials);

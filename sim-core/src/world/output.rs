@@ -82,10 +82,10 @@ impl World {
                     orientation_wxyz: [q.w, q.x, q.y, q.z],
                     angular_velocity_rad_s: w.to_array(),
                     mass_kg: s.mass_kg,
-                    contacts: b.contacts,
+                    contacts: b.stats.contacts,
                     sleeping: b.sleeping,
-                    contact_force_n: (b.frame_impulse_n_s * per_s).to_array(),
-                    contact_torque_n_m: (b.frame_angular_impulse_n_m_s * per_s).to_array(),
+                    contact_force_n: (b.stats.frame_impulse_n_s * per_s).to_array(),
+                    contact_torque_n_m: (b.stats.frame_angular_impulse_n_m_s * per_s).to_array(),
                 }
             })
             .collect()

@@ -11,7 +11,8 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
-use super::body::{Body, inverse_or_zero};
+use super::body::Body;
+use super::measure::inverse_or_zero;
 
 /// The world inertia R I0 Rᵀ of rest inertia `i0` at orientation `q`.
 fn world_inertia(q: DQuat, i0: DMat3) -> DMat3 {

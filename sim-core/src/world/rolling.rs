@@ -25,9 +25,9 @@
 use glam::DVec3;
 
 use super::World;
-use super::body::measure;
 use super::coherence;
 use super::impact::SolidOf;
+use super::measure::measure;
 use crate::contact::boundary::Reaction;
 use crate::scene::ObjectKind;
 

@@ -119,7 +119,7 @@ impl World {
                 (None, Some(s)) => (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a()),
                 (None, None) => {
                     let s = match b.kind {
-                        ObjectKind::Deformable => super::body::measure_bounds(&b.particles, dx),
+                        ObjectKind::Deformable => super::measure::measure_bounds(&b.particles, dx),
                         _ => b.state(),
                     };
                     (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a())

@@ -42,8 +42,9 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
 use super::World;
-use super::body::{Body, BodyState, RigidFit, measure_bounds, measure_with_fit};
+use super::body::Body;
 use super::coherence::{self, Kick};
+use super::measure::{BodyState, RigidFit, measure_bounds, measure_with_fit};
 use crate::contact::SolverBody;
 use crate::contact::{mix_friction, mix_restitution};
 use crate::scene::{Method, ObjectKind};
@@ -128,7 +129,7 @@ impl World {
             kept = kicks.iter().filter(|k| valid(k)).copied().collect();
             &kept
         };
-        b.impulse_total_n_s += kicks.iter().map(|k| k.impulse_n_s.length()).sum::<f64>();
+        b.stats.impulse_total_n_s += kicks.iter().map(|k| k.impulse_n_s.length()).sum::<f64>();
         coherence::apply_contact_impulses(b, kicks, measured);
     }
 
@@ -180,8 +181,8 @@ impl World {
                     continue;
                 };
                 let moving = [bi.is_moving(), bj.is_moving()];
-                self.bodies[i].contacts += 1;
-                self.bodies[j].contacts += 1;
+                self.bodies[i].stats.contacts += 1;
+                self.bodies[j].stats.contacts += 1;
                 for (k, other_moving) in [(i, moving[1]), (j, moving[0])] {
                     if self.bodies[k].sleeping && other_moving {
                         self.bodies[k].wake_on_contact();

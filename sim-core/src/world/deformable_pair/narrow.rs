@@ -4,7 +4,8 @@
 
 use glam::{DMat3, DVec3, IVec3, Vec3A};
 
-use super::super::body::{Body, BodyState, outer};
+use super::super::body::Body;
+use super::super::measure::{BodyState, outer};
 
 /// The largest distance, in cells along any axis, of a group's cells from its first cell
 /// ([`group_cells`]): a group spans at most 5 cells, so places of contact a few cells apart (a
