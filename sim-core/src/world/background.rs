@@ -8,12 +8,67 @@
 //! [`THICKEN_CELLS`] along gravity: a capture holds only the skin of the ground.
 
 use std::collections::HashSet;
+use std::sync::Arc;
 
-use glam::{IVec3, Vec3A};
+use glam::{IVec3, Mat3A, Vec3A};
 
 use super::body::{Body, MAX_SURFACE_CELLS};
+use crate::contact::geometry::Placed;
 use crate::contact::{Collision, Geometry, LevelSet};
 use crate::gaussians::GaussianCloud;
+use crate::kinematics::{GaussianState, pack_symmetric};
+
+/// Coulomb friction coefficient μ of the captured background.
+pub const BACKGROUND_FRICTION: f32 = 0.5;
+
+/// The captured background: the Gaussians no object claimed, drawn as captured, and the static
+/// surface they make.
+#[derive(Debug, Clone)]
+pub(crate) struct Background {
+    /// `[G]` the Gaussians (static, published).
+    pub(crate) cloud: Arc<GaussianCloud>,
+    /// `[G]` their published state, which never changes.
+    pub(crate) state: Arc<Vec<GaussianState>>,
+    /// The collision surface (`None`: it does not collide).
+    pub(crate) collision: Option<Arc<Collision>>,
+    /// What it became.
+    pub(crate) report: BackgroundReport,
+    /// Coulomb friction coefficient μ.
+    pub(crate) friction: f32,
+}
+
+impl Background {
+    /// The background of `cloud` around `bodies` (for the cells they occupy at t = 0); with
+    /// `collide`, its surface on cells of `dx_m` (m) from the Gaussians of opacity at least
+    /// `min_opacity`, thickened along `gravity_m_s2` ([`collision`]).
+    pub(crate) fn new(
+        cloud: &GaussianCloud,
+        bodies: &[Body],
+        collide: bool,
+        dx_m: f32,
+        min_opacity: f32,
+        gravity_m_s2: Vec3A,
+    ) -> Self {
+        let (collision, report) = if collide {
+            collision(cloud, bodies, dx_m, min_opacity, gravity_m_s2)
+        } else {
+            (None, BackgroundReport::default())
+        };
+        Self {
+            cloud: Arc::new(cloud.clone()),
+            state: Arc::new(published_state(cloud)),
+            collision: collision.map(Arc::new),
+            report,
+            friction: BACKGROUND_FRICTION,
+        }
+    }
+
+    /// Its surface where it lies, when it collides.
+    pub(crate) fn placed(&self) -> Option<Placed<'_>> {
+        let c = self.collision.as_ref()?;
+        Some(c.placed(c.rest_com_m.as_dvec3(), glam::Quat::IDENTITY))
+    }
+}
 
 /// A cell of opaque Gaussians with no other within this many cells is a floater.
 pub const FLOATER_REACH_CELLS: i32 = 2;
@@ -110,4 +165,15 @@ pub fn collision(
     let surface = LevelSet::from_points(&solid, dx_m, MAX_SURFACE_CELLS)
         .map(|ls| Collision::new(Geometry::Sampled(ls), dx_m, Vec3A::ZERO));
     (surface, report)
+}
+
+/// The published state of the background's Gaussians: where they were captured, unrotated.
+fn published_state(background: &GaussianCloud) -> Vec<GaussianState> {
+    (0..background.len())
+        .map(|i| GaussianState {
+            position_m: background.positions[i],
+            covariance_m2: pack_symmetric(Mat3A::from(background.covariance(i))),
+            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
+        })
+        .collect()
 }

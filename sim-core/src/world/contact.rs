@@ -14,10 +14,10 @@
 
 use std::collections::HashMap;
 
-use glam::{DVec3, Quat, Vec3A};
+use glam::{DVec3, Vec3A};
 
-use super::World;
-use super::body;
+use super::body::{self, Body};
+use super::{ContactMemory, Env, WorldStats};
 use crate::contact::geometry::{Placed, RawContact};
 use crate::contact::manifold;
 use crate::contact::{
@@ -152,243 +152,232 @@ pub(crate) fn broad_phase(bounds: &[Option<(Vec3A, Vec3A)>], margin: f32) -> Vec
     pairs
 }
 
-impl World {
-    /// The surface of solid object `k` where it is now; `None` for a deformable object and for
-    /// an object of another island (`islands.rs`).
-    pub(super) fn placed(&self, k: usize) -> Option<Placed<'_>> {
-        let b = &self.bodies[k];
-        if b.kind == ObjectKind::Deformable || !self.present(k) {
-            return None;
-        }
-        let c = b.collision.as_ref()?;
-        Some(c.placed(b.rigid.com_m, b.rigid.orientation))
+/// Body `b` as the solver sees it: an awake rigid object moves (with gravity `gravity_m_s2`
+/// over `dt_s` as its external velocity change), a kinematic object moves as driven with
+/// infinite mass, anything else does not.
+fn solver_body(b: &Body, gravity_m_s2: Vec3A, dt_s: f64) -> SolverBody {
+    if b.kind == ObjectKind::Rigid && !b.sleeping {
+        let mut s = SolverBody::new(
+            b.rigid.com_m,
+            b.rigid.velocity_m_s,
+            b.rigid.omega_rad_s,
+            1.0 / b.rigid.mass_kg.max(f64::MIN_POSITIVE),
+            super::measure::inverse_or_zero(b.rigid_world_inertia()),
+        );
+        s.external_m_s = gravity_m_s2.as_dvec3() * dt_s;
+        s
+    } else if b.kind == ObjectKind::Kinematic {
+        SolverBody::new(
+            b.rigid.com_m,
+            b.rigid.velocity_m_s,
+            b.rigid.omega_rad_s,
+            0.0,
+            glam::DMat3::ZERO,
+        )
+    } else {
+        let mut s = SolverBody::immovable(DVec3::ZERO);
+        s.com_m = b.rigid.com_m;
+        s
     }
+}
 
-    /// The captured background's surface, when it collides.
-    pub(super) fn placed_background(&self) -> Option<Placed<'_>> {
-        let c = self.background_collision.as_ref()?;
-        Some(c.placed(c.rest_com_m.as_dvec3(), Quat::IDENTITY))
-    }
-
-    /// Object `k` as the solver sees it: an awake rigid object moves, a kinematic object moves
-    /// as driven with infinite mass, anything else does not.
-    fn solver_body(&self, k: usize, dt_s: f64) -> SolverBody {
-        let b = &self.bodies[k];
-        if b.kind == ObjectKind::Rigid && !b.sleeping {
-            let mut s = SolverBody::new(
-                b.rigid.com_m,
-                b.rigid.velocity_m_s,
-                b.rigid.omega_rad_s,
-                1.0 / b.rigid.mass_kg.max(f64::MIN_POSITIVE),
-                super::measure::inverse_or_zero(b.rigid_world_inertia()),
-            );
-            s.external_m_s = self.gravity_m_s2.as_dvec3() * dt_s;
-            s
-        } else if b.kind == ObjectKind::Kinematic {
-            SolverBody::new(
-                b.rigid.com_m,
-                b.rigid.velocity_m_s,
-                b.rigid.omega_rad_s,
-                0.0,
-                glam::DMat3::ZERO,
-            )
-        } else {
-            let mut s = SolverBody::immovable(DVec3::ZERO);
-            s.com_m = b.rigid.com_m;
-            s
-        }
-    }
-
-    /// Steps 1-3 of the module docs for a substep of `dt_s`.
-    pub(super) fn solve_contacts(&mut self, dt_s: f64) {
-        let n = self.bodies.len();
-        let dx = self.dx_m();
-        // Speculative margin: points within a cell are contacts (the gap may close).
-        let margin = dx;
-        let mut raw: Vec<(usize, Other, RawContact)> = Vec::new();
-        let placed: Vec<Option<Placed<'_>>> = (0..n).map(|k| self.placed(k)).collect();
-        let bounds: Vec<Option<(Vec3A, Vec3A)>> =
-            placed.iter().map(|p| p.map(|p| p.bounds_m)).collect();
-        for (i, j) in broad_phase(&bounds, margin) {
-            let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-            let (Some(a), Some(b)) = (&placed[i], &placed[j]) else {
-                continue;
-            };
-            if !may_touch(bi, bj) {
-                continue;
-            }
-            let points = manifold::between(a, b, margin);
-            raw.extend(points.into_iter().map(|c| (i, Other::Object(j as u32), c)));
-        }
-        // Rigid objects against colliders and the background.
-        for (k, (b, a)) in self.bodies.iter().zip(&placed).enumerate() {
-            let Some(a) = a else { continue };
-            if b.kind != ObjectKind::Rigid || b.sleeping {
-                continue;
-            }
-            for (ci, collider) in self.colliders.iter().enumerate() {
-                let pts = manifold::against_collider(a, collider, self.time_s, margin);
-                raw.extend(pts.into_iter().map(|c| (k, Other::Collider(ci as u32), c)));
-            }
-            if let Some(bg) = self.placed_background()
-                && overlaps(a.bounds_m, bg.bounds_m, margin)
-            {
-                let pts = manifold::between(a, &bg, margin);
-                raw.extend(pts.into_iter().map(|c| (k, Other::Background, c)));
-            }
-        }
-        let poses: Vec<Option<crate::contact::Pose>> =
-            placed.iter().map(|p| p.map(|p| p.pose)).collect();
-        if raw.is_empty() {
-            self.contact_cache.pairs.clear();
-            self.last_contacts.clear();
-            return;
-        }
-        // A moving object wakes a sleeping one it touches; a still one leans on it as on an
-        // immovable support (both join one island once awake, `sleep.rs`).
-        for (a, other, _) in &raw {
-            if let Other::Object(b) = other {
-                let b = *b as usize;
-                if self.bodies[b].sleeping && self.bodies[*a].is_moving() {
-                    self.bodies[b].wake_on_contact();
-                } else if self.bodies[*a].sleeping && self.bodies[b].is_moving() {
-                    self.bodies[*a].wake_on_contact();
-                }
-            }
-        }
-        // Solver bodies: objects first, then colliders, then the background.
-        let mut bodies: Vec<SolverBody> = (0..n).map(|k| self.solver_body(k, dt_s)).collect();
-        let collider0 = bodies.len();
-        for c in &self.colliders {
-            bodies.push(SolverBody::immovable(c.velocity_at(self.time_s).as_dvec3()));
-        }
-        let background = bodies.len();
-        bodies.push(SolverBody::immovable(DVec3::ZERO));
-        let local = |a: usize, x: Vec3A| poses[a].map_or(x, |p| p.to_rest(x));
-        let mut cache = std::mem::take(&mut self.contact_cache);
-        let mut points: Vec<ContactPoint> = raw
-            .iter()
-            .map(|(a, other, c)| {
-                let ba = &self.bodies[*a];
-                let (b, friction, restitution) = match other {
-                    Other::Object(j) => {
-                        let bj = &self.bodies[*j as usize];
-                        (
-                            *j as usize,
-                            mix_friction(ba.friction, bj.friction) as f64,
-                            mix_restitution(ba.restitution, bj.restitution) as f64,
-                        )
-                    }
-                    Other::Collider(ci) => {
-                        let col = &self.colliders[*ci as usize];
-                        let mu = match col.surface {
-                            crate::collider::Surface::Sticky => crate::contact::STICKY_FRICTION,
-                            _ => mix_friction(ba.friction, col.friction) as f64,
-                        };
-                        (collider0 + *ci as usize, mu, ba.restitution as f64)
-                    }
-                    Other::Background => (
-                        background,
-                        mix_friction(ba.friction, self.background_friction) as f64,
-                        ba.restitution as f64,
-                    ),
-                };
-                let rolling_resistance_m = match other {
-                    Other::Object(j) => ba
-                        .rolling_resistance_m
-                        .max(self.bodies[*j as usize].rolling_resistance_m),
-                    Other::Collider(_) | Other::Background => ba.rolling_resistance_m,
-                } as f64;
-                let warm = cache.take(
-                    (*a as u32, *other),
-                    local(*a, c.point_m),
-                    WARM_RADIUS_CELLS * dx,
-                    dt_s,
-                );
-                let (p_n, p_t, twist) = warm.unwrap_or((0.0, DVec3::ZERO, 0.0));
-                ContactPoint {
-                    a: *a,
-                    b,
-                    point_m: c.point_m.as_dvec3(),
-                    normal: c.normal.as_dvec3(),
-                    separation_m: c.separation_m as f64,
-                    restitution,
-                    friction,
-                    normal_impulse: p_n,
-                    tangent_impulse: p_t,
-                    twist_impulse: twist,
-                    rolling_resistance_m,
-                }
-            })
-            .collect();
-        let settings = SolverSettings {
-            scheme: self.settings.contact_solver,
-            resting_speed_m_s: 2.0 * self.gravity_m_s2.length() as f64 * dt_s,
-            ..SolverSettings::default()
+/// Steps 1-3 of the module docs for a substep of `dt_s`: the solids of `bodies` against each
+/// other, the colliders and the background, warm-started from `memory`, which keeps this
+/// substep's impulses and contact points.
+pub(super) fn solve(
+    env: &Env,
+    bodies: &mut [Body],
+    memory: &mut ContactMemory,
+    stats: &mut WorldStats,
+    dt_s: f64,
+) {
+    let n = bodies.len();
+    let dx = env.settings.grid_dx_m as f32;
+    // Speculative margin: points within a cell are contacts (the gap may close).
+    let margin = dx;
+    let mut raw: Vec<(usize, Other, RawContact)> = Vec::new();
+    let placed: Vec<Option<Placed<'_>>> = (0..n).map(|k| env.placed(bodies, k)).collect();
+    let bounds: Vec<Option<(Vec3A, Vec3A)>> =
+        placed.iter().map(|p| p.map(|p| p.bounds_m)).collect();
+    for (i, j) in broad_phase(&bounds, margin) {
+        let (bi, bj) = (&bodies[i], &bodies[j]);
+        let (Some(a), Some(b)) = (&placed[i], &placed[j]) else {
+            continue;
         };
-        let patches = solver::solve(&mut bodies, &mut points, dt_s, &settings);
-        self.stats.contact_impulses +=
-            points.iter().filter(|p| p.normal_impulse > 0.0).count() as u64;
-        let mut pairs: HashMap<PairKey, (f64, Vec<(Vec3A, Warm)>)> = HashMap::new();
-        for ((a, other, c), p) in raw.iter().zip(&points) {
-            let pair = pairs
-                .entry((*a as u32, *other))
-                .or_insert((dt_s, Vec::new()));
-            pair.1.push((
+        if !may_touch(bi, bj) {
+            continue;
+        }
+        let points = manifold::between(a, b, margin);
+        raw.extend(points.into_iter().map(|c| (i, Other::Object(j as u32), c)));
+    }
+    // Rigid objects against colliders and the background.
+    for (k, (b, a)) in bodies.iter().zip(&placed).enumerate() {
+        let Some(a) = a else { continue };
+        if b.kind != ObjectKind::Rigid || b.sleeping {
+            continue;
+        }
+        for (ci, collider) in env.colliders.iter().enumerate() {
+            let pts = manifold::against_collider(a, collider, env.time_s, margin);
+            raw.extend(pts.into_iter().map(|c| (k, Other::Collider(ci as u32), c)));
+        }
+        if let Some(bg) = env.background.placed()
+            && overlaps(a.bounds_m, bg.bounds_m, margin)
+        {
+            let pts = manifold::between(a, &bg, margin);
+            raw.extend(pts.into_iter().map(|c| (k, Other::Background, c)));
+        }
+    }
+    let poses: Vec<Option<crate::contact::Pose>> =
+        placed.iter().map(|p| p.map(|p| p.pose)).collect();
+    if raw.is_empty() {
+        memory.cache.pairs.clear();
+        memory.last.clear();
+        return;
+    }
+    // A moving object wakes a sleeping one it touches; a still one leans on it as on an
+    // immovable support (both join one island once awake, `sleep.rs`).
+    for (a, other, _) in &raw {
+        if let Other::Object(b) = other {
+            let b = *b as usize;
+            if bodies[b].sleeping && bodies[*a].is_moving() {
+                bodies[b].wake_on_contact();
+            } else if bodies[*a].sleeping && bodies[b].is_moving() {
+                bodies[*a].wake_on_contact();
+            }
+        }
+    }
+    // Solver bodies: objects first, then colliders, then the background.
+    let mut solver_bodies: Vec<SolverBody> = (0..n)
+        .map(|k| solver_body(&bodies[k], env.gravity_m_s2, dt_s))
+        .collect();
+    let collider0 = solver_bodies.len();
+    for c in env.colliders {
+        solver_bodies.push(SolverBody::immovable(c.velocity_at(env.time_s).as_dvec3()));
+    }
+    let background = solver_bodies.len();
+    solver_bodies.push(SolverBody::immovable(DVec3::ZERO));
+    let local = |a: usize, x: Vec3A| poses[a].map_or(x, |p| p.to_rest(x));
+    let mut cache = std::mem::take(&mut memory.cache);
+    let mut points: Vec<ContactPoint> = raw
+        .iter()
+        .map(|(a, other, c)| {
+            let ba = &bodies[*a];
+            let (b, friction, restitution) = match other {
+                Other::Object(j) => {
+                    let bj = &bodies[*j as usize];
+                    (
+                        *j as usize,
+                        mix_friction(ba.friction, bj.friction) as f64,
+                        mix_restitution(ba.restitution, bj.restitution) as f64,
+                    )
+                }
+                Other::Collider(ci) => {
+                    let col = &env.colliders[*ci as usize];
+                    let mu = match col.surface {
+                        crate::collider::Surface::Sticky => crate::contact::STICKY_FRICTION,
+                        _ => mix_friction(ba.friction, col.friction) as f64,
+                    };
+                    (collider0 + *ci as usize, mu, ba.restitution as f64)
+                }
+                Other::Background => (
+                    background,
+                    mix_friction(ba.friction, env.background.friction) as f64,
+                    ba.restitution as f64,
+                ),
+            };
+            let rolling_resistance_m = match other {
+                Other::Object(j) => ba
+                    .rolling_resistance_m
+                    .max(bodies[*j as usize].rolling_resistance_m),
+                Other::Collider(_) | Other::Background => ba.rolling_resistance_m,
+            } as f64;
+            let warm = cache.take(
+                (*a as u32, *other),
                 local(*a, c.point_m),
-                (p.normal_impulse, p.tangent_impulse, p.twist_impulse),
-            ));
+                WARM_RADIUS_CELLS * dx,
+                dt_s,
+            );
+            let (p_n, p_t, twist) = warm.unwrap_or((0.0, DVec3::ZERO, 0.0));
+            ContactPoint {
+                a: *a,
+                b,
+                point_m: c.point_m.as_dvec3(),
+                normal: c.normal.as_dvec3(),
+                separation_m: c.separation_m as f64,
+                restitution,
+                friction,
+                normal_impulse: p_n,
+                tangent_impulse: p_t,
+                twist_impulse: twist,
+                rolling_resistance_m,
+            }
+        })
+        .collect();
+    let settings = SolverSettings {
+        scheme: env.settings.contact_solver,
+        resting_speed_m_s: 2.0 * env.gravity_m_s2.length() as f64 * dt_s,
+        ..SolverSettings::default()
+    };
+    let patches = solver::solve(&mut solver_bodies, &mut points, dt_s, &settings);
+    stats.contact_impulses += points.iter().filter(|p| p.normal_impulse > 0.0).count() as u64;
+    let mut pairs: HashMap<PairKey, (f64, Vec<(Vec3A, Warm)>)> = HashMap::new();
+    for ((a, other, c), p) in raw.iter().zip(&points) {
+        let pair = pairs
+            .entry((*a as u32, *other))
+            .or_insert((dt_s, Vec::new()));
+        pair.1.push((
+            local(*a, c.point_m),
+            (p.normal_impulse, p.tangent_impulse, p.twist_impulse),
+        ));
+    }
+    memory.cache = ContactCache { pairs };
+    memory.last = raw
+        .iter()
+        .zip(&points)
+        .map(|((a, other, _), p)| ContactReport {
+            a: *a as u32,
+            b: *other,
+            point_m: p.point_m,
+            normal: p.normal,
+            separation_m: p.separation_m,
+            normal_impulse_n_s: p.normal_impulse,
+        })
+        .collect();
+    for (a, other, _) in &raw {
+        bodies[*a].stats.contacts += 1;
+        if let Other::Object(j) = other {
+            bodies[*j as usize].stats.contacts += 1;
         }
-        self.contact_cache = ContactCache { pairs };
-        self.last_contacts = raw
-            .iter()
-            .zip(&points)
-            .map(|((a, other, _), p)| ContactReport {
-                a: *a as u32,
-                b: *other,
-                point_m: p.point_m,
-                normal: p.normal,
-                separation_m: p.separation_m,
-                normal_impulse_n_s: p.normal_impulse,
-            })
-            .collect();
-        for (a, other, _) in &raw {
-            self.bodies[*a].stats.contacts += 1;
-            if let Other::Object(j) = other {
-                self.bodies[*j as usize].stats.contacts += 1;
+    }
+    // Write back: impulses received (normal at each point, friction at its patch's anchor),
+    // then the rigid objects' new velocities and push-out.
+    for p in &points {
+        let on_b = p.normal * p.normal_impulse + p.tangent_impulse;
+        for (k, sign) in [(p.a, -1.0), (p.b, 1.0)] {
+            if k < n {
+                bodies[k].stats.impulse_total_n_s += on_b.length();
+                bodies[k].record_contact(p.normal * p.normal_impulse * sign, p.point_m);
             }
         }
-        // Write back: impulses received (normal at each point, friction at its patch's anchor),
-        // then the rigid objects' new velocities and push-out.
-        for p in &points {
-            let on_b = p.normal * p.normal_impulse + p.tangent_impulse;
-            for (k, sign) in [(p.a, -1.0), (p.b, 1.0)] {
-                if k < n {
-                    self.bodies[k].stats.impulse_total_n_s += on_b.length();
-                    self.bodies[k].record_contact(p.normal * p.normal_impulse * sign, p.point_m);
-                }
+    }
+    for patch in &patches {
+        for (k, sign) in [(patch.a, -1.0), (patch.b, 1.0)] {
+            if k < n {
+                let b = &mut bodies[k];
+                b.record_contact(patch.tangent_impulse * sign, patch.anchor_m);
+                b.stats.frame_angular_impulse_n_m_s += patch.normal * patch.twist_impulse * sign;
             }
         }
-        for patch in &patches {
-            for (k, sign) in [(patch.a, -1.0), (patch.b, 1.0)] {
-                if k < n {
-                    let b = &mut self.bodies[k];
-                    b.record_contact(patch.tangent_impulse * sign, patch.anchor_m);
-                    b.stats.frame_angular_impulse_n_m_s +=
-                        patch.normal * patch.twist_impulse * sign;
-                }
-            }
+    }
+    for (k, s) in solver_bodies.iter().enumerate().take(n) {
+        if !env.stepping(k) {
+            continue;
         }
-        for (k, s) in bodies.iter().enumerate().take(n) {
-            if !self.stepping(k) {
-                continue;
-            }
-            let b = &mut self.bodies[k];
-            if b.kind == ObjectKind::Rigid && !b.sleeping {
-                b.rigid.velocity_m_s = s.velocity_m_s;
-                b.rigid.omega_rad_s = s.omega_rad_s;
-                b.push = (s.push_m_s, s.push_rad_s);
-            }
+        let b = &mut bodies[k];
+        if b.kind == ObjectKind::Rigid && !b.sleeping {
+            b.rigid.velocity_m_s = s.velocity_m_s;
+            b.rigid.omega_rad_s = s.omega_rad_s;
+            b.push = (s.push_m_s, s.push_rad_s);
         }
     }
 }

@@ -179,7 +179,7 @@ impl World {
     }
 
     fn background_in_words(&self) -> String {
-        let r = &self.background_report;
+        let r = &self.background.report;
         if r.gaussians == 0 {
             return "no background".into();
         }
@@ -189,7 +189,7 @@ impl World {
                 r.gaussians
             );
         }
-        match &self.background_collision {
+        match &self.background.collision {
             Some(_) => format!(
                 "{} Gaussians: {} opaque (>= {}), {} floaters and {} under objects dropped, {} \
                  form a static collision surface (cells of {} m)",

@@ -23,16 +23,19 @@
 //! than [`IMPACT_SETTLES_S`], or one a command interrupts (an impulse or a velocity on the
 //! object), ends without the law.
 
+use std::collections::HashMap;
+
 use glam::DVec3;
 
-use super::World;
+use super::body::Body;
 use super::measure::measure_bounds;
+use super::{Env, World};
 use crate::contact::mix_restitution;
 use crate::scene::ObjectKind;
 
 /// A solid a deformable object touched.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub(super) enum SolidOf {
+pub(crate) enum SolidOf {
     /// A static, rigid or kinematic object.
     Object(usize),
     /// A grid collider (its e is the object's).
@@ -58,97 +61,100 @@ pub struct Impact {
 /// softest jellies last about 0.1 s.
 pub const IMPACT_SETTLES_S: f64 = 0.5;
 
-impl World {
-    fn solid_velocity(&self, solid: SolidOf) -> DVec3 {
-        match solid {
-            SolidOf::Object(k) if self.bodies[k].moves_rigidly() => {
-                self.bodies[k].rigid.velocity_m_s
-            }
-            SolidOf::Collider(c) => self.colliders[c].velocity_at(self.time_s).as_dvec3(),
-            _ => DVec3::ZERO,
-        }
+/// The velocity of `solid` (m/s): a rigid or kinematic object's COM velocity, a collider's.
+fn solid_velocity(env: &Env, bodies: &[Body], solid: SolidOf) -> DVec3 {
+    match solid {
+        SolidOf::Object(k) if bodies[k].moves_rigidly() => bodies[k].rigid.velocity_m_s,
+        SolidOf::Collider(c) => env.colliders[c].velocity_at(env.time_s).as_dvec3(),
+        _ => DVec3::ZERO,
     }
+}
 
+impl World {
     /// Forgets object `k`'s open impacts: a command moved it, so how they end is not a rebound.
     pub(super) fn forget_impacts(&mut self, k: usize) {
-        self.impacts.retain(|(object, _), _| *object != k);
+        self.contacts.impacts.retain(|(object, _), _| *object != k);
     }
+}
 
-    /// Opens and closes impacts from this substep's `touches` (deformable, solid, impulse the
-    /// grid gave the deformable in N s) and applies the law to the closed ones (module docs).
-    pub(super) fn boundary_restitution(&mut self, touches: &[(usize, SolidOf, DVec3)]) {
-        for &(k, solid, j) in touches {
-            let dx = self.bodies[k].dx_m();
-            if !j.is_finite() {
-                continue;
-            }
-            if let Some(open) = self.impacts.get_mut(&(k, solid)) {
-                open.impulse_n_s += j;
-                continue;
-            }
-            let v = measure_bounds(&self.bodies[k].particles, dx).velocity_m_s;
-            self.impacts.insert(
-                (k, solid),
-                Impact {
-                    touch_velocity_m_s: v - self.solid_velocity(solid),
-                    impulse_n_s: j,
-                    start_s: self.time_s,
-                },
-            );
+/// Opens and closes `impacts` from this substep's `touches` (deformable, solid, impulse the grid
+/// gave the deformable in N s) and applies the law to the closed ones (module docs).
+pub(super) fn boundary_restitution(
+    env: &Env,
+    bodies: &mut [Body],
+    impacts: &mut HashMap<(usize, SolidOf), Impact>,
+    touches: &[(usize, SolidOf, DVec3)],
+) {
+    for &(k, solid, j) in touches {
+        let dx = bodies[k].dx_m();
+        if !j.is_finite() {
+            continue;
         }
-        let mut ended: Vec<((usize, SolidOf), Impact)> = self
-            .impacts
-            .iter()
-            .filter(|(key, _)| {
-                self.stepping(key.0) && !touches.iter().any(|(k, s, _)| (*k, *s) == **key)
-            })
-            .map(|(key, imp)| (*key, *imp))
-            .collect();
-        ended.sort_by_key(|(key, _)| *key);
-        for ((k, solid), imp) in ended {
-            self.impacts.remove(&(k, solid));
-            let b = &self.bodies[k];
-            if b.kind != ObjectKind::Deformable || b.sleeping {
-                continue;
-            }
-            // A settled contact, or a collider whose active window closed, is not a rebound.
-            if self.time_s - imp.start_s > IMPACT_SETTLES_S {
-                continue;
-            }
-            if let SolidOf::Collider(c) = solid
-                && !self.colliders[c].is_active(self.time_s)
-            {
-                continue;
-            }
-            let Some(normal) = imp.impulse_n_s.try_normalize() else {
-                continue;
-            };
-            let touch = imp.touch_velocity_m_s.dot(normal);
-            let approach = (-touch).max(0.0);
-            let s = measure_bounds(&b.particles, b.dx_m());
-            let separation = (s.velocity_m_s - self.solid_velocity(solid)).dot(normal);
-            let e_solid = match solid {
-                SolidOf::Object(o) => self.bodies[o].restitution,
-                SolidOf::Collider(_) | SolidOf::Background => 0.0,
-            };
-            let e = mix_restitution(b.restitution, e_solid) as f64;
-            // A touch while already separating (the far side of a ringing object grazing the
-            // boundary again) keeps the speed it came with: the law caps what a contact adds.
-            let excess = separation - (e * approach).max(touch);
-            if excess <= 0.0 || !excess.is_finite() {
-                continue;
-            }
-            let dv = (normal * -excess).as_vec3a();
-            let b = &mut self.bodies[k];
-            b.particles.v.iter_mut().for_each(|v| *v += dv);
-            b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
-            if let SolidOf::Object(o) = solid {
-                let p = normal * (excess * s.mass_kg);
-                let com = self.bodies[o].rigid.com_m;
-                self.bodies[o].record_contact(p, com);
-                if self.bodies[o].kind == ObjectKind::Rigid && !self.bodies[o].sleeping {
-                    self.bodies[o].apply_rigid_impulse(p, com);
-                }
+        if let Some(open) = impacts.get_mut(&(k, solid)) {
+            open.impulse_n_s += j;
+            continue;
+        }
+        let v = measure_bounds(&bodies[k].particles, dx).velocity_m_s;
+        impacts.insert(
+            (k, solid),
+            Impact {
+                touch_velocity_m_s: v - solid_velocity(env, bodies, solid),
+                impulse_n_s: j,
+                start_s: env.time_s,
+            },
+        );
+    }
+    let mut ended: Vec<((usize, SolidOf), Impact)> = impacts
+        .iter()
+        .filter(|(key, _)| {
+            env.stepping(key.0) && !touches.iter().any(|(k, s, _)| (*k, *s) == **key)
+        })
+        .map(|(key, imp)| (*key, *imp))
+        .collect();
+    ended.sort_by_key(|(key, _)| *key);
+    for ((k, solid), imp) in ended {
+        impacts.remove(&(k, solid));
+        let b = &bodies[k];
+        if b.kind != ObjectKind::Deformable || b.sleeping {
+            continue;
+        }
+        // A settled contact, or a collider whose active window closed, is not a rebound.
+        if env.time_s - imp.start_s > IMPACT_SETTLES_S {
+            continue;
+        }
+        if let SolidOf::Collider(c) = solid
+            && !env.colliders[c].is_active(env.time_s)
+        {
+            continue;
+        }
+        let Some(normal) = imp.impulse_n_s.try_normalize() else {
+            continue;
+        };
+        let touch = imp.touch_velocity_m_s.dot(normal);
+        let approach = (-touch).max(0.0);
+        let s = measure_bounds(&b.particles, b.dx_m());
+        let separation = (s.velocity_m_s - solid_velocity(env, bodies, solid)).dot(normal);
+        let e_solid = match solid {
+            SolidOf::Object(o) => bodies[o].restitution,
+            SolidOf::Collider(_) | SolidOf::Background => 0.0,
+        };
+        let e = mix_restitution(b.restitution, e_solid) as f64;
+        // A touch while already separating (the far side of a ringing object grazing the
+        // boundary again) keeps the speed it came with: the law caps what a contact adds.
+        let excess = separation - (e * approach).max(touch);
+        if excess <= 0.0 || !excess.is_finite() {
+            continue;
+        }
+        let dv = (normal * -excess).as_vec3a();
+        let b = &mut bodies[k];
+        b.particles.v.iter_mut().for_each(|v| *v += dv);
+        b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+        if let SolidOf::Object(o) = solid {
+            let p = normal * (excess * s.mass_kg);
+            let com = bodies[o].rigid.com_m;
+            bodies[o].record_contact(p, com);
+            if bodies[o].kind == ObjectKind::Rigid && !bodies[o].sleeping {
+                bodies[o].apply_rigid_impulse(p, com);
             }
         }
     }

@@ -178,12 +178,12 @@ impl World {
             self.time_s = start_s;
             let aside = self.enter_island(island);
             let r = self.step_island(sync_s, keep_going, &mut substeps);
-            contacts.append(&mut self.last_contacts);
+            contacts.append(&mut self.contacts.last);
             self.leave_island(aside);
             r?;
         }
         self.time_s = sync_s;
-        self.last_contacts = contacts;
+        self.contacts.last = contacts;
         for (k, s) in swept.iter().enumerate() {
             let inside = s.is_none_or(|s| {
                 bounds_and_speed(&self.bodies[k]).is_none_or(|(lo, hi, _)| s.contains(lo, hi))
@@ -220,14 +220,14 @@ impl World {
             mask[k] = true;
         }
         let mine = |k: u32| mask.get(k as usize).copied().unwrap_or(false);
-        let contacts = self.contact_cache.split_off(|(a, other): PairKey| {
+        let contacts = self.contacts.cache.split_off(|(a, other): PairKey| {
             mine(a) || matches!(other, Other::Object(b) if mine(b))
         });
         let (resting, others): (Vec<RestingPatch>, Vec<RestingPatch>) =
-            std::mem::take(&mut self.resting_patches)
+            std::mem::take(&mut self.contacts.resting_patches)
                 .into_iter()
                 .partition(|p| mine(p.a as u32) || mine(p.b as u32));
-        self.resting_patches = resting;
+        self.contacts.resting_patches = resting;
         self.island = Some(mask);
         Aside {
             contacts,
@@ -238,8 +238,8 @@ impl World {
     /// Shows every object again and takes back what [`World::enter_island`] set aside.
     fn leave_island(&mut self, aside: Aside) {
         self.island = None;
-        self.contact_cache.absorb(aside.contacts);
-        self.resting_patches.extend(aside.resting);
+        self.contacts.cache.absorb(aside.contacts);
+        self.contacts.resting_patches.extend(aside.resting);
     }
 }
 

@@ -17,7 +17,7 @@
 
 use glam::{DQuat, DVec3};
 
-use super::{Body, World, WorldError};
+use super::{Body, Env, World, WorldError};
 use crate::scene::{Command, EventSpec, ObjectKind};
 use splatphys_types::limits::{MAX_COMMAND_SPEED_M_S, MAX_POSITION_M};
 
@@ -105,31 +105,6 @@ impl Body {
 }
 
 impl World {
-    /// Every kinematic object's velocity for the substep about to start (before its dt is
-    /// chosen, so their speeds enter the CFL bound).
-    pub(super) fn drive_kinematic(&mut self) {
-        let t = self.time_s;
-        for k in 0..self.bodies.len() {
-            let stepping = self.stepping(k);
-            let b = &mut self.bodies[k];
-            if b.kind == ObjectKind::Kinematic && stepping {
-                b.drive_velocity(t);
-            }
-        }
-    }
-
-    /// Moves every kinematic object over the substep of `dt_s` that started at `self.time_s`.
-    pub(super) fn kinematic_positions(&mut self, dt_s: f64) {
-        let end = self.time_s + dt_s;
-        for k in 0..self.bodies.len() {
-            let stepping = self.stepping(k);
-            let b = &mut self.bodies[k];
-            if b.kind == ObjectKind::Kinematic && stepping {
-                b.advance_kinematic(dt_s, end);
-            }
-        }
-    }
-
     fn kinematic(&self, id: usize, command: &str) -> Result<&Body, WorldError> {
         let b = self
             .bodies
@@ -206,6 +181,27 @@ impl World {
             at_s,
         };
         Ok(())
+    }
+}
+
+/// Sets every stepping kinematic object's velocity for the substep about to start (before its
+/// dt is chosen, so their speeds enter the CFL bound).
+pub(super) fn drive(env: &Env, bodies: &mut [Body]) {
+    for (k, b) in bodies.iter_mut().enumerate() {
+        if b.kind == ObjectKind::Kinematic && env.stepping(k) {
+            b.drive_velocity(env.time_s);
+        }
+    }
+}
+
+/// Moves every stepping kinematic object over the substep of `dt_s` that starts at
+/// `env.time_s`.
+pub(super) fn positions(env: &Env, bodies: &mut [Body], dt_s: f64) {
+    let end = env.time_s + dt_s;
+    for (k, b) in bodies.iter_mut().enumerate() {
+        if b.kind == ObjectKind::Kinematic && env.stepping(k) {
+            b.advance_kinematic(dt_s, end);
+        }
     }
 }
 

@@ -49,23 +49,24 @@ pub mod overlap;
 pub(crate) mod rigid;
 mod rolling;
 mod sleep;
+mod step;
 
 use std::sync::Arc;
-use std::time::Instant;
 
-use glam::{Mat3A, Vec3A};
+use glam::Vec3A;
 
-pub use body::{Body, RigidState};
+use background::Background;
+pub use background::{BACKGROUND_FRICTION, BackgroundReport};
+pub use body::{Body, BodyStats, RigidState};
 pub use measure::{BodyState, measure};
 pub use sleep::{SLEEP_AFTER_S, SLEEP_SPEED_M_S};
+use step::{ContactMemory, Env};
 
 use crate::collider::{BoxShape, Collider, Plane, Shape, Surface};
-use crate::contact::boundary;
 use crate::gaussians::GaussianCloud;
-use crate::kinematics::{GaussianState, pack_symmetric};
-use crate::material::{ConstitutiveModel, MaterialError};
+use crate::material::MaterialError;
 use crate::mpm::{MpmError, MpmSolver, TimeStepError, TimeStepPolicy};
-use crate::scene::{self, EventSpec, Method, ObjectKind, Scene};
+use crate::scene::{self, EventSpec, Scene};
 
 /// Why the world could not be built or stepped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -208,9 +209,8 @@ pub struct World {
     /// The bodies as built, for [`World::reset`] (shared: a checkpoint clone copies no more than
     /// the state that changes).
     initial: Arc<Vec<Body>>,
-    /// Gaussians no object claimed (static, published).
-    pub(crate) background: Arc<GaussianCloud>,
-    background_state: Arc<Vec<GaussianState>>,
+    /// The Gaussians no object claimed and the surface they make.
+    pub(crate) background: Background,
     /// Grid colliders.
     pub(crate) colliders: Vec<Collider>,
     /// Gravity (m/s²).
@@ -228,20 +228,8 @@ pub struct World {
     shared: MpmSolver,
     /// Counters.
     pub(crate) stats: WorldStats,
-    /// The captured background's collision surface (`None`: it does not collide).
-    pub(crate) background_collision: Option<Arc<crate::contact::Collision>>,
-    /// What the background became.
-    pub(crate) background_report: background::BackgroundReport,
-    /// Coulomb friction of the captured background.
-    pub(crate) background_friction: f32,
-    contact_cache: contact::ContactCache,
-    /// Resting patches of deformable pairs in the last substep, warm-started into the next
-    /// (`deformable_pair/`).
-    resting_patches: Vec<deformable_pair::RestingPatch>,
-    /// Open deformable–solid impacts (`impact.rs`).
-    impacts: std::collections::HashMap<(usize, impact::SolidOf), impact::Impact>,
-    /// The contact points of the last substep.
-    pub(crate) last_contacts: Vec<contact::ContactReport>,
+    /// What contact remembers from one substep to the next.
+    pub(crate) contacts: ContactMemory,
     /// Most particle-substeps per frame a material edit may require ([`limits`]).
     pub(crate) max_particle_substeps_per_frame: f64,
     /// While one island steps ([`islands`]): which objects are in it. `None`: every object steps.
@@ -249,9 +237,6 @@ pub struct World {
 }
 
 pub use splatphys_types::limits::MAX_STABLE_SPEED_M_S;
-
-/// Friction coefficient of the captured background.
-pub const BACKGROUND_FRICTION: f32 = 0.5;
 
 fn collider_from_spec(c: &scene::ColliderSpec) -> Result<Collider, WorldError> {
     let bad = |reason| WorldError::Collider {
@@ -334,16 +319,6 @@ fn grid_colliders(scene: &Scene) -> Result<Vec<Collider>, WorldError> {
 }
 
 /// The published state of the static background Gaussians: as loaded, unrotated.
-fn background_state(background: &GaussianCloud) -> Vec<GaussianState> {
-    (0..background.len())
-        .map(|i| GaussianState {
-            position_m: background.positions[i],
-            covariance_m2: pack_symmetric(Mat3A::from(background.covariance(i))),
-            rotation_wxyz: [1.0, 0.0, 0.0, 0.0],
-        })
-        .collect()
-}
-
 impl World {
     /// Builds the world from a scene: one [`Body`] per object (`Body::from_object`).
     ///
@@ -363,25 +338,20 @@ impl World {
                 Body::from_object(o, k as u32, dx_k, s.collision_cell_m() as f32)
             })
             .collect::<Result<Vec<_>, _>>()?;
-        let background_state = background_state(&scene.background);
         let events = kinematic::keyframes(scene.events.clone(), s.frame_rate_hz);
-        let (background_collision, background_report) = if s.background_collision {
-            background::collision(
-                &scene.background,
-                &bodies,
-                s.collision_cell_m() as f32,
-                s.background_min_opacity,
-                Vec3A::from(s.gravity_m_s2),
-            )
-        } else {
-            (None, background::BackgroundReport::default())
-        };
+        let background = Background::new(
+            &scene.background,
+            &bodies,
+            s.background_collision,
+            s.collision_cell_m() as f32,
+            s.background_min_opacity,
+            Vec3A::from(s.gravity_m_s2),
+        );
         Ok(Self {
             settings: s.clone(),
             initial: Arc::new(bodies.clone()),
             bodies,
-            background: Arc::new(scene.background.clone()),
-            background_state: Arc::new(background_state),
+            background,
             colliders,
             gravity_m_s2: Vec3A::from(s.gravity_m_s2),
             policy,
@@ -395,30 +365,10 @@ impl World {
                 dt_min_s: f64::INFINITY,
                 ..Default::default()
             },
-            background_collision: background_collision.map(Arc::new),
-            background_report,
-            background_friction: BACKGROUND_FRICTION,
-            contact_cache: Default::default(),
+            contacts: ContactMemory::default(),
             max_particle_substeps_per_frame: limits::DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME,
-            impacts: Default::default(),
-            resting_patches: Vec::new(),
-            last_contacts: Vec::new(),
             island: None,
         })
-    }
-
-    /// Whether object `k` takes part in the substep being taken: every object does, except
-    /// while another island steps ([`islands`]).
-    fn stepping(&self, k: usize) -> bool {
-        self.island
-            .as_ref()
-            .is_none_or(|m| m.get(k).copied().unwrap_or(true))
-    }
-
-    /// Whether object `k` is seen by the substep being taken: it steps, or it is static (every
-    /// island sees static objects).
-    fn present(&self, k: usize) -> bool {
-        self.stepping(k) || self.bodies[k].kind == ObjectKind::Static
     }
 
     /// Scene settings.
@@ -438,7 +388,7 @@ impl World {
 
     /// `[G]` the Gaussians no object claimed (static, published).
     pub fn background(&self) -> &GaussianCloud {
-        &self.background
+        &self.background.cloud
     }
 
     /// The grid colliders.
@@ -473,17 +423,17 @@ impl World {
 
     /// The captured background's collision surface (`None`: it does not collide).
     pub fn background_collision(&self) -> Option<&crate::contact::Collision> {
-        self.background_collision.as_deref()
+        self.background.collision.as_deref()
     }
 
     /// What the background became.
-    pub fn background_report(&self) -> &background::BackgroundReport {
-        &self.background_report
+    pub fn background_report(&self) -> &BackgroundReport {
+        &self.background.report
     }
 
     /// The contact points of the last substep.
     pub fn last_contacts(&self) -> &[contact::ContactReport] {
-        &self.last_contacts
+        &self.contacts.last
     }
 
     /// The scene's grid cell size (m): the baselines' shared grid, the contact margins, and
@@ -621,120 +571,6 @@ impl World {
         Ok(())
     }
 
-    /// One substep of at most `max_dt_s` with the scene's method.
-    ///
-    /// # Errors
-    /// [`WorldError::TimeStep`] or [`WorldError::Solver`].
-    pub fn substep(&mut self, max_dt_s: f64) -> Result<f64, WorldError> {
-        self.drive_kinematic();
-        // The CFL bound of the stepping objects: the smallest C dx / (c_p + |v|max) of any of
-        // them, with |v|max over all of them and the active colliders (c_p includes the speed
-        // that stands for a damped material's viscous limit).
-        let mut vmax = 0.0f32;
-        for (k, b) in self.bodies.iter().enumerate() {
-            if b.is_active() && self.stepping(k) {
-                vmax = vmax.max(b.max_speed_m_s);
-            }
-        }
-        for c in self.colliders.iter().filter(|c| c.is_active(self.time_s)) {
-            vmax = vmax.max(c.velocity_m_s.length());
-        }
-        let (mut dx, mut wave) = (self.dx_m(), 0.0f32);
-        for (k, b) in self.bodies.iter().enumerate() {
-            if b.is_active() && self.stepping(k) && b.kind == ObjectKind::Deformable {
-                let m = &b.materials[0];
-                let (dx_b, c_b) = (
-                    b.solver.dx_m,
-                    m.wave_speed_for_m_s(&b.particles.plastic)
-                        + m.elastic().damping_speed_m_s(b.solver.dx_m),
-                );
-                if dx_b / (c_b + vmax) < dx / (wave + vmax) {
-                    (dx, wave) = (dx_b, c_b);
-                }
-            }
-        }
-        let dt = self
-            .policy
-            .next_dt_s(dx, wave, vmax, max_dt_s)
-            .map_err(|source| WorldError::TimeStep {
-                frame: self.frame,
-                time_s: self.time_s,
-                source,
-            })?;
-        let t0 = Instant::now();
-        if self.settings.method == Method::Com {
-            self.warm_start_deformable_pairs(dt as f64);
-        }
-        let mpm_step::GridContacts {
-            mut reactions,
-            touches,
-        } = match self.settings.method {
-            Method::Mpm => self.mpm_shared_substep(dt)?,
-            Method::MultiField => self.multi_field_substep(dt)?,
-            Method::Com => self.mpm_per_object_substep(dt)?,
-        };
-        let t1 = Instant::now();
-        self.boundary_restitution(&touches);
-        self.rolling_resistance(&touches, &mut reactions);
-        self.rigid_velocities(dt as f64, &reactions);
-        self.resolve_deformable_pairs(dt as f64);
-        self.solve_contacts(dt as f64);
-        self.rigid_positions(dt as f64);
-        self.kinematic_positions(dt as f64);
-        self.update_sleep(dt as f64);
-        let t2 = Instant::now();
-        self.stats.mpm_wall_s += (t1 - t0).as_secs_f64();
-        self.stats.com_layer_wall_s += (t2 - t1).as_secs_f64();
-        self.stats.substeps += 1;
-        self.stats.dt_min_s = self.stats.dt_min_s.min(dt as f64);
-        self.stats.dt_max_s = self.stats.dt_max_s.max(dt as f64);
-        for k in 0..self.bodies.len() {
-            if self.stepping(k) {
-                self.bodies[k].count_substep(dt as f64);
-            }
-        }
-        self.time_s += dt as f64;
-        Ok(dt as f64)
-    }
-
-    /// Velocity half of the rigid step: gravity and the reactions of deformable objects' grids
-    /// (`reactions[k]`: the impulse and angular impulse object k received this substep; every
-    /// solid adds its reaction to its frame's contact impulses).
-    fn rigid_velocities(&mut self, dt: f64, reactions: &[boundary::Reaction]) {
-        let g = self.gravity_m_s2.as_dvec3();
-        let stepping: Vec<bool> = (0..self.bodies.len()).map(|k| self.stepping(k)).collect();
-        for (k, b) in self.bodies.iter_mut().enumerate() {
-            let r = reactions.get(k).copied().unwrap_or_default();
-            b.stats.frame_impulse_n_s += r.impulse_n_s;
-            b.stats.frame_angular_impulse_n_m_s += r.angular_impulse_n_m_s;
-            if b.kind != ObjectKind::Rigid || !stepping[k] {
-                continue;
-            }
-            if b.sleeping {
-                // A moving deformable object pushing on it wakes it.
-                if r.nodes == 0 || r.impulse_n_s.length() < b.rigid.mass_kg * g.length() * dt {
-                    continue;
-                }
-                b.sleeping = false;
-                b.still_s = 0.0;
-            }
-            rigid::integrate_velocity(b, g, dt, r.impulse_n_s, r.angular_impulse_n_m_s);
-            b.push = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-        }
-    }
-
-    /// Position half of the rigid step, with the contact solver's push-out.
-    fn rigid_positions(&mut self, dt: f64) {
-        for k in 0..self.bodies.len() {
-            let stepping = self.stepping(k);
-            let b = &mut self.bodies[k];
-            if b.kind == ObjectKind::Rigid && !b.sleeping && stepping {
-                let (pv, pw) = b.push;
-                rigid::integrate_position(b, dt, pv, pw);
-            }
-        }
-    }
-
     /// Back to the initial state; bumps the scene generation.
     pub fn reset(&mut self) {
         self.bodies.clone_from(&self.initial);
@@ -742,10 +578,7 @@ impl World {
         self.frame = 0;
         self.next_event = 0;
         self.generation += 1;
-        self.contact_cache = Default::default();
-        self.last_contacts.clear();
-        self.impacts.clear();
-        self.resting_patches.clear();
+        self.contacts = ContactMemory::default();
         self.island = None;
     }
 }

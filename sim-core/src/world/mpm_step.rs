@@ -196,14 +196,14 @@ impl World {
             });
             of.push(ObstacleOf::Object(k));
         }
-        if let Some(placed) = self.placed_background()
+        if let Some(placed) = self.background.placed()
             && near(placed.bounds_m)
         {
             out.push(Obstacle {
                 placed,
                 velocity_m_s: Vec3A::ZERO,
                 omega_rad_s: Vec3A::ZERO,
-                friction: mix_friction(friction, self.background_friction),
+                friction: mix_friction(friction, self.background.friction),
                 surface: crate::collider::Surface::Separate,
             });
             of.push(ObstacleOf::Background);

@@ -18,7 +18,7 @@ impl World {
             .iter()
             .map(|b| b.visible.iter().filter(|v| **v).count())
             .sum::<usize>()
-            + self.background.len()
+            + self.background.cloud.len()
     }
 
     /// Calls `f(object id or None for background, cloud, index)` for every published Gaussian in
@@ -29,8 +29,8 @@ impl World {
                 f(Some(k as u32), &b.gaussians, i);
             }
         }
-        for i in 0..self.background.len() {
-            f(None, &self.background, i);
+        for i in 0..self.background.cloud.len() {
+            f(None, &self.background.cloud, i);
         }
     }
 
@@ -57,8 +57,8 @@ impl World {
                 *o = gaussian_state(x, f, b.sigma0[i]);
             });
         }
-        let n = self.background_state.len().min(rest.len());
-        rest[..n].copy_from_slice(&self.background_state[..n]);
+        let n = self.background.state.len().min(rest.len());
+        rest[..n].copy_from_slice(&self.background.state[..n]);
     }
 
     /// Per-object summaries (COM, velocity, orientation, spin, mass, contacts).

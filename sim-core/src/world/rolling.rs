@@ -24,93 +24,93 @@
 
 use glam::DVec3;
 
-use super::World;
+use super::Env;
+use super::body::Body;
 use super::coherence;
 use super::impact::SolidOf;
 use super::measure::measure;
 use crate::contact::boundary::Reaction;
 use crate::scene::ObjectKind;
 
-impl World {
-    /// The solid's rolling resistance (m) and angular velocity (rad/s).
-    fn solid_rolling(&self, solid: SolidOf) -> (f32, DVec3) {
-        match solid {
-            SolidOf::Object(o) => {
-                let b = &self.bodies[o];
-                let omega = if b.moves_rigidly() {
-                    b.rigid.omega_rad_s
-                } else {
-                    DVec3::ZERO
-                };
-                (b.rolling_resistance_m, omega)
-            }
-            SolidOf::Collider(_) | SolidOf::Background => (0.0, DVec3::ZERO),
-        }
-    }
-
-    /// Applies rolling resistance for this substep's `touches` (deformable, solid, normal
-    /// impulse the grid gave the deformable in N s; module docs); the couple a solid object
-    /// receives is added to its entry of `reactions`.
-    pub(super) fn rolling_resistance(
-        &mut self,
-        touches: &[(usize, SolidOf, DVec3)],
-        reactions: &mut [Reaction],
-    ) {
-        // The substep functions list each object's touches together, in object order.
-        for own in touches.chunk_by(|x, y| x.0 == y.0) {
-            let k = own[0].0;
-            let b = &self.bodies[k];
-            if b.kind != ObjectKind::Deformable || b.sleeping || !self.stepping(k) {
-                continue;
-            }
-            // The pair's lever arm b for each touch (0: no rolling resistance there).
-            let arm = |&(_, solid, j): &(usize, SolidOf, DVec3)| {
-                let b_solid = self.solid_rolling(solid).0;
-                let arm = f64::from(b.rolling_resistance_m.max(b_solid));
-                if j.is_finite() && j != DVec3::ZERO {
-                    arm
-                } else {
-                    0.0
-                }
+/// The solid's rolling resistance (m) and angular velocity (rad/s).
+fn solid_rolling(bodies: &[Body], solid: SolidOf) -> (f32, DVec3) {
+    match solid {
+        SolidOf::Object(o) => {
+            let b = &bodies[o];
+            let omega = if b.moves_rigidly() {
+                b.rigid.omega_rad_s
+            } else {
+                DVec3::ZERO
             };
-            if !own.iter().any(|t| arm(t) > 0.0) {
+            (b.rolling_resistance_m, omega)
+        }
+        SolidOf::Collider(_) | SolidOf::Background => (0.0, DVec3::ZERO),
+    }
+}
+
+/// Applies rolling resistance for this substep's `touches` (deformable, solid, normal impulse
+/// the grid gave the deformable in N s; module docs); the couple a solid object receives is
+/// added to its entry of `reactions`.
+pub(super) fn rolling_resistance(
+    env: &Env,
+    bodies: &mut [Body],
+    touches: &[(usize, SolidOf, DVec3)],
+    reactions: &mut [Reaction],
+) {
+    // The substep functions list each object's touches together, in object order.
+    for own in touches.chunk_by(|x, y| x.0 == y.0) {
+        let k = own[0].0;
+        let b = &bodies[k];
+        if b.kind != ObjectKind::Deformable || b.sleeping || !env.stepping(k) {
+            continue;
+        }
+        // The pair's lever arm b for each touch (0: no rolling resistance there).
+        let arm = |&(_, solid, j): &(usize, SolidOf, DVec3)| {
+            let b_solid = solid_rolling(bodies, solid).0;
+            let arm = f64::from(b.rolling_resistance_m.max(b_solid));
+            if j.is_finite() && j != DVec3::ZERO {
+                arm
+            } else {
+                0.0
+            }
+        };
+        if !own.iter().any(|t| arm(t) > 0.0) {
+            continue;
+        }
+        let s = measure(&b.particles, b.dx_m());
+        if s.mass_kg <= 0.0 {
+            continue;
+        }
+        let mut omega = s.angular_velocity();
+        let mut total = DVec3::ZERO;
+        for touch @ &(_, solid, j) in own {
+            let arm = arm(touch);
+            if arm <= 0.0 {
                 continue;
             }
-            let s = measure(&b.particles, b.dx_m());
-            if s.mass_kg <= 0.0 {
+            let omega_solid = solid_rolling(bodies, solid).1;
+            let n = j.normalize();
+            let relative = omega - omega_solid;
+            let rolling = relative - n * relative.dot(n);
+            let wanted = s.inertia * rolling;
+            if !(wanted.length() > 0.0 && wanted.is_finite()) {
                 continue;
             }
-            let mut omega = s.angular_velocity();
-            let mut total = DVec3::ZERO;
-            for touch @ &(_, solid, j) in own {
-                let arm = arm(touch);
-                if arm <= 0.0 {
-                    continue;
-                }
-                let omega_solid = self.solid_rolling(solid).1;
-                let n = j.normalize();
-                let relative = omega - omega_solid;
-                let rolling = relative - n * relative.dot(n);
-                let wanted = s.inertia * rolling;
-                if !(wanted.length() > 0.0 && wanted.is_finite()) {
-                    continue;
-                }
-                let share = (arm * j.length() / wanted.length()).min(1.0);
-                let dw = -rolling * share;
-                // Kinetic energy change of the rotation, ω·IΔω + ½ ΔωᵀIΔω: never positive.
-                if omega.dot(s.inertia * dw) + 0.5 * dw.dot(s.inertia * dw) > 0.0 {
-                    continue;
-                }
-                omega += dw;
-                total += dw;
-                // A rigid solid turns with it; any solid publishes it in its contact torque.
-                if let SolidOf::Object(o) = solid {
-                    reactions[o].angular_impulse_n_m_s -= s.inertia * dw;
-                }
+            let share = (arm * j.length() / wanted.length()).min(1.0);
+            let dw = -rolling * share;
+            // Kinetic energy change of the rotation, ω·IΔω + ½ ΔωᵀIΔω: never positive.
+            if omega.dot(s.inertia * dw) + 0.5 * dw.dot(s.inertia * dw) > 0.0 {
+                continue;
             }
-            if total != DVec3::ZERO {
-                coherence::spin(&mut self.bodies[k], total, s.com_m);
+            omega += dw;
+            total += dw;
+            // A rigid solid turns with it; any solid publishes it in its contact torque.
+            if let SolidOf::Object(o) = solid {
+                reactions[o].angular_impulse_n_m_s -= s.inertia * dw;
             }
+        }
+        if total != DVec3::ZERO {
+            coherence::spin(&mut bodies[k], total, s.com_m);
         }
     }
 }

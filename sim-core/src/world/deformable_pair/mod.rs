@@ -58,7 +58,7 @@ const ITERATIONS: usize = 8;
 /// A resting patch's impulse over one substep, applied again at the start of the next (warm
 /// starting; module docs).
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct RestingPatch {
+pub(crate) struct RestingPatch {
     /// Body index of A.
     pub a: usize,
     /// Body index of B (> a).
@@ -90,7 +90,7 @@ impl World {
     /// Applies the resting patches' impulses of the last substep, scaled to `dt` (s), before
     /// this substep's MPM step (module docs), all of a body's at once. Only for method `com`.
     pub(super) fn warm_start_deformable_pairs(&mut self, dt: f64) {
-        let pairs = std::mem::take(&mut self.resting_patches);
+        let pairs = std::mem::take(&mut self.contacts.resting_patches);
         let mut by_body: BTreeMap<usize, Vec<Kick<'_>>> = BTreeMap::new();
         for p in &pairs {
             let c = p.impulse.scaled(dt / p.dt_s);
@@ -101,7 +101,7 @@ impl World {
         for (k, kicks) in &by_body {
             self.kick_deformable(*k, kicks, None);
         }
-        self.resting_patches = pairs;
+        self.contacts.resting_patches = pairs;
     }
 
     /// Applies `kicks` to deformable body `k` when it is awake. A kick whose zone names
@@ -153,7 +153,7 @@ impl World {
             .par_iter()
             .map(|&k| measure_bounds(&self.bodies[k].particles, self.bodies[k].dx_m()))
             .collect();
-        let warm = std::mem::take(&mut self.resting_patches);
+        let warm = std::mem::take(&mut self.contacts.resting_patches);
         // Each object's state and rigid fit, as its particles are now (None once an impulse
         // changed them).
         let mut full: Vec<Option<(BodyState, RigidFit)>> = vec![None; ids.len()];
@@ -215,7 +215,7 @@ impl World {
                     .zip(solved.totals.into_iter().zip(solved.resting))
                 {
                     if rests && total.linear_n_s.dot(p.normal) > 0.0 && !both_asleep {
-                        self.resting_patches.push(RestingPatch {
+                        self.contacts.resting_patches.push(RestingPatch {
                             a: i,
                             b: j,
                             impulse: total,
