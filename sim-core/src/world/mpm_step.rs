@@ -7,7 +7,7 @@
 
 use glam::{DVec3, Vec3A};
 
-use super::{Body, World, WorldError, WorldStats};
+use super::{Body, Env, WorldError, WorldStats};
 use crate::collider::Collider;
 use crate::contact::boundary::{self, Obstacle, Reaction};
 use crate::contact::mix_friction;
@@ -155,231 +155,244 @@ pub(super) struct GridContacts {
     pub(super) touches: Vec<(usize, ObstacleOf, DVec3)>,
 }
 
-impl World {
-    /// The solids near `bounds` (m) as boundaries for a deformable of friction `friction` on a
-    /// grid of cell `dx_m` (m).
-    fn obstacles(
-        &self,
-        bounds: (Vec3A, Vec3A),
-        friction: f32,
-        dx_m: f32,
-    ) -> (Vec<Obstacle<'_>>, Vec<ObstacleOf>) {
-        let margin = 2.0 * self.dx_m().max(dx_m);
-        let near = |b: (Vec3A, Vec3A)| {
-            (bounds.0 - margin).cmple(b.1).all() && (b.0 - margin).cmple(bounds.1).all()
+/// The solids of `bodies` and the background near `bounds` (m) as boundaries for a deformable
+/// of friction `friction` on a grid of cell `dx_m` (m).
+fn obstacles<'a>(
+    env: &Env<'a>,
+    bodies: &'a [Body],
+    bounds: (Vec3A, Vec3A),
+    friction: f32,
+    dx_m: f32,
+) -> (Vec<Obstacle<'a>>, Vec<ObstacleOf>) {
+    let margin = 2.0 * env.dx_m().max(dx_m);
+    let near = |b: (Vec3A, Vec3A)| {
+        (bounds.0 - margin).cmple(b.1).all() && (b.0 - margin).cmple(bounds.1).all()
+    };
+    let mut out = Vec::new();
+    let mut of = Vec::new();
+    for (k, b) in bodies.iter().enumerate() {
+        // `None` for objects of another island, too.
+        let Some(placed) = env.placed(bodies, k) else {
+            continue;
         };
-        let mut out = Vec::new();
-        let mut of = Vec::new();
-        for (k, b) in self.bodies.iter().enumerate() {
-            // `None` for objects of another island, too.
-            let Some(placed) = self.placed(k) else {
-                continue;
-            };
-            if !near(placed.bounds_m) {
-                continue;
-            }
-            let moving = b.moves_rigidly();
-            out.push(Obstacle {
-                placed,
-                velocity_m_s: if moving {
-                    b.rigid.velocity_m_s.as_vec3a()
-                } else {
-                    Vec3A::ZERO
-                },
-                omega_rad_s: if moving {
-                    b.rigid.omega_rad_s.as_vec3a()
-                } else {
-                    Vec3A::ZERO
-                },
-                friction: mix_friction(friction, b.friction),
-                surface: b.surface,
-            });
-            of.push(ObstacleOf::Object(k));
+        if !near(placed.bounds_m) {
+            continue;
         }
-        if let Some(placed) = self.background.placed()
-            && near(placed.bounds_m)
-        {
-            out.push(Obstacle {
-                placed,
-                velocity_m_s: Vec3A::ZERO,
-                omega_rad_s: Vec3A::ZERO,
-                friction: mix_friction(friction, self.background.friction),
-                surface: crate::collider::Surface::Separate,
-            });
-            of.push(ObstacleOf::Background);
-        }
-        (out, of)
+        let moving = b.moves_rigidly();
+        out.push(Obstacle {
+            placed,
+            velocity_m_s: if moving {
+                b.rigid.velocity_m_s.as_vec3a()
+            } else {
+                Vec3A::ZERO
+            },
+            omega_rad_s: if moving {
+                b.rigid.omega_rad_s.as_vec3a()
+            } else {
+                Vec3A::ZERO
+            },
+            friction: mix_friction(friction, b.friction),
+            surface: b.surface,
+        });
+        of.push(ObstacleOf::Object(k));
     }
-
-    /// The solids near `particles` as boundaries for a deformable of friction `friction` on a
-    /// grid of cell `dx_m` (m), with which solid each is; none for no particles. Found once per
-    /// substep: the obstacles' margin (two cells) covers how far G2P then moves the particles.
-    fn obstacles_near(
-        &self,
-        particles: &Particles,
-        friction: f32,
-        dx_m: f32,
-    ) -> (Vec<Obstacle<'_>>, Vec<ObstacleOf>) {
-        if particles.is_empty() {
-            return (Vec::new(), Vec::new());
-        }
-        self.obstacles(bounds(particles), friction, dx_m)
+    if let Some(placed) = env.background.placed()
+        && near(placed.bounds_m)
+    {
+        out.push(Obstacle {
+            placed,
+            velocity_m_s: Vec3A::ZERO,
+            omega_rad_s: Vec3A::ZERO,
+            friction: mix_friction(friction, env.background.friction),
+            surface: crate::collider::Surface::Separate,
+        });
+        of.push(ObstacleOf::Background);
     }
+    (out, of)
+}
 
-    /// Method `com`: every awake deformable object runs a whole substep on its own grid, with
-    /// the solids as boundaries.
-    pub(super) fn mpm_per_object_substep(&mut self, dt_s: f32) -> Result<GridContacts, WorldError> {
-        let mut reactions = vec![Reaction::default(); self.bodies.len()];
-        let mut touches = Vec::new();
-        for k in 0..self.bodies.len() {
-            if !self.stepping(k) {
-                continue;
-            }
-            if !simulated(&self.bodies[k]) {
-                self.bodies[k].stats.substeps_skipped += 1;
-                continue;
-            }
-            let started = std::time::Instant::now();
-            let b = &mut self.bodies[k];
-            let dx = b.solver.dx_m;
-            let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx));
-            let mut particles = std::mem::take(&mut b.particles);
-            let friction = b.friction;
-            let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
-            let materials = &self.bodies[k].materials;
-            let solids = self.obstacles_near(&particles, friction, dx);
-            let r = solver.scatter_and_update(&particles, &step.input(materials));
-            if r.is_ok() {
-                touches.extend(collider_touches(k, &solver));
-                let t = apply_obstacles(&mut solver, &solids, &mut reactions);
-                touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
-            }
-            let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
-            if r.is_ok() {
-                project_out_of_solids(&mut particles, &solids, &mut reactions);
-            }
-            let b = &mut self.bodies[k];
-            b.solver = solver;
-            b.particles = particles;
-            b.stats.mpm_wall_s += started.elapsed().as_secs_f64();
-            step.finish(&mut self.stats, b, r)?;
-        }
-        Ok(GridContacts { reactions, touches })
+/// The solids near `particles` as boundaries for a deformable of friction `friction` on a grid
+/// of cell `dx_m` (m), with which solid each is; none for no particles. Found once per substep:
+/// the obstacles' margin (two cells) covers how far G2P then moves the particles.
+fn obstacles_near<'a>(
+    env: &Env<'a>,
+    bodies: &'a [Body],
+    particles: &Particles,
+    friction: f32,
+    dx_m: f32,
+) -> (Vec<Obstacle<'a>>, Vec<ObstacleOf>) {
+    if particles.is_empty() {
+        return (Vec::new(), Vec::new());
     }
+    obstacles(env, bodies, bounds(particles), friction, dx_m)
+}
 
-    /// Method `multi-field`: per-object P2G and grid update, multi-field contact at shared
-    /// nodes, the solids as boundaries, per-object G2P.
-    pub(super) fn multi_field_substep(&mut self, dt_s: f32) -> Result<GridContacts, WorldError> {
-        let dx_m = self.dx_m();
-        let mut reactions = vec![Reaction::default(); self.bodies.len()];
-        let mut touches = Vec::new();
-        let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
-        for b in &mut self.bodies {
-            if !simulated(b) {
-                b.stats.substeps_skipped += 1;
-                continue;
-            }
-            let input = step.input(&b.materials);
-            if let Err(e) = b.solver.scatter_and_update(&b.particles, &input) {
-                return Err(step.error(&self.stats, &b.name, e));
-            }
+/// Method `com`: every awake deformable object of `bodies` runs a whole substep of `dt_s` on its
+/// own grid, with the solids as boundaries.
+pub(super) fn per_object(
+    env: &Env,
+    bodies: &mut [Body],
+    stats: &mut WorldStats,
+    dt_s: f32,
+) -> Result<GridContacts, WorldError> {
+    let mut reactions = vec![Reaction::default(); bodies.len()];
+    let mut touches = Vec::new();
+    for k in 0..bodies.len() {
+        if !env.stepping(k) {
+            continue;
         }
-        let mut fields: Vec<multi_field::Field<'_>> = self
-            .bodies
-            .iter_mut()
-            .filter(|b| simulated(b))
-            .map(|b| {
-                let v_ref_m_s = b.solver.reference_velocity_m_s();
-                multi_field::Field {
-                    grid: b.solver.grid_mut(),
-                    v_ref_m_s,
-                    friction: b.friction,
-                }
-            })
-            .collect();
-        let r = multi_field::couple(&mut fields, dx_m, step.colliders, step.time_s);
-        drop(fields);
-        self.stats.contact_nodes += r.corrected as u64;
-        for k in 0..self.bodies.len() {
-            if !simulated(&self.bodies[k]) {
-                continue;
-            }
-            let b = &mut self.bodies[k];
-            let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx_m));
-            let friction = b.friction;
-            let particles = std::mem::take(&mut b.particles);
-            let solids = self.obstacles_near(&particles, friction, dx_m);
+        if !simulated(&bodies[k]) {
+            bodies[k].stats.substeps_skipped += 1;
+            continue;
+        }
+        let started = std::time::Instant::now();
+        let b = &mut bodies[k];
+        let dx = b.solver.dx_m;
+        let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx));
+        let mut particles = std::mem::take(&mut b.particles);
+        let friction = b.friction;
+        let step = Step::new(env.colliders, env.gravity_m_s2, dt_s, env.time_s);
+        let materials = &bodies[k].materials;
+        let solids = obstacles_near(env, bodies, &particles, friction, dx);
+        let r = solver.scatter_and_update(&particles, &step.input(materials));
+        if r.is_ok() {
+            touches.extend(collider_touches(k, &solver));
             let t = apply_obstacles(&mut solver, &solids, &mut reactions);
             touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
-            let b = &mut self.bodies[k];
-            b.solver = solver;
-            b.particles = particles;
         }
-        for k in 0..self.bodies.len() {
-            if !simulated(&self.bodies[k]) {
-                continue;
-            }
-            let b = &mut self.bodies[k];
-            let r = b.solver.gather(&mut b.particles, &step.input(&b.materials));
-            if r.is_ok() {
-                let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
-                let solids = self.obstacles_near(&particles, friction, dx_m);
-                project_out_of_solids(&mut particles, &solids, &mut reactions);
-                self.bodies[k].particles = particles;
-            }
-            step.finish(&mut self.stats, &mut self.bodies[k], r)?;
-        }
-        Ok(GridContacts { reactions, touches })
-    }
-
-    /// Method `mpm`: every awake deformable object on one shared grid; each object's particles
-    /// are copied in, stepped together and copied back.
-    pub(super) fn mpm_shared_substep(&mut self, dt_s: f32) -> Result<GridContacts, WorldError> {
-        let mut reactions = vec![Reaction::default(); self.bodies.len()];
-        let ids: Vec<usize> = (0..self.bodies.len())
-            .filter(|&k| simulated(&self.bodies[k]))
-            .collect();
-        let mut all = Particles::default();
-        let mut materials = Vec::new();
-        let mut friction = 0.0f32;
-        for &k in &ids {
-            let b = &self.bodies[k];
-            let start = all.len();
-            all.extend_from(&b.particles);
-            all.material[start..].fill(materials.len() as u16);
-            materials.push(b.materials[0].clone());
-            friction = friction.max(b.friction);
-        }
-        let step = Step::new(&self.colliders, self.gravity_m_s2, dt_s, self.time_s);
-        let dx = self.dx_m();
-        let mut shared = std::mem::replace(&mut self.shared, MpmSolver::new(dx));
-        let r = shared.scatter_and_update(&all, &step.input(&materials));
+        let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
         if r.is_ok() {
-            // One grid for every object: no per-object impacts to follow.
-            let solids = self.obstacles_near(&all, friction, dx);
-            let _ = apply_obstacles(&mut shared, &solids, &mut reactions);
+            project_out_of_solids(&mut particles, &solids, &mut reactions);
         }
-        let r = r.and_then(|()| shared.gather(&mut all, &step.input(&materials)));
-        self.shared = shared;
-        let r = r.map_err(|e| step.error(&self.stats, "shared grid", e))?;
-        self.stats.mpm_particle_substeps += all.len() as u64;
-        let mut start = 0;
-        for &k in &ids {
-            let b = &mut self.bodies[k];
-            let end = start + b.particles.len();
-            b.particles.x.copy_from_slice(&all.x[start..end]);
-            b.particles.v.copy_from_slice(&all.v[start..end]);
-            b.particles.c.copy_from_slice(&all.c[start..end]);
-            b.particles.f.copy_from_slice(&all.f[start..end]);
-            b.particles
-                .plastic
-                .copy_from_slice(&all.plastic[start..end]);
-            b.max_speed_m_s = r.max_speed_m_s;
-            start = end;
-        }
-        Ok(GridContacts {
-            reactions,
-            touches: Vec::new(),
-        })
+        let b = &mut bodies[k];
+        b.solver = solver;
+        b.particles = particles;
+        b.stats.mpm_wall_s += started.elapsed().as_secs_f64();
+        step.finish(stats, b, r)?;
     }
+    Ok(GridContacts { reactions, touches })
+}
+
+/// Method `multi-field`: per-object P2G and grid update, multi-field contact at shared nodes,
+/// the solids as boundaries, per-object G2P.
+pub(super) fn multi_field(
+    env: &Env,
+    bodies: &mut [Body],
+    stats: &mut WorldStats,
+    dt_s: f32,
+) -> Result<GridContacts, WorldError> {
+    let dx_m = env.dx_m();
+    let mut reactions = vec![Reaction::default(); bodies.len()];
+    let mut touches = Vec::new();
+    let step = Step::new(env.colliders, env.gravity_m_s2, dt_s, env.time_s);
+    for b in bodies.iter_mut() {
+        if !simulated(b) {
+            b.stats.substeps_skipped += 1;
+            continue;
+        }
+        let input = step.input(&b.materials);
+        if let Err(e) = b.solver.scatter_and_update(&b.particles, &input) {
+            return Err(step.error(stats, &b.name, e));
+        }
+    }
+    let mut fields: Vec<multi_field::Field<'_>> = bodies
+        .iter_mut()
+        .filter(|b| simulated(b))
+        .map(|b| {
+            let v_ref_m_s = b.solver.reference_velocity_m_s();
+            multi_field::Field {
+                grid: b.solver.grid_mut(),
+                v_ref_m_s,
+                friction: b.friction,
+            }
+        })
+        .collect();
+    let r = multi_field::couple(&mut fields, dx_m, step.colliders, step.time_s);
+    drop(fields);
+    stats.contact_nodes += r.corrected as u64;
+    for k in 0..bodies.len() {
+        if !simulated(&bodies[k]) {
+            continue;
+        }
+        let b = &mut bodies[k];
+        let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx_m));
+        let friction = b.friction;
+        let particles = std::mem::take(&mut b.particles);
+        let solids = obstacles_near(env, bodies, &particles, friction, dx_m);
+        let t = apply_obstacles(&mut solver, &solids, &mut reactions);
+        touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
+        let b = &mut bodies[k];
+        b.solver = solver;
+        b.particles = particles;
+    }
+    for k in 0..bodies.len() {
+        if !simulated(&bodies[k]) {
+            continue;
+        }
+        let b = &mut bodies[k];
+        let r = b.solver.gather(&mut b.particles, &step.input(&b.materials));
+        if r.is_ok() {
+            let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
+            let solids = obstacles_near(env, bodies, &particles, friction, dx_m);
+            project_out_of_solids(&mut particles, &solids, &mut reactions);
+            bodies[k].particles = particles;
+        }
+        step.finish(stats, &mut bodies[k], r)?;
+    }
+    Ok(GridContacts { reactions, touches })
+}
+
+/// Method `mpm`: every awake deformable object on one `shared` grid; each object's particles are
+/// copied in, stepped together and copied back.
+pub(super) fn shared_grid(
+    env: &Env,
+    bodies: &mut [Body],
+    shared: &mut MpmSolver,
+    stats: &mut WorldStats,
+    dt_s: f32,
+) -> Result<GridContacts, WorldError> {
+    let mut reactions = vec![Reaction::default(); bodies.len()];
+    let ids: Vec<usize> = (0..bodies.len())
+        .filter(|&k| simulated(&bodies[k]))
+        .collect();
+    let mut all = Particles::default();
+    let mut materials = Vec::new();
+    let mut friction = 0.0f32;
+    for &k in &ids {
+        let b = &bodies[k];
+        let start = all.len();
+        all.extend_from(&b.particles);
+        all.material[start..].fill(materials.len() as u16);
+        materials.push(b.materials[0].clone());
+        friction = friction.max(b.friction);
+    }
+    let step = Step::new(env.colliders, env.gravity_m_s2, dt_s, env.time_s);
+    let dx = env.dx_m();
+    let r = shared.scatter_and_update(&all, &step.input(&materials));
+    if r.is_ok() {
+        // One grid for every object: no per-object impacts to follow.
+        let solids = obstacles_near(env, bodies, &all, friction, dx);
+        let _ = apply_obstacles(shared, &solids, &mut reactions);
+    }
+    let r = r.and_then(|()| shared.gather(&mut all, &step.input(&materials)));
+    let r = r.map_err(|e| step.error(stats, "shared grid", e))?;
+    stats.mpm_particle_substeps += all.len() as u64;
+    let mut start = 0;
+    for &k in &ids {
+        let b = &mut bodies[k];
+        let end = start + b.particles.len();
+        b.particles.x.copy_from_slice(&all.x[start..end]);
+        b.particles.v.copy_from_slice(&all.v[start..end]);
+        b.particles.c.copy_from_slice(&all.c[start..end]);
+        b.particles.f.copy_from_slice(&all.f[start..end]);
+        b.particles
+            .plastic
+            .copy_from_slice(&all.plastic[start..end]);
+        b.max_speed_m_s = r.max_speed_m_s;
+        start = end;
+    }
+    Ok(GridContacts {
+        reactions,
+        touches: Vec::new(),
+    })
 }

@@ -12,7 +12,7 @@ use glam::{DVec3, Vec3A};
 use super::background::Background;
 use super::body::Body;
 use super::contact::{ContactCache, ContactReport};
-use super::deformable_pair::RestingPatch;
+use super::deformable_pair::{self, RestingPatch};
 use super::impact::{Impact, SolidOf};
 use super::{
     World, WorldError, WorldStats, contact, impact, kinematic, mpm_step, rigid, rolling, sleep,
@@ -21,6 +21,7 @@ use crate::collider::Collider;
 use crate::contact::boundary::Reaction;
 use crate::contact::geometry::Placed;
 use crate::material::ConstitutiveModel;
+use crate::mpm::MpmSolver;
 use crate::scene::{Method, ObjectKind, SimulationSettings};
 
 /// What every stage of a substep reads and none of them changes.
@@ -41,6 +42,12 @@ pub(crate) struct Env<'a> {
 }
 
 impl Env<'_> {
+    /// The cell of the world's grid (m): the shared grid's, and every object's unless its own is
+    /// set.
+    pub(crate) fn dx_m(&self) -> f32 {
+        self.settings.grid_dx_m as f32
+    }
+
     /// Whether object `k` takes part in the substep: every object does, except while another
     /// island steps (`islands.rs`).
     pub(crate) fn stepping(&self, k: usize) -> bool {
@@ -90,6 +97,8 @@ pub(crate) struct Parts<'a> {
     pub(crate) contacts: &'a mut ContactMemory,
     /// The world's counters.
     pub(crate) stats: &'a mut WorldStats,
+    /// The grid every deformable object shares under method `mpm`.
+    pub(crate) shared: &'a mut MpmSolver,
 }
 
 impl World {
@@ -110,11 +119,6 @@ impl World {
         self.env().stepping(k)
     }
 
-    /// The surface of solid object `k` where it is now ([`Env::placed`]).
-    pub(crate) fn placed(&self, k: usize) -> Option<Placed<'_>> {
-        self.env().placed(&self.bodies, k)
-    }
-
     /// The world split into what a stage reads and what it may change.
     pub(crate) fn parts(&mut self) -> Parts<'_> {
         let World {
@@ -127,6 +131,7 @@ impl World {
             bodies,
             contacts,
             stats,
+            shared,
             ..
         } = self;
         Parts {
@@ -141,6 +146,7 @@ impl World {
             bodies,
             contacts,
             stats,
+            shared,
         }
     }
 
@@ -155,33 +161,47 @@ impl World {
         let dt_s = dt as f64;
         let t0 = Instant::now();
         if self.settings.method == Method::Com {
-            self.warm_start_deformable_pairs(dt_s);
+            deformable_pair::warm_start(&mut self.bodies, &self.contacts.resting_patches, dt_s);
         }
         let mpm_step::GridContacts {
             mut reactions,
             touches,
         } = match self.settings.method {
-            Method::Mpm => self.mpm_shared_substep(dt)?,
-            Method::MultiField => self.multi_field_substep(dt)?,
-            Method::Com => self.mpm_per_object_substep(dt)?,
+            Method::Mpm => {
+                let Parts {
+                    env,
+                    bodies,
+                    stats,
+                    shared,
+                    ..
+                } = self.parts();
+                mpm_step::shared_grid(&env, bodies, shared, stats, dt)?
+            }
+            Method::MultiField => {
+                let Parts {
+                    env, bodies, stats, ..
+                } = self.parts();
+                mpm_step::multi_field(&env, bodies, stats, dt)?
+            }
+            Method::Com => {
+                let Parts {
+                    env, bodies, stats, ..
+                } = self.parts();
+                mpm_step::per_object(&env, bodies, stats, dt)?
+            }
         };
         let t1 = Instant::now();
         let Parts {
             env,
             bodies,
             contacts,
+            stats,
             ..
         } = self.parts();
         impact::boundary_restitution(&env, bodies, &mut contacts.impacts, &touches);
         rolling::rolling_resistance(&env, bodies, &touches, &mut reactions);
         rigid_velocities(&env, bodies, dt_s, &reactions);
-        self.resolve_deformable_pairs(dt_s);
-        let Parts {
-            env,
-            bodies,
-            contacts,
-            stats,
-        } = self.parts();
+        deformable_pair::resolve(&env, bodies, &mut contacts.resting_patches, stats, dt_s);
         contact::solve(&env, bodies, contacts, stats, dt_s);
         rigid_positions(&env, bodies, dt_s);
         kinematic::positions(&env, bodies, dt_s);

@@ -41,10 +41,10 @@ use std::collections::BTreeMap;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
-use super::World;
 use super::body::Body;
 use super::coherence::{self, Kick};
 use super::measure::{BodyState, RigidFit, measure_bounds, measure_with_fit};
+use super::{Env, WorldStats};
 use crate::contact::SolverBody;
 use crate::contact::{mix_friction, mix_restitution};
 use crate::scene::{Method, ObjectKind};
@@ -86,244 +86,253 @@ fn pair_kicks(c: Accumulated, point: DVec3, zones: [&[u32]; 2]) -> [Kick<'_>; 2]
     })
 }
 
-impl World {
-    /// Applies the resting patches' impulses of the last substep, scaled to `dt` (s), before
-    /// this substep's MPM step (module docs), all of a body's at once. Only for method `com`.
-    pub(super) fn warm_start_deformable_pairs(&mut self, dt: f64) {
-        let pairs = std::mem::take(&mut self.contacts.resting_patches);
-        let mut by_body: BTreeMap<usize, Vec<Kick<'_>>> = BTreeMap::new();
-        for p in &pairs {
-            let c = p.impulse.scaled(dt / p.dt_s);
-            let [on_a, on_b] = pair_kicks(c, p.point_m, [&p.zone_a, &p.zone_b]);
-            by_body.entry(p.a).or_default().push(on_a);
-            by_body.entry(p.b).or_default().push(on_b);
-        }
-        for (k, kicks) in &by_body {
-            self.kick_deformable(*k, kicks, None);
-        }
-        self.contacts.resting_patches = pairs;
+/// Applies the resting patches of the last substep (`patches`), their impulses scaled to `dt`
+/// (s), to `bodies` before this substep's MPM step (module docs), all of a body's at once. Only
+/// for method `com`.
+pub(in crate::world) fn warm_start(bodies: &mut [Body], patches: &[RestingPatch], dt: f64) {
+    let pairs = patches;
+    let mut by_body: BTreeMap<usize, Vec<Kick<'_>>> = BTreeMap::new();
+    for p in pairs {
+        let c = p.impulse.scaled(dt / p.dt_s);
+        let [on_a, on_b] = pair_kicks(c, p.point_m, [&p.zone_a, &p.zone_b]);
+        by_body.entry(p.a).or_default().push(on_a);
+        by_body.entry(p.b).or_default().push(on_b);
     }
-
-    /// Applies `kicks` to deformable body `k` when it is awake. A kick whose zone names
-    /// particles the body no longer has (a command changed them since) is dropped.
-    /// `measured` is the body's state and rigid fit when the caller has them for its particles
-    /// as they are.
-    fn kick_deformable(
-        &mut self,
-        k: usize,
-        kicks: &[Kick<'_>],
-        measured: Option<(BodyState, RigidFit)>,
-    ) {
-        let Some(b) = self.bodies.get_mut(k) else {
-            return;
-        };
-        let n = b.particles.len() as u32;
-        if b.sleeping || kicks.is_empty() {
-            return;
-        }
-        let valid = |kick: &Kick<'_>| kick.zone.iter().all(|&i| i < n);
-        let kept: Vec<Kick<'_>>;
-        let kicks = if kicks.iter().all(valid) {
-            kicks
-        } else {
-            kept = kicks.iter().filter(|k| valid(k)).copied().collect();
-            &kept
-        };
-        b.stats.impulse_total_n_s += kicks.iter().map(|k| k.impulse_n_s.length()).sum::<f64>();
-        coherence::apply_contact_impulses(b, kicks, measured);
+    for (k, kicks) in &by_body {
+        kick_deformable(bodies, *k, kicks, None);
     }
+}
 
-    /// Every pair of deformable objects, one of them awake, through the broad and narrow phase;
-    /// the patches of a pair in contact get the impulse law's impulses (module docs). Only for
-    /// method `com`: the baselines couple deformable objects on their grids.
-    pub(super) fn resolve_deformable_pairs(&mut self, dt: f64) {
-        if self.settings.method != Method::Com {
-            return;
-        }
-        let ids: Vec<usize> = (0..self.bodies.len())
-            .filter(|&k| self.bodies[k].kind == ObjectKind::Deformable && self.stepping(k))
-            .collect();
-        if ids.len() < 2 {
-            return;
-        }
-        let resting = 2.0 * self.gravity_m_s2.length() as f64 * dt;
-        // Bounds for the broad phase (one pass per object); the full state (inertia, angular
-        // momentum) only for objects of a pair that passes it, once per substep.
-        let bounds: Vec<BodyState> = ids
-            .par_iter()
-            .map(|&k| measure_bounds(&self.bodies[k].particles, self.bodies[k].dx_m()))
-            .collect();
-        let warm = std::mem::take(&mut self.contacts.resting_patches);
-        // Each object's state and rigid fit, as its particles are now (None once an impulse
-        // changed them).
-        let mut full: Vec<Option<(BodyState, RigidFit)>> = vec![None; ids.len()];
-        for x in 0..ids.len() {
-            for y in x + 1..ids.len() {
-                let (i, j) = (ids[x], ids[y]);
-                let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
-                // Objects on grids of different cells meet at the coarser one's.
-                let dx = bi.dx_m().max(bj.dx_m());
-                if !(bi.is_active() || bj.is_active())
-                    || !broad_phase(&bounds[x], &bounds[y], dx as f64)
-                {
-                    continue;
-                }
-                for (z, k) in [(x, i), (y, j)] {
-                    if full[z].is_none() {
-                        let b = &self.bodies[k];
-                        full[z] = Some(measure_with_fit(&b.particles, b.dx_m()));
-                    }
-                }
-                let (Some((si, fit_i)), Some((sj, fit_j))) = (full[x], full[y]) else {
-                    continue;
-                };
-                let Some(manifold) = narrow_phase(bi, &si, bj, &sj, dx) else {
-                    continue;
-                };
-                let moving = [bi.is_moving(), bj.is_moving()];
-                self.bodies[i].stats.contacts += 1;
-                self.bodies[j].stats.contacts += 1;
-                for (k, other_moving) in [(i, moving[1]), (j, moving[0])] {
-                    if self.bodies[k].sleeping && other_moving {
-                        self.bodies[k].wake_on_contact();
-                    }
-                }
-                let warm_here: Vec<&RestingPatch> =
-                    warm.iter().filter(|w| (w.a, w.b) == (i, j)).collect();
-                let solved =
-                    self.solve_pair([i, j], [&si, &sj], &manifold, &warm_here, dt, resting);
-                let (mut on_a, mut on_b) = (Vec::new(), Vec::new());
-                for (c, p) in solved.changes.iter().zip(&manifold.patches) {
-                    if *c != Accumulated::default() {
-                        let [ka, kb] = pair_kicks(*c, p.point_m, [&p.zone_a, &p.zone_b]);
-                        on_a.push(ka);
-                        on_b.push(kb);
-                    }
-                }
-                if !on_a.is_empty() {
-                    self.stats.contact_impulses += on_a.len() as u64;
-                    self.kick_deformable(i, &on_a, Some((si, fit_i)));
-                    self.kick_deformable(j, &on_b, Some((sj, fit_j)));
-                    // Their velocities changed: a later pair re-measures them.
-                    full[x] = None;
-                    full[y] = None;
-                }
-                let both_asleep = self.bodies[i].sleeping && self.bodies[j].sleeping;
-                for (p, (total, rests)) in manifold
-                    .patches
-                    .into_iter()
-                    .zip(solved.totals.into_iter().zip(solved.resting))
-                {
-                    if rests && total.linear_n_s.dot(p.normal) > 0.0 && !both_asleep {
-                        self.contacts.resting_patches.push(RestingPatch {
-                            a: i,
-                            b: j,
-                            impulse: total,
-                            dt_s: dt,
-                            point_m: p.point_m,
-                            zone_a: p.zone_a,
-                            zone_b: p.zone_b,
-                        });
-                    }
-                }
-            }
-        }
+/// Applies `kicks` to deformable body `k` when it is awake. A kick whose zone names
+/// particles the body no longer has (a command changed them since) is dropped.
+/// `measured` is the body's state and rigid fit when the caller has them for its particles
+/// as they are.
+fn kick_deformable(
+    bodies: &mut [Body],
+    k: usize,
+    kicks: &[Kick<'_>],
+    measured: Option<(BodyState, RigidFit)>,
+) {
+    let Some(b) = bodies.get_mut(k) else {
+        return;
+    };
+    let n = b.particles.len() as u32;
+    if b.sleeping || kicks.is_empty() {
+        return;
     }
+    let valid = |kick: &Kick<'_>| kick.zone.iter().all(|&i| i < n);
+    let kept: Vec<Kick<'_>>;
+    let kicks = if kicks.iter().all(valid) {
+        kicks
+    } else {
+        kept = kicks.iter().filter(|k| valid(k)).copied().collect();
+        &kept
+    };
+    b.stats.impulse_total_n_s += kicks.iter().map(|k| k.impulse_n_s.length()).sum::<f64>();
+    coherence::apply_contact_impulses(b, kicks, measured);
+}
 
-    /// Solves the patches of the pair `ids` [A, B] (states `states`) together: at most 8
-    /// sequential-impulse sweeps on their rigid-level dynamics (module docs), starting from the
-    /// warm impulses `warm` already applied this substep, each counted in the patch nearest to
-    /// it.
-    fn solve_pair(
-        &self,
-        ids: [usize; 2],
-        states: [&BodyState; 2],
-        manifold: &narrow::Manifold,
-        warm: &[&RestingPatch],
-        dt: f64,
-        resting_speed_m_s: f64,
-    ) -> Solved {
-        let (bi, bj) = (&self.bodies[ids[0]], &self.bodies[ids[1]]);
-        // Each object as a rigid body; a sleeping one is an immovable support.
-        let dynamics = |b: &Body, s: &BodyState| {
-            if b.sleeping {
-                return SolverBody::new(s.com_m, DVec3::ZERO, DVec3::ZERO, 0.0, DMat3::ZERO);
+/// Every pair of deformable objects of `bodies`, one of them awake, through the broad and
+/// narrow phase; the patches of a pair in contact get the impulse law's impulses (module docs),
+/// warm-started from and kept in `resting_patches`. Only for method `com`: the baselines couple
+/// deformable objects on their grids.
+pub(in crate::world) fn resolve(
+    env: &Env,
+    bodies: &mut [Body],
+    resting_patches: &mut Vec<RestingPatch>,
+    stats: &mut WorldStats,
+    dt: f64,
+) {
+    if env.settings.method != Method::Com {
+        return;
+    }
+    let ids: Vec<usize> = (0..bodies.len())
+        .filter(|&k| bodies[k].kind == ObjectKind::Deformable && env.stepping(k))
+        .collect();
+    if ids.len() < 2 {
+        return;
+    }
+    let resting = 2.0 * env.gravity_m_s2.length() as f64 * dt;
+    // Bounds for the broad phase (one pass per object); the full state (inertia, angular
+    // momentum) only for objects of a pair that passes it, once per substep.
+    let bounds: Vec<BodyState> = ids
+        .par_iter()
+        .map(|&k| measure_bounds(&bodies[k].particles, bodies[k].dx_m()))
+        .collect();
+    let warm = std::mem::take(resting_patches);
+    // Each object's state and rigid fit, as its particles are now (None once an impulse
+    // changed them).
+    let mut full: Vec<Option<(BodyState, RigidFit)>> = vec![None; ids.len()];
+    for x in 0..ids.len() {
+        for y in x + 1..ids.len() {
+            let (i, j) = (ids[x], ids[y]);
+            let (bi, bj) = (&bodies[i], &bodies[j]);
+            // Objects on grids of different cells meet at the coarser one's.
+            let dx = bi.dx_m().max(bj.dx_m());
+            if !(bi.is_active() || bj.is_active())
+                || !broad_phase(&bounds[x], &bounds[y], dx as f64)
+            {
+                continue;
             }
-            SolverBody::new(
-                s.com_m,
-                s.velocity_m_s,
-                s.angular_velocity(),
-                b.inverse_mass(s),
-                b.inverse_inertia(s),
-            )
-        };
-        let (mut da, mut db) = (dynamics(bi, states[0]), dynamics(bj, states[1]));
-        let e = mix_restitution(bi.restitution, bj.restitution) as f64;
-        let mu = mix_friction(bi.friction, bj.friction) as f64;
-        let patches = &manifold.patches;
-        let approach: Vec<f64> = patches
-            .iter()
-            .map(|p| {
-                let v_rel =
-                    db.velocity_at(p.point_m - db.com_m) - da.velocity_at(p.point_m - da.com_m);
-                v_rel.dot(p.normal)
-            })
-            .collect();
-        let resting: Vec<bool> = approach.iter().map(|&v| v >= -resting_speed_m_s).collect();
-        let footprints = resting
-            .iter()
-            .any(|&r| r)
-            .then(|| manifold.footprints(bi, bj));
-        let mut start = vec![Accumulated::default(); patches.len()];
-        for w in warm {
-            let nearest = (0..patches.len()).min_by(|&p, &q| {
-                let d = |k: usize| (patches[k].point_m - w.point_m).length_squared();
-                d(p).total_cmp(&d(q))
-            });
-            if let Some(k) = nearest {
-                start[k] = start[k].plus(w.impulse.scaled(dt / w.dt_s));
-            }
-        }
-        let mut totals = start.clone();
-        for _ in 0..ITERATIONS {
-            let mut changed = false;
-            for (k, p) in patches.iter().enumerate() {
-                let law = PatchLaw {
-                    point_m: p.point_m,
-                    normal: p.normal,
-                    target_vn_m_s: if resting[k] { 0.0 } else { -e * approach[k] },
-                    friction: mu,
-                    footprint: footprints.as_ref().filter(|_| resting[k]).map(|f| &f[k]),
-                };
-                if let Some(d) = patch_impulse(&da, &db, &law, totals[k]) {
-                    da.apply(p.point_m - da.com_m, -d.linear_n_s);
-                    da.apply_angular(-d.angular_n_m_s);
-                    db.apply(p.point_m - db.com_m, d.linear_n_s);
-                    db.apply_angular(d.angular_n_m_s);
-                    totals[k] = totals[k].plus(d);
-                    // Converged when no patch changes by more than a millionth of its total.
-                    let size = |a: Accumulated| a.linear_n_s.length() + a.angular_n_m_s.length();
-                    changed |= size(d) > 1e-6 * size(totals[k]);
+            for (z, k) in [(x, i), (y, j)] {
+                if full[z].is_none() {
+                    let b = &bodies[k];
+                    full[z] = Some(measure_with_fit(&b.particles, b.dx_m()));
                 }
             }
-            if !changed {
-                break;
+            let (Some((si, fit_i)), Some((sj, fit_j))) = (full[x], full[y]) else {
+                continue;
+            };
+            let Some(manifold) = narrow_phase(bi, &si, bj, &sj, dx) else {
+                continue;
+            };
+            let moving = [bi.is_moving(), bj.is_moving()];
+            bodies[i].stats.contacts += 1;
+            bodies[j].stats.contacts += 1;
+            for (k, other_moving) in [(i, moving[1]), (j, moving[0])] {
+                if bodies[k].sleeping && other_moving {
+                    bodies[k].wake_on_contact();
+                }
             }
-        }
-        let changes = totals
-            .iter()
-            .zip(&start)
-            .map(|(t, s)| t.plus(s.scaled(-1.0)))
-            .collect();
-        Solved {
-            changes,
-            totals,
-            resting,
+            let warm_here: Vec<&RestingPatch> =
+                warm.iter().filter(|w| (w.a, w.b) == (i, j)).collect();
+            let solved = solve_pair(
+                [&bodies[i], &bodies[j]],
+                [&si, &sj],
+                &manifold,
+                &warm_here,
+                dt,
+                resting,
+            );
+            let (mut on_a, mut on_b) = (Vec::new(), Vec::new());
+            for (c, p) in solved.changes.iter().zip(&manifold.patches) {
+                if *c != Accumulated::default() {
+                    let [ka, kb] = pair_kicks(*c, p.point_m, [&p.zone_a, &p.zone_b]);
+                    on_a.push(ka);
+                    on_b.push(kb);
+                }
+            }
+            if !on_a.is_empty() {
+                stats.contact_impulses += on_a.len() as u64;
+                kick_deformable(bodies, i, &on_a, Some((si, fit_i)));
+                kick_deformable(bodies, j, &on_b, Some((sj, fit_j)));
+                // Their velocities changed: a later pair re-measures them.
+                full[x] = None;
+                full[y] = None;
+            }
+            let both_asleep = bodies[i].sleeping && bodies[j].sleeping;
+            for (p, (total, rests)) in manifold
+                .patches
+                .into_iter()
+                .zip(solved.totals.into_iter().zip(solved.resting))
+            {
+                if rests && total.linear_n_s.dot(p.normal) > 0.0 && !both_asleep {
+                    resting_patches.push(RestingPatch {
+                        a: i,
+                        b: j,
+                        impulse: total,
+                        dt_s: dt,
+                        point_m: p.point_m,
+                        zone_a: p.zone_a,
+                        zone_b: p.zone_b,
+                    });
+                }
+            }
         }
     }
 }
 
-/// A pair's patches after [`World::solve_pair`], in the manifold's order.
+/// Solves the patches of the pair `pair` [A, B] (states `states`) together: at most 8
+/// sequential-impulse sweeps on their rigid-level dynamics (module docs), starting from the
+/// warm impulses `warm` already applied this substep, each counted in the patch nearest to
+/// it.
+fn solve_pair(
+    pair: [&Body; 2],
+    states: [&BodyState; 2],
+    manifold: &narrow::Manifold,
+    warm: &[&RestingPatch],
+    dt: f64,
+    resting_speed_m_s: f64,
+) -> Solved {
+    let [bi, bj] = pair;
+    // Each object as a rigid body; a sleeping one is an immovable support.
+    let dynamics = |b: &Body, s: &BodyState| {
+        if b.sleeping {
+            return SolverBody::new(s.com_m, DVec3::ZERO, DVec3::ZERO, 0.0, DMat3::ZERO);
+        }
+        SolverBody::new(
+            s.com_m,
+            s.velocity_m_s,
+            s.angular_velocity(),
+            b.inverse_mass(s),
+            b.inverse_inertia(s),
+        )
+    };
+    let (mut da, mut db) = (dynamics(bi, states[0]), dynamics(bj, states[1]));
+    let e = mix_restitution(bi.restitution, bj.restitution) as f64;
+    let mu = mix_friction(bi.friction, bj.friction) as f64;
+    let patches = &manifold.patches;
+    let approach: Vec<f64> = patches
+        .iter()
+        .map(|p| {
+            let v_rel = db.velocity_at(p.point_m - db.com_m) - da.velocity_at(p.point_m - da.com_m);
+            v_rel.dot(p.normal)
+        })
+        .collect();
+    let resting: Vec<bool> = approach.iter().map(|&v| v >= -resting_speed_m_s).collect();
+    let footprints = resting
+        .iter()
+        .any(|&r| r)
+        .then(|| manifold.footprints(bi, bj));
+    let mut start = vec![Accumulated::default(); patches.len()];
+    for w in warm {
+        let nearest = (0..patches.len()).min_by(|&p, &q| {
+            let d = |k: usize| (patches[k].point_m - w.point_m).length_squared();
+            d(p).total_cmp(&d(q))
+        });
+        if let Some(k) = nearest {
+            start[k] = start[k].plus(w.impulse.scaled(dt / w.dt_s));
+        }
+    }
+    let mut totals = start.clone();
+    for _ in 0..ITERATIONS {
+        let mut changed = false;
+        for (k, p) in patches.iter().enumerate() {
+            let law = PatchLaw {
+                point_m: p.point_m,
+                normal: p.normal,
+                target_vn_m_s: if resting[k] { 0.0 } else { -e * approach[k] },
+                friction: mu,
+                footprint: footprints.as_ref().filter(|_| resting[k]).map(|f| &f[k]),
+            };
+            if let Some(d) = patch_impulse(&da, &db, &law, totals[k]) {
+                da.apply(p.point_m - da.com_m, -d.linear_n_s);
+                da.apply_angular(-d.angular_n_m_s);
+                db.apply(p.point_m - db.com_m, d.linear_n_s);
+                db.apply_angular(d.angular_n_m_s);
+                totals[k] = totals[k].plus(d);
+                // Converged when no patch changes by more than a millionth of its total.
+                let size = |a: Accumulated| a.linear_n_s.length() + a.angular_n_m_s.length();
+                changed |= size(d) > 1e-6 * size(totals[k]);
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    let changes = totals
+        .iter()
+        .zip(&start)
+        .map(|(t, s)| t.plus(s.scaled(-1.0)))
+        .collect();
+    Solved {
+        changes,
+        totals,
+        resting,
+    }
+}
+
+/// A pair's patches after [`solve_pair`], in the manifold's order.
 struct Solved {
     /// The impulse each patch adds this substep (on B; −it on A).
     changes: Vec<Accumulated>,
