@@ -12,6 +12,13 @@
 //! pair conserves momentum. Sums run per grid block in parallel and are added in block order, so
 //! the result does not depend on the thread count.
 //!
+//! An awake rigid object is movable and meets the grid two-way: each node's impulse is shared by
+//! the node's mass and the node's share of the solid's mass and inertia, over a few Jacobi
+//! sweeps in which the solid's velocity follows ([`super::coupling`]), so a solid lighter than
+//! the material it meets is not treated as a wall (which handed it 1 − m/M + (m/M)² of its
+//! kinetic energy, more than it had once the node mass m passed M). Static, kinematic and
+//! sleeping objects and the background are immovable: the one-way rule.
+//!
 //! Grid nodes sample a solid's surface only every cell, so on a rough solid (captured ground,
 //! whose surface varies within a cell) particles can sink between nodes well inside it. After
 //! G2P, [`project_particles`] therefore gives every particle that lies inside a solid, at depth
@@ -25,9 +32,10 @@
 //! gradient feeds energy back every substep (a jelly robot on captured grass, pushed out that
 //! way, never came to rest).
 
-use glam::{DVec3, IVec3, Vec3A};
+use glam::{DMat3, DVec3, IVec3, Vec3A};
 use rayon::prelude::*;
 
+use super::coupling::{COUPLING_SWEEPS, SolidShare, node_impulse};
 use super::geometry::Placed;
 use crate::collider::{Surface, apply_surface};
 use crate::mpm::Particles;
@@ -47,6 +55,33 @@ pub struct Obstacle<'a> {
     pub friction: f32,
     /// The solid's boundary rule.
     pub surface: Surface,
+    /// 1/M (1/kg): zero for an immovable solid (static, kinematic or asleep; the background).
+    pub inverse_mass: f64,
+    /// World-frame inverse inertia about the COM (1/(kg m²)); zero for an immovable solid.
+    pub inverse_inertia: DMat3,
+}
+
+impl Obstacle<'_> {
+    /// Whether the grid moves it: a movable solid meets the grid two-way
+    /// ([`super::coupling`]), an immovable one one-way.
+    pub fn is_movable(&self) -> bool {
+        self.inverse_mass > 0.0 || self.inverse_inertia != DMat3::ZERO
+    }
+
+    /// The part of it a node or particle of mass share `w` (of the mass touching it) meets:
+    /// inverse mass and inertia divided by w (mass splitting, [`super::coupling`]).
+    fn share(&self, w: f64) -> SolidShare {
+        SolidShare {
+            inverse_mass: self.inverse_mass / w,
+            inverse_inertia: self.inverse_inertia * (1.0 / w),
+        }
+    }
+
+    /// Its velocities after receiving `reaction` (a movable solid's change within the substep).
+    pub fn receive(&mut self, reaction: &Reaction) {
+        self.velocity_m_s += (reaction.impulse_n_s * self.inverse_mass).as_vec3a();
+        self.omega_rad_s += (self.inverse_inertia * reaction.angular_impulse_n_m_s).as_vec3a();
+    }
 }
 
 /// Impulse a solid received from the grid in one substep.
@@ -64,6 +99,15 @@ pub struct Reaction {
 }
 
 impl Reaction {
+    /// Adds the reaction to a node or particle at offset `r_m` from the solid's COM gaining
+    /// momentum `dp_n_s` (N s) there, at the solid's outward normal `normal`.
+    fn receive(&mut self, dp_n_s: DVec3, r_m: Vec3A, normal: Vec3A) {
+        self.impulse_n_s -= dp_n_s;
+        self.angular_impulse_n_m_s -= r_m.as_dvec3().cross(dp_n_s);
+        let n = normal.as_dvec3();
+        self.normal_impulse_n_s -= n * n.dot(dp_n_s);
+    }
+
     fn add(&mut self, o: &Reaction) {
         self.impulse_n_s += o.impulse_n_s;
         self.angular_impulse_n_m_s += o.angular_impulse_n_m_s;
@@ -73,7 +117,9 @@ impl Reaction {
 }
 
 /// Applies `obstacles` to the nodes of `grid` (cell `dx_m`, velocities relative to `v_ref`);
-/// returns each obstacle's reaction, in order. Obstacles are applied in order at each node.
+/// returns each obstacle's reaction, in order. Immovable obstacles are applied first, in order
+/// at each node; then the movable ones, two-way, over [`COUPLING_SWEEPS`] sweeps
+/// ([`super::coupling`]).
 pub fn apply(
     grid: &mut SparseGrid,
     dx_m: f32,
@@ -90,12 +136,13 @@ pub fn apply(
         velocity_m_s,
         ..
     } = grid;
-    let per_block: Vec<Vec<Reaction>> = mass_kg
+    let per_block: Vec<(Vec<Reaction>, Vec<Touch>)> = mass_kg
         .par_chunks(BLOCK_NODES)
         .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
         .zip(keys.par_iter())
         .map(|((mass, vel), key)| {
             let mut out = vec![Reaction::default(); n];
+            let mut touches = Vec::new();
             let origin = *key * BLOCK;
             let lo = origin.as_vec3a() * dx_m;
             let hi = (origin + IVec3::splat(BLOCK - 1)).as_vec3a() * dx_m;
@@ -106,7 +153,7 @@ pub fn apply(
                 })
                 .collect();
             if near.is_empty() {
-                return out;
+                return (out, touches);
             }
             for l in 0..BLOCK_NODES {
                 let m = mass[l];
@@ -128,23 +175,113 @@ pub fn apply(
                     }
                     let normal = pose.rotation * n0;
                     let r = x - pose.com_m;
+                    out[k].nodes += 1;
+                    if o.is_movable() {
+                        touches.push(Touch {
+                            node: l as u16,
+                            obstacle: k as u16,
+                            normal,
+                            r_m: r,
+                        });
+                        continue;
+                    }
                     let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
                     let v = vel[l] + v_ref;
                     let v_new = apply_surface(v - solid_v, normal, o.surface, o.friction) + solid_v;
                     let dp = (v_new - v).as_dvec3() * m as f64;
                     vel[l] = v_new - v_ref;
-                    let reaction = &mut out[k];
-                    reaction.impulse_n_s -= dp;
-                    reaction.angular_impulse_n_m_s -= r.as_dvec3().cross(dp);
-                    let n = normal.as_dvec3();
-                    reaction.normal_impulse_n_s -= n * n.dot(dp);
-                    reaction.nodes += 1;
+                    out[k].receive(dp, r, normal);
                 }
             }
-            out
+            (out, touches)
         })
         .collect();
-    sum_in_order(&per_block, n)
+    let (parts, touches): (Vec<Vec<Reaction>>, Vec<Vec<Touch>>) = per_block.into_iter().unzip();
+    let mut total = sum_in_order(&parts, n);
+    if touches.iter().any(|t| !t.is_empty()) {
+        couple(
+            mass_kg,
+            velocity_m_s,
+            v_ref,
+            obstacles,
+            &touches,
+            &mut total,
+        );
+    }
+    total
+}
+
+/// A node of a block touching a movable obstacle.
+#[derive(Debug, Clone, Copy)]
+struct Touch {
+    /// The node, within its block.
+    node: u16,
+    /// The obstacle.
+    obstacle: u16,
+    /// The obstacle's outward normal there.
+    normal: Vec3A,
+    /// The node's offset from the obstacle's COM (m).
+    r_m: Vec3A,
+}
+
+/// The two-way solve of the `touches` (per block) of movable obstacles with the grid's nodes
+/// (`mass_kg`, `velocity_m_s` relative to `v_ref`): [`COUPLING_SWEEPS`] Jacobi sweeps with mass
+/// splitting ([`super::coupling`]); adds the impulses to `total`.
+fn couple(
+    mass_kg: &[f32],
+    velocity_m_s: &mut [Vec3A],
+    v_ref: Vec3A,
+    obstacles: &[Obstacle],
+    touches: &[Vec<Touch>],
+    total: &mut [Reaction],
+) {
+    let n = obstacles.len();
+    // Each obstacle's touching node mass Σ m, in block order: a node's share is m / Σ m.
+    let mut contact_mass = vec![0.0f64; n];
+    for (b, ts) in touches.iter().enumerate() {
+        for t in ts {
+            contact_mass[t.obstacle as usize] += mass_kg[b * BLOCK_NODES + t.node as usize] as f64;
+        }
+    }
+    let mut motion: Vec<(DVec3, DVec3)> = obstacles
+        .iter()
+        .map(|o| (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3()))
+        .collect();
+    for _ in 0..COUPLING_SWEEPS {
+        let parts: Vec<Vec<Reaction>> = mass_kg
+            .par_chunks(BLOCK_NODES)
+            .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
+            .zip(touches.par_iter())
+            .map(|((mass, vel), ts)| {
+                if ts.is_empty() {
+                    return Vec::new();
+                }
+                let mut out = vec![Reaction::default(); n];
+                for t in ts {
+                    let k = t.obstacle as usize;
+                    let (o, m) = (&obstacles[k], mass[t.node as usize]);
+                    let solid = o.share(m as f64 / contact_mass[k]);
+                    let (v_solid, w_solid) = motion[k];
+                    let at = (v_solid + w_solid.cross(t.r_m.as_dvec3())).as_vec3a();
+                    let v = vel[t.node as usize] + v_ref;
+                    let j = node_impulse(v - at, t.normal, m, t.r_m, &solid, o.surface, o.friction);
+                    vel[t.node as usize] += j / m;
+                    out[k].receive(j.as_dvec3(), t.r_m, t.normal);
+                }
+                out
+            })
+            .collect();
+        let sweep = sum_in_order(&parts, n);
+        for ((o, r), (v, w)) in obstacles.iter().zip(&sweep).zip(&mut motion) {
+            *v += r.impulse_n_s * o.inverse_mass;
+            *w += o.inverse_inertia * r.angular_impulse_n_m_s;
+        }
+        for (t, r) in total.iter_mut().zip(&sweep) {
+            t.impulse_n_s += r.impulse_n_s;
+            t.angular_impulse_n_m_s += r.angular_impulse_n_m_s;
+            t.normal_impulse_n_s += r.normal_impulse_n_s;
+        }
+    }
 }
 
 /// The `n` obstacles' reactions summed over `parts` in their order (so the sums do not depend
@@ -175,19 +312,22 @@ pub const MAX_PUSH_OUT_M_S: f32 = 0.3;
 
 /// Gives every particle of `particles` that lies inside one of `obstacles` a normal velocity
 /// relative to the solid of at least its push-out speed, so it stops sinking and leaves over
-/// [`PUSH_OUT_TIME_S`] (module docs); returns each obstacle's reaction, in order.
+/// [`PUSH_OUT_TIME_S`] (module docs); returns each obstacle's reaction, in order. Against a
+/// movable obstacle the push is shared two-way, each particle with its mass share of the solid
+/// ([`super::coupling`], one sweep).
 pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> Vec<Reaction> {
     let n = obstacles.len();
     if n == 0 {
         return Vec::new();
     }
     let Particles { x, v, mass_kg, .. } = particles;
-    let per_chunk: Vec<Vec<Reaction>> = x
+    let per_chunk: Vec<(Vec<Reaction>, Vec<Inside>)> = x
         .par_chunks(PROJECTION_CHUNK)
         .zip(v.par_chunks_mut(PROJECTION_CHUNK))
         .zip(mass_kg.par_chunks(PROJECTION_CHUNK))
         .map(|((x, v), m)| {
             let mut out = vec![Reaction::default(); n];
+            let mut inside = Vec::new();
             for i in 0..x.len() {
                 for (k, o) in obstacles.iter().enumerate() {
                     let (lo, hi) = o.placed.bounds_m;
@@ -201,23 +341,91 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
                         continue;
                     }
                     let r = x[i] - pose.com_m;
-                    let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
                     let push = (-phi / PUSH_OUT_TIME_S).min(MAX_PUSH_OUT_M_S);
+                    if o.is_movable() {
+                        inside.push(Inside {
+                            particle: i as u32,
+                            obstacle: k as u16,
+                            normal,
+                            r_m: r,
+                            push_m_s: push,
+                        });
+                        continue;
+                    }
+                    let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
                     let into = (v[i] - solid_v).dot(normal) - push;
                     if into < 0.0 {
                         v[i] -= normal * into;
-                        let dp = (normal * -into * m[i]).as_dvec3();
-                        let reaction = &mut out[k];
-                        reaction.impulse_n_s -= dp;
-                        reaction.angular_impulse_n_m_s -= r.as_dvec3().cross(dp);
-                        reaction.normal_impulse_n_s -= dp;
+                        out[k].receive((normal * -into * m[i]).as_dvec3(), r, normal);
                     }
                 }
+            }
+            (out, inside)
+        })
+        .collect();
+    let (parts, inside): (Vec<Vec<Reaction>>, Vec<Vec<Inside>>) = per_chunk.into_iter().unzip();
+    let mut total = sum_in_order(&parts, n);
+    if inside.iter().all(|c| c.is_empty()) {
+        return total;
+    }
+    let mut inside_mass = vec![0.0f64; n];
+    for (c, chunk) in inside.iter().enumerate() {
+        for p in chunk {
+            inside_mass[p.obstacle as usize] +=
+                mass_kg[c * PROJECTION_CHUNK + p.particle as usize] as f64;
+        }
+    }
+    let parts: Vec<Vec<Reaction>> = v
+        .par_chunks_mut(PROJECTION_CHUNK)
+        .zip(mass_kg.par_chunks(PROJECTION_CHUNK))
+        .zip(inside.par_iter())
+        .map(|((v, m), chunk)| {
+            if chunk.is_empty() {
+                return Vec::new();
+            }
+            let mut out = vec![Reaction::default(); n];
+            for p in chunk {
+                let (k, i) = (p.obstacle as usize, p.particle as usize);
+                let o = &obstacles[k];
+                let solid = o.share(m[i] as f64 / inside_mass[k]);
+                let solid_v = o.velocity_m_s + o.omega_rad_s.cross(p.r_m);
+                // The push is a separating target: shift it out of the relative velocity and
+                // let the separate rule stop the approach to it.
+                let target = p.normal * p.push_m_s;
+                let j = node_impulse(
+                    v[i] - solid_v - target,
+                    p.normal,
+                    m[i],
+                    p.r_m,
+                    &solid,
+                    Surface::Separate,
+                    0.0,
+                );
+                v[i] += j / m[i];
+                out[k].receive(j.as_dvec3(), p.r_m, p.normal);
             }
             out
         })
         .collect();
-    sum_in_order(&per_chunk, n)
+    for (t, r) in total.iter_mut().zip(sum_in_order(&parts, n)) {
+        t.add(&r);
+    }
+    total
+}
+
+/// A particle inside a movable obstacle, for the two-way push-out.
+#[derive(Debug, Clone, Copy)]
+struct Inside {
+    /// The particle, within its chunk.
+    particle: u32,
+    /// The obstacle.
+    obstacle: u16,
+    /// The obstacle's outward normal there.
+    normal: Vec3A,
+    /// The particle's offset from the obstacle's COM (m).
+    r_m: Vec3A,
+    /// Its push-out speed (m/s).
+    push_m_s: f32,
 }
 
 #[cfg(test)]
@@ -253,6 +461,8 @@ mod tests {
             omega_rad_s: Vec3A::ZERO,
             friction: 0.5,
             surface: Surface::Separate,
+            inverse_mass: 0.0,
+            inverse_inertia: DMat3::ZERO,
         }
     }
 
@@ -287,5 +497,129 @@ mod tests {
         // Momentum conservation: what the particles gained, the solid received reversed.
         assert!((r[0].impulse_n_s + gained).length() < 1e-9);
         assert!((r[0].normal_impulse_n_s - r[0].impulse_n_s).length() < 1e-12);
+    }
+
+    /// A grid of one block whose nodes at z = 0 (on the slab's top face) carry `nodes`
+    /// (local index, mass kg, velocity m/s).
+    fn grid_with(nodes: &[(usize, f32, Vec3A)]) -> SparseGrid {
+        let mut grid = SparseGrid {
+            keys: vec![IVec3::ZERO],
+            mass_kg: vec![0.0; BLOCK_NODES],
+            velocity_m_s: vec![Vec3A::ZERO; BLOCK_NODES],
+            ..Default::default()
+        };
+        for &(l, m, v) in nodes {
+            grid.mass_kg[l] = m;
+            grid.velocity_m_s[l] = v;
+        }
+        grid
+    }
+
+    /// The slab as a free body of mass `mass_kg` with its COM `com_m` and a box's inertia.
+    fn free_slab(g: &Geometry, mass_kg: f64, com_m: Vec3A) -> Obstacle<'_> {
+        let mut o = obstacle(g);
+        o.placed.pose.com_m = com_m;
+        o.placed.pose.rest_com_m = com_m;
+        o.inverse_mass = 1.0 / mass_kg;
+        // A 2 × 2 × 0.5 m box: I = m (b² + c²) / 12 about each axis.
+        let i = |b: f64, c: f64| mass_kg * (b * b + c * c) / 12.0;
+        o.inverse_inertia = DMat3::from_diagonal(DVec3::new(
+            1.0 / i(2.0, 0.5),
+            1.0 / i(2.0, 0.5),
+            1.0 / i(2.0, 2.0),
+        ));
+        o
+    }
+
+    #[test]
+    fn a_node_and_a_free_solid_leave_together_at_the_momentum_weighted_velocity() {
+        // One node of mass m at 1 m/s into a solid of mass M at rest, straight at its COM:
+        // perfectly inelastic, both at m / (m + M) after; a wall would have kept the node at 0.
+        let g = slab();
+        for ratio in [0.5f32, 1.0, 2.0, 3.0] {
+            let obstacles = [free_slab(&g, 1.0, Vec3A::new(0.0, 0.0, -0.25))];
+            let mut grid = grid_with(&[(0, ratio, Vec3A::new(0.0, 0.0, -1.0))]);
+            let r = apply(&mut grid, 0.01, Vec3A::ZERO, &obstacles);
+            let common = -(ratio as f64) / (ratio as f64 + 1.0);
+            let v_solid = r[0].impulse_n_s.z;
+            assert!(
+                (grid.velocity_m_s[0].z as f64 - common).abs() < 1e-6,
+                "{ratio}"
+            );
+            assert!((v_solid - common).abs() < 1e-6, "{ratio}: solid {v_solid}");
+            assert!(r[0].angular_impulse_n_m_s.length() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn many_nodes_and_a_free_solid_keep_momentum_and_lose_energy() {
+        // Nodes of unequal masses and velocities on the top face of a light free slab, off its
+        // COM: linear and angular momentum are conserved, kinetic energy does not grow, and after
+        // the sweeps no node still approaches the solid's surface faster than a fifth of the
+        // fastest approach before.
+        let g = slab();
+        let com = Vec3A::new(0.05, -0.03, -0.25);
+        let mass = 0.02;
+        let obstacles = [free_slab(&g, mass, com)];
+        let nodes: Vec<(usize, f32, Vec3A)> = (0..16)
+            .map(|l| {
+                let s = l as f32;
+                let m = 0.001 * (1.0 + (s * 0.37).sin().abs() * 3.0);
+                let v = Vec3A::new(
+                    0.3 * (s * 0.7).cos(),
+                    0.2 * (s * 1.3).sin(),
+                    -0.5 - 0.05 * s,
+                );
+                (l, m, v)
+            })
+            .collect();
+        let mut grid = grid_with(&nodes);
+        let dx = 0.01;
+        let x = |l: usize| Vec3A::new((l % 4) as f32, ((l / 4) % 4) as f32, 0.0) * dx;
+        let r = apply(&mut grid, dx, Vec3A::ZERO, &obstacles);
+        let (mut p0, mut p1, mut l0, mut l1, mut e0, mut e1) =
+            (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
+        for &(l, m, v) in &nodes {
+            let (m, v0, v1) = (m as f64, v.as_dvec3(), grid.velocity_m_s[l].as_dvec3());
+            let xl = x(l).as_dvec3();
+            p0 += v0 * m;
+            p1 += v1 * m;
+            l0 += xl.cross(v0) * m;
+            l1 += xl.cross(v1) * m;
+            e0 += 0.5 * m * v0.length_squared();
+            e1 += 0.5 * m * v1.length_squared();
+        }
+        // The solid starts at rest and takes the reaction.
+        let (j, h) = (r[0].impulse_n_s, r[0].angular_impulse_n_m_s);
+        let v_solid = j / mass;
+        let w_solid = obstacles[0].inverse_inertia * h;
+        p1 += j;
+        l1 += com.as_dvec3().cross(j) + h;
+        e1 += 0.5 * mass * v_solid.length_squared() + 0.5 * w_solid.dot(h);
+        assert!(
+            (p1 - p0).length() < 1e-7 * p0.length(),
+            "momentum {p0} -> {p1}"
+        );
+        assert!(
+            (l1 - l0).length() < 1e-7 * l0.length().max(1e-6),
+            "L {l0} -> {l1}"
+        );
+        assert!(e1 <= e0, "energy {e0} -> {e1}");
+        let approach = |v: Vec3A, l: usize| {
+            let at = v_solid + w_solid.cross((x(l) - com).as_dvec3());
+            (at.z - v.as_dvec3().z).max(0.0)
+        };
+        let before = nodes
+            .iter()
+            .map(|&(_, _, v)| -v.z as f64)
+            .fold(0.0, f64::max);
+        let after = nodes
+            .iter()
+            .map(|&(l, _, _)| approach(grid.velocity_m_s[l], l))
+            .fold(0.0, f64::max);
+        assert!(
+            after < 0.2 * before,
+            "still approaching at {after} m/s (from {before})"
+        );
     }
 }

@@ -19,6 +19,7 @@
 
 pub mod block;
 pub mod boundary;
+pub mod coupling;
 pub mod exact;
 pub mod geometry;
 pub mod level_set;

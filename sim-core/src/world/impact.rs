@@ -19,7 +19,9 @@
 //!
 //! That change leaves the object's deformation and angular momentum alone and only ever removes
 //! energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
-//! contact force). A resting object never ends its contact and is not touched; a contact older
+//! contact force). Against an awake rigid solid the excess is removed between the two, with the
+//! pair's reduced mass (at the solid's COM): the object's share alone would throw a solid lighter
+//! than it. A resting object never ends its contact and is not touched; a contact older
 //! than [`IMPACT_SETTLES_S`], or one a command interrupts (an impulse or a velocity on the
 //! object), ends without the law.
 
@@ -145,12 +147,21 @@ pub(super) fn boundary_restitution(
         if excess <= 0.0 || !excess.is_finite() {
             continue;
         }
-        let dv = (normal * -excess).as_vec3a();
+        // The impulse that removes the excess between the two: the object's mass alone against
+        // an immovable solid, the reduced mass against an awake rigid one (at its COM).
+        let inverse_mass_solid = match solid {
+            SolidOf::Object(o) if bodies[o].kind == ObjectKind::Rigid && !bodies[o].sleeping => {
+                1.0 / bodies[o].rigid.mass_kg.max(f64::MIN_POSITIVE)
+            }
+            _ => 0.0,
+        };
+        let j = excess / (1.0 / s.mass_kg + inverse_mass_solid);
+        let dv = (normal * -(j / s.mass_kg)).as_vec3a();
         let b = &mut bodies[k];
         b.particles.v.iter_mut().for_each(|v| *v += dv);
         b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
         if let SolidOf::Object(o) = solid {
-            let p = normal * (excess * s.mass_kg);
+            let p = normal * j;
             let com = bodies[o].rigid.com_m;
             bodies[o].record_contact(p, com);
             if bodies[o].kind == ObjectKind::Rigid && !bodies[o].sleeping {

@@ -5,8 +5,9 @@
 //! are boundaries on these grids ([`crate::contact::boundary`]); each function returns the
 //! reaction every object received, for the rigid step.
 
-use glam::{DVec3, Vec3A};
+use glam::{DMat3, DVec3, Vec3A};
 
+use super::measure::inverse_or_zero;
 use super::{Body, Env, WorldError, WorldStats};
 use crate::collider::Collider;
 use crate::contact::boundary::{self, Obstacle, Reaction};
@@ -98,11 +99,12 @@ fn bounds(particles: &Particles) -> (Vec3A, Vec3A) {
 }
 
 /// Applies `solids` (obstacles and which solid each is) as boundaries on `solver`'s grid, adds
-/// their reactions to `reactions` and returns the solids touched with the normal impulse the
-/// grid gave the deformable there (N s).
+/// their reactions to `reactions`, moves the movable ones by theirs (for the particle push-out
+/// after G2P) and returns the solids touched with the normal impulse the grid gave the
+/// deformable there (N s).
 fn apply_obstacles(
     solver: &mut MpmSolver,
-    (obstacles, of): &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
+    (obstacles, of): &mut (Vec<Obstacle<'_>>, Vec<ObstacleOf>),
     reactions: &mut [Reaction],
 ) -> Vec<(ObstacleOf, DVec3)> {
     if obstacles.is_empty() {
@@ -112,7 +114,8 @@ fn apply_obstacles(
     let dx = solver.dx_m;
     let r = boundary::apply(solver.grid_mut(), dx, v_ref, obstacles);
     let mut touched = Vec::new();
-    for (r, &k) in r.iter().zip(of) {
+    for ((r, &k), o) in r.iter().zip(of.iter()).zip(obstacles.iter_mut()) {
+        o.receive(r);
         if r.nodes > 0 {
             // The grid's normal impulse on the deformable is the solid's reversed.
             touched.push((k, -r.normal_impulse_n_s));
@@ -156,10 +159,14 @@ pub(super) struct GridContacts {
 }
 
 /// The solids of `bodies` and the background near `bounds` (m) as boundaries for a deformable
-/// of friction `friction` on a grid of cell `dx_m` (m).
+/// of friction `friction` on a grid of cell `dx_m` (m). An awake rigid solid is movable, at its
+/// velocity plus what `received` (the reactions of deformable objects solved before this one in
+/// the substep, by object) gave it: Gauss–Seidel over objects, so two objects pressing on one
+/// light solid do not both push it as if alone.
 fn obstacles<'a>(
     env: &Env<'a>,
     bodies: &'a [Body],
+    received: &[Reaction],
     bounds: (Vec3A, Vec3A),
     friction: f32,
     dx_m: f32,
@@ -179,7 +186,7 @@ fn obstacles<'a>(
             continue;
         }
         let moving = b.moves_rigidly();
-        out.push(Obstacle {
+        let mut obstacle = Obstacle {
             placed,
             velocity_m_s: if moving {
                 b.rigid.velocity_m_s.as_vec3a()
@@ -193,7 +200,17 @@ fn obstacles<'a>(
             },
             friction: mix_friction(friction, b.friction),
             surface: b.surface,
-        });
+            inverse_mass: 0.0,
+            inverse_inertia: DMat3::ZERO,
+        };
+        if b.kind == ObjectKind::Rigid && !b.sleeping && b.rigid.mass_kg > 0.0 {
+            obstacle.inverse_mass = 1.0 / b.rigid.mass_kg;
+            obstacle.inverse_inertia = inverse_or_zero(b.rigid_world_inertia());
+            if let Some(r) = received.get(k) {
+                obstacle.receive(r);
+            }
+        }
+        out.push(obstacle);
         of.push(ObstacleOf::Object(k));
     }
     if let Some(placed) = env.background.placed()
@@ -205,6 +222,8 @@ fn obstacles<'a>(
             omega_rad_s: Vec3A::ZERO,
             friction: mix_friction(friction, env.background.friction),
             surface: crate::collider::Surface::Separate,
+            inverse_mass: 0.0,
+            inverse_inertia: DMat3::ZERO,
         });
         of.push(ObstacleOf::Background);
     }
@@ -217,6 +236,7 @@ fn obstacles<'a>(
 fn obstacles_near<'a>(
     env: &Env<'a>,
     bodies: &'a [Body],
+    received: &[Reaction],
     particles: &Particles,
     friction: f32,
     dx_m: f32,
@@ -224,7 +244,7 @@ fn obstacles_near<'a>(
     if particles.is_empty() {
         return (Vec::new(), Vec::new());
     }
-    obstacles(env, bodies, bounds(particles), friction, dx_m)
+    obstacles(env, bodies, received, bounds(particles), friction, dx_m)
 }
 
 /// Method `com`: every awake deformable object of `bodies` runs a whole substep of `dt_s` on its
@@ -253,11 +273,11 @@ pub(super) fn per_object(
         let friction = b.friction;
         let step = Step::new(env.colliders, env.gravity_m_s2, dt_s, env.time_s);
         let materials = &bodies[k].materials;
-        let solids = obstacles_near(env, bodies, &particles, friction, dx);
+        let mut solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx);
         let r = solver.scatter_and_update(&particles, &step.input(materials));
         if r.is_ok() {
             touches.extend(collider_touches(k, &solver));
-            let t = apply_obstacles(&mut solver, &solids, &mut reactions);
+            let t = apply_obstacles(&mut solver, &mut solids, &mut reactions);
             touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         }
         let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
@@ -318,8 +338,8 @@ pub(super) fn multi_field(
         let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx_m));
         let friction = b.friction;
         let particles = std::mem::take(&mut b.particles);
-        let solids = obstacles_near(env, bodies, &particles, friction, dx_m);
-        let t = apply_obstacles(&mut solver, &solids, &mut reactions);
+        let mut solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx_m);
+        let t = apply_obstacles(&mut solver, &mut solids, &mut reactions);
         touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         let b = &mut bodies[k];
         b.solver = solver;
@@ -333,7 +353,7 @@ pub(super) fn multi_field(
         let r = b.solver.gather(&mut b.particles, &step.input(&b.materials));
         if r.is_ok() {
             let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
-            let solids = obstacles_near(env, bodies, &particles, friction, dx_m);
+            let solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx_m);
             project_out_of_solids(&mut particles, &solids, &mut reactions);
             bodies[k].particles = particles;
         }
@@ -371,8 +391,8 @@ pub(super) fn shared_grid(
     let r = shared.scatter_and_update(&all, &step.input(&materials));
     if r.is_ok() {
         // One grid for every object: no per-object impacts to follow.
-        let solids = obstacles_near(env, bodies, &all, friction, dx);
-        let _ = apply_obstacles(shared, &solids, &mut reactions);
+        let mut solids = obstacles_near(env, bodies, &reactions, &all, friction, dx);
+        let _ = apply_obstacles(shared, &mut solids, &mut reactions);
     }
     let r = r.and_then(|()| shared.gather(&mut all, &step.input(&materials)));
     let r = r.map_err(|e| step.error(stats, "shared grid", e))?;

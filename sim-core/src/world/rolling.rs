@@ -13,8 +13,11 @@
 //! - N dt = |J_n|, the normal impulse the grid gave the object there (`touches`), and n = J_n / |J_n|;
 //! - ω_r: the object's angular velocity (ω = I⁻¹ L of its particles) relative to the solid's,
 //!   without its part along n (a spin about the normal is the boundary's friction's);
-//! - the couple's angular impulse is I Δω with Δω = −s ω_r, s = min(1, b |J_n| / |I ω_r|): it
-//!   never reverses the rolling, and it is skipped if it would add kinetic energy.
+//! - the couple's angular impulse h = s (I⁻¹ + I_s⁻¹)⁻¹ ω_r with s = min(1, b |J_n| / |(I⁻¹ +
+//!   I_s⁻¹)⁻¹ ω_r|), I_s the solid's inertia (infinite unless it is an awake rigid object, which
+//!   the couple turns: the two-body form, I ω_r against an immovable solid): the object's ω
+//!   changes by −I⁻¹ h, the solid's by I_s⁻¹ h. It never reverses the rolling, and it is
+//!   skipped if it would add kinetic energy.
 //!
 //! The change is a rigid rotation field about the COM (no strain rate, so the material's own
 //! state is untouched); the grid's friction then brings the contact point back to rolling in
@@ -22,18 +25,19 @@
 //! (5/7) g b / R. A solid object receives the opposite couple (a rigid one turns with it, any
 //! one publishes it in its contact torque); a collider or the background takes it.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use super::Env;
 use super::body::Body;
 use super::coherence;
 use super::impact::SolidOf;
-use super::measure::measure;
+use super::measure::{inverse_or_zero, measure};
 use crate::contact::boundary::Reaction;
 use crate::scene::ObjectKind;
 
-/// The solid's rolling resistance (m) and angular velocity (rad/s).
-fn solid_rolling(bodies: &[Body], solid: SolidOf) -> (f32, DVec3) {
+/// The solid's rolling resistance (m), angular velocity (rad/s) and world inverse inertia
+/// (1/(kg m²); zero unless it is an awake rigid object, which the couple turns).
+fn solid_rolling(bodies: &[Body], solid: SolidOf) -> (f32, DVec3, DMat3) {
     match solid {
         SolidOf::Object(o) => {
             let b = &bodies[o];
@@ -42,9 +46,14 @@ fn solid_rolling(bodies: &[Body], solid: SolidOf) -> (f32, DVec3) {
             } else {
                 DVec3::ZERO
             };
-            (b.rolling_resistance_m, omega)
+            let inverse_inertia = if b.kind == ObjectKind::Rigid && !b.sleeping {
+                inverse_or_zero(b.rigid_world_inertia())
+            } else {
+                DMat3::ZERO
+            };
+            (b.rolling_resistance_m, omega, inverse_inertia)
         }
-        SolidOf::Collider(_) | SolidOf::Background => (0.0, DVec3::ZERO),
+        SolidOf::Collider(_) | SolidOf::Background => (0.0, DVec3::ZERO, DMat3::ZERO),
     }
 }
 
@@ -82,31 +91,40 @@ pub(super) fn rolling_resistance(
             continue;
         }
         let mut omega = s.angular_velocity();
+        let inverse_inertia = inverse_or_zero(s.inertia);
         let mut total = DVec3::ZERO;
         for touch @ &(_, solid, j) in own {
             let arm = arm(touch);
             if arm <= 0.0 {
                 continue;
             }
-            let omega_solid = solid_rolling(bodies, solid).1;
+            let (_, omega_solid, solid_inverse_inertia) = solid_rolling(bodies, solid);
             let n = j.normalize();
             let relative = omega - omega_solid;
             let rolling = relative - n * relative.dot(n);
-            let wanted = s.inertia * rolling;
+            // The angular impulse h that stops the relative rolling of the two bodies,
+            // (I_o⁻¹ + I_s⁻¹) h = ω_r: I_o ω_r against an immovable solid.
+            let wanted = inverse_or_zero(inverse_inertia + solid_inverse_inertia) * rolling;
             if !(wanted.length() > 0.0 && wanted.is_finite()) {
                 continue;
             }
             let share = (arm * j.length() / wanted.length()).min(1.0);
-            let dw = -rolling * share;
-            // Kinetic energy change of the rotation, ω·IΔω + ½ ΔωᵀIΔω: never positive.
-            if omega.dot(s.inertia * dw) + 0.5 * dw.dot(s.inertia * dw) > 0.0 {
+            let h = wanted * share;
+            let dw = -(inverse_inertia * h);
+            let dw_solid = solid_inverse_inertia * h;
+            // Kinetic energy change of both rotations, ω·IΔω + ½ ΔωᵀIΔω each: never positive.
+            let mut gain = omega.dot(s.inertia * dw) + 0.5 * dw.dot(s.inertia * dw);
+            if solid_inverse_inertia != DMat3::ZERO {
+                gain += omega_solid.dot(h) + 0.5 * h.dot(dw_solid);
+            }
+            if gain > 0.0 {
                 continue;
             }
             omega += dw;
             total += dw;
             // A rigid solid turns with it; any solid publishes it in its contact torque.
             if let SolidOf::Object(o) = solid {
-                reactions[o].angular_impulse_n_m_s -= s.inertia * dw;
+                reactions[o].angular_impulse_n_m_s += h;
             }
         }
         if total != DVec3::ZERO {

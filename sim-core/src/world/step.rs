@@ -159,6 +159,8 @@ impl World {
         kinematic::drive(&env, bodies);
         let dt = self.time_step(max_dt_s)?;
         let dt_s = dt as f64;
+        let Parts { env, bodies, .. } = self.parts();
+        rigid_gravity(&env, bodies, dt_s);
         let t0 = Instant::now();
         if self.settings.method == Method::Com {
             deformable_pair::warm_start(&mut self.bodies, &self.contacts.resting_patches, dt_s);
@@ -259,9 +261,23 @@ impl World {
     }
 }
 
-/// Velocity half of the rigid step: gravity and the reactions of deformable objects' grids
-/// (`reactions[k]`: the impulse and angular impulse object k received this substep; every
-/// solid adds its reaction to its frame's contact impulses).
+/// Gravity on every stepping awake rigid object, before the MPM part: a solid meets a
+/// deformable's grid two-way with this substep's velocity, as the grid's nodes do (with gravity
+/// after, a block resting on a jelly started each substep lighter than the nodes under it and
+/// crept into it).
+fn rigid_gravity(env: &Env, bodies: &mut [Body], dt: f64) {
+    let g = env.gravity_m_s2.as_dvec3();
+    for (k, b) in bodies.iter_mut().enumerate() {
+        if b.kind == ObjectKind::Rigid && !b.sleeping && env.stepping(k) {
+            rigid::integrate_velocity(b, g, dt, DVec3::ZERO, DVec3::ZERO);
+        }
+    }
+}
+
+/// Velocity half of the rigid step, after [`rigid_gravity`]: the reactions of deformable
+/// objects' grids (`reactions[k]`: the impulse and angular impulse object k received this
+/// substep; every solid adds its reaction to its frame's contact impulses). A sleeping rigid
+/// object that a reaction wakes takes this substep's gravity here.
 fn rigid_velocities(env: &Env, bodies: &mut [Body], dt: f64, reactions: &[Reaction]) {
     let g = env.gravity_m_s2.as_dvec3();
     for (k, b) in bodies.iter_mut().enumerate() {
@@ -271,6 +287,7 @@ fn rigid_velocities(env: &Env, bodies: &mut [Body], dt: f64, reactions: &[Reacti
         if b.kind != ObjectKind::Rigid || !env.stepping(k) {
             continue;
         }
+        let mut gravity = DVec3::ZERO;
         if b.sleeping {
             // A moving deformable object pushing on it wakes it.
             if r.nodes == 0 || r.impulse_n_s.length() < b.rigid.mass_kg * g.length() * dt {
@@ -278,8 +295,9 @@ fn rigid_velocities(env: &Env, bodies: &mut [Body], dt: f64, reactions: &[Reacti
             }
             b.sleeping = false;
             b.still_s = 0.0;
+            gravity = g;
         }
-        rigid::integrate_velocity(b, g, dt, r.impulse_n_s, r.angular_impulse_n_m_s);
+        rigid::integrate_velocity(b, gravity, dt, r.impulse_n_s, r.angular_impulse_n_m_s);
         b.push = (DVec3::ZERO, DVec3::ZERO);
     }
 }
