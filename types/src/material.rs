@@ -17,7 +17,8 @@ pub struct UnknownName {
     pub expected: String,
 }
 
-/// A constitutive model (DESIGN.md "Materials"; one file each in `sim-core/src/material/`).
+/// A constitutive model (docs/scene-format.md, "`material`"; one file each in
+/// `sim-core/src/material/`).
 ///
 /// Scene files and commands name it in kebab-case (`jelly`, `neo-hookean`, `snow`, `sand`,
 /// `metal`, `plasticine`, `foam`); `fixed-corotated` and `corotated` are accepted for `jelly`.

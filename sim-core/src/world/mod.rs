@@ -1,13 +1,15 @@
 //! The world: every object of a scene, stepped with the COM method (the paper's stage 2) or the
 //! shared-grid MPM baseline, frame by frame.
 //!
-//! COM method, one substep (DESIGN.md "Objects and the COM layer"; docs/com-layer.md):
+//! COM method, one substep (docs/com-layer.md; the stages in order in `world/step.rs`):
+//! 0. gravity on awake rigid objects;
 //! 1. each awake deformable object runs P2G, grid update and G2P on its own grid ([`Body`]),
 //!    with grid colliders, static and rigid objects and the captured background as boundary
-//!    nodes ([`crate::contact::boundary`]; the background's surface in `world/background.rs`);
+//!    nodes ([`crate::contact::boundary`], two-way with awake rigid objects; the background's
+//!    surface in `world/background.rs`);
 //! 2. the restitution law where a deformable object's grid contact with a solid ends
 //!    (`impact.rs`), and rolling resistance while it lasts (`rolling.rs`);
-//! 3. rigid objects' velocity half: gravity and the grids' reactions (`world/rigid.rs`);
+//! 3. rigid objects' velocity half: the grids' reactions (`world/rigid.rs`);
 //! 4. deformable pairs: the COM-level impulse law per contact patch (`deformable_pair/`,
 //!    `world/coherence.rs`);
 //! 5. one contact solve for rigid and static objects, colliders and the background
