@@ -1,6 +1,6 @@
 //! Deformable objects and movable solids meet two-way on the deformable's grid (release build):
-//! a light rigid ball thrown into a jelly never leaves faster than it came, and a rigid block
-//! rests on a jelly near the uniaxial sag.
+//! a light rigid ball thrown into a jelly never leaves faster than it came, a light lid comes to
+//! rest on a jelly, and a rigid block rests on a jelly near the uniaxial sag without creeping.
 
 use splatphys_core::material::MaterialSpec;
 use splatphys_core::scene::{ColliderSpec, ObjectKind, Scene, SceneBuilder, SceneObject, Surface};
@@ -65,6 +65,45 @@ fn ball_into_jelly(density: f64, speed_m_s: f32) -> World {
         .build()
         .expect("scene");
     World::from_scene(&scene).expect("world")
+}
+
+#[test]
+fn a_light_lid_laid_on_a_jelly_comes_to_rest_on_it() {
+    // 5 g of rigid lid, 8 × 8 × 1 cm, laid 1 mm above the 10 cm slab: it settles on the jelly,
+    // never rising above where it started nor thrown.
+    let lid = SceneObject::cuboid(
+        "lid",
+        [-0.04, -0.04, TOP_M + 0.001],
+        [0.04, 0.04, TOP_M + 0.011],
+    )
+    .spacing_m(0.005)
+    .material(MaterialSpec::jelly(1e6, 0.3, 78.0))
+    .kind(ObjectKind::Rigid)
+    .friction(0.5);
+    let scene = jelly_on_floor(0.05, 0.6, 50.0)
+        .object(lid)
+        .build()
+        .expect("scene");
+    let mut w = World::from_scene(&scene).expect("world");
+    let m = w.objects()[1].mass_kg;
+    assert!((m - 0.005).abs() < 1e-3, "lid {m} kg");
+    let z0 = w.objects()[1].com_m[2];
+    let (mut highest, mut fastest_up) = (z0, 0.0f64);
+    while !w.is_finished() {
+        w.advance_frame().expect("step");
+        let lid = &w.objects()[1];
+        highest = highest.max(lid.com_m[2]);
+        fastest_up = fastest_up.max(lid.velocity_m_s[2]);
+    }
+    let speed = glam::DVec3::from(w.objects()[1].velocity_m_s).length();
+    println!(
+        "lid {m:.4} kg: highest {:.2} mm above its start, fastest up {fastest_up:.4} m/s, \
+         speed at the end {speed:.4} m/s",
+        (highest - z0) * 1e3
+    );
+    assert!(highest < z0 + 5e-4, "rose {:.2} mm", (highest - z0) * 1e3);
+    assert!(fastest_up < 0.05, "thrown up at {fastest_up} m/s");
+    assert!(speed < 0.02, "still moving at {speed} m/s");
 }
 
 #[test]
