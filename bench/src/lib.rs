@@ -13,6 +13,7 @@
 //! go through [`crate::chart`].
 
 pub mod chart;
+pub mod child;
 pub mod compare;
 pub mod contact;
 pub mod flood;

@@ -17,7 +17,7 @@
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::path::PathBuf;
-use std::process::{Child, Command as Process, Stdio};
+use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context, Result, bail, ensure};
@@ -29,6 +29,8 @@ use splatphys_ipc::command::{Command, Reply};
 use splatphys_ipc::services::{MAX_FRAME_BUFFER, Role, ServiceNames, create_node, frame_service};
 #[cfg(doc)]
 use splatphys_ipc::wire::FrameHeader;
+
+use crate::child::KillOnDrop;
 
 /// Gives up when nothing arrives for this long (the parent died or failed).
 const IDLE_TIMEOUT: Duration = Duration::from_secs(30);
@@ -242,16 +244,7 @@ fn flood(a: &PeerArgs) -> Result<()> {
 }
 
 /// A child process (a `bench ipc-peer`), killed if still running when dropped.
-pub struct Peer(pub Child);
-
-impl Drop for Peer {
-    fn drop(&mut self) {
-        if let Ok(None) = self.0.try_wait() {
-            let _ = self.0.kill();
-        }
-        let _ = self.0.wait();
-    }
-}
+pub struct Peer(pub KillOnDrop);
 
 impl Peer {
     /// Starts `splatphys bench ipc-peer ARGS` with stdout piped.
@@ -263,23 +256,15 @@ impl Peer {
             .stdout(Stdio::piped())
             .spawn()
             .context("starting bench ipc-peer")?;
-        Ok(Self(child))
+        Ok(Self(KillOnDrop(child)))
     }
 
     /// Waits (up to `timeout`) for the peer to exit successfully; returns its last stdout line
     /// parsed as JSON.
     pub fn finish(mut self, timeout: Duration) -> Result<Value> {
-        let t0 = Instant::now();
-        let status = loop {
-            if let Some(st) = self.0.try_wait()? {
-                break st;
-            }
-            ensure!(
-                t0.elapsed() < timeout,
-                "bench ipc-peer still running after {timeout:?}"
-            );
-            std::thread::sleep(Duration::from_millis(5));
-        };
+        let status = self
+            .0
+            .wait_for("bench ipc-peer", timeout, Duration::from_millis(5))?;
         let mut out = String::new();
         if let Some(mut o) = self.0.stdout.take() {
             o.read_to_string(&mut out)?;

@@ -12,13 +12,14 @@
 //! chart `soak.svg`/`.png`, the server's report and both processes' logs in `--out-dir`.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command as Process, Stdio};
+use std::process::{Command as Process, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail, ensure};
 use serde_json::{Value, json};
 
 use crate::chart::{Series, line_chart, write_columns_csv};
+use crate::child::KillOnDrop;
 use crate::peer::Peer;
 
 /// Arguments of `splatphys bench soak`.
@@ -52,31 +53,12 @@ pub struct SoakBenchArgs {
 
 /// A child process killed (and reaped) when dropped; its stderr goes to a log file (a pipe
 /// nobody reads for 30 minutes could fill and block it).
-struct Proc(Child, PathBuf);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Ok(None) = self.0.try_wait() {
-            let _ = self.0.kill();
-        }
-        let _ = self.0.wait();
-    }
-}
+struct Proc(KillOnDrop, PathBuf);
 
 impl Proc {
     /// Waits up to `timeout` for the exit; returns (success, stderr).
     fn finish(mut self, what: &str, timeout: Duration) -> Result<(bool, String)> {
-        let t0 = Instant::now();
-        let status = loop {
-            if let Some(st) = self.0.try_wait()? {
-                break st;
-            }
-            ensure!(
-                t0.elapsed() < timeout,
-                "{what} still running after {timeout:?}"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        };
+        let status = self.0.wait_for(what, timeout, Duration::from_millis(20))?;
         let err = std::fs::read_to_string(&self.1).unwrap_or_default();
         Ok((status.success(), err))
     }
@@ -325,7 +307,7 @@ fn spawn(cmd: &mut Process, iox: &str, log: &Path, what: &str) -> Result<Proc> {
         .stdout(Stdio::null())
         .stderr(file)
         .spawn()
-        .map(|c| Proc(c, log.to_path_buf()))
+        .map(|c| Proc(KillOnDrop(c), log.to_path_buf()))
         .with_context(|| format!("starting {what}"))
 }
 
