@@ -441,7 +441,7 @@ impl World {
     /// The scene's grid cell size (m): the baselines' shared grid, the contact margins, and
     /// every object's grid unless it has its own ([`Body::dx_m`]).
     pub fn dx_m(&self) -> f32 {
-        self.shared.dx_m
+        self.env().dx_m()
     }
 
     /// Seconds between published frames.
