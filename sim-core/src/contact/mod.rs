@@ -20,6 +20,7 @@
 pub mod block;
 pub mod boundary;
 pub mod coupling;
+pub mod crossing;
 pub mod exact;
 pub mod geometry;
 pub mod level_set;

@@ -1,5 +1,5 @@
-//! Foam: viscoplastic flow (Perzyna type) on Hencky strain. Beyond a small yield stress
-//! (E / 100) the excess deviatoric strain relaxes with time constant η / mu, so each substep removes
+//! Foam: viscoplastic flow (Perzyna type) on Hencky strain. Beyond a small uniaxial yield stress
+//! (√(3/2) E / 100, a deviatoric stress norm of E / 100) the excess deviatoric strain relaxes with time constant η / mu, so each substep removes
 //! the fraction dt / (dt + η / mu) of it: slow deformations flow, fast impacts bounce back
 //! elastically. η is the viscosity in Pa·s.
 
@@ -15,9 +15,13 @@ pub struct Foam {
     pub params: ElasticParams,
     /// Viscosity η in Pa·s.
     pub viscosity_pa_s: f32,
-    /// Yield stress in Pa (E / 100).
+    /// Uniaxial yield stress in Pa ([`FOAM_YIELD_OVER_E`] × E).
     pub yield_stress_pa: f32,
 }
+
+/// Foam's uniaxial yield stress as a fraction of E: √(3/2) / 100, a deviatoric stress norm of
+/// E / 100 at yield.
+pub const FOAM_YIELD_OVER_E: f32 = 1.224_744_9 / 100.0;
 
 impl Foam {
     /// Foam with viscosity η in Pa·s, in [0, 1e12].
@@ -34,7 +38,7 @@ impl Foam {
             "[0, 1e12]",
         )?;
         Ok(Self {
-            yield_stress_pa: params.youngs_modulus_pa / 100.0,
+            yield_stress_pa: params.youngs_modulus_pa * FOAM_YIELD_OVER_E,
             params,
             viscosity_pa_s: eta,
         })

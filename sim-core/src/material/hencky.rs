@@ -27,6 +27,9 @@ pub(crate) fn hencky_stress(f: Mat3A, mu: f32, lambda: f32) -> Mat3A {
     u * Mat3A::from_diagonal(tau.into()) * u.transpose()
 }
 
+/// √(2/3): the norm of the deviatoric stress of a uniaxial stress σ, over σ.
+pub(crate) const UNIAXIAL_TO_DEVIATORIC_NORM: f32 = 0.816_496_6;
+
 /// Hencky energy density.
 pub(crate) fn hencky_energy(f: Mat3A, mu: f32, lambda: f32) -> f32 {
     let eps = log_strain(svd3(f).sigma);
@@ -34,9 +37,13 @@ pub(crate) fn hencky_energy(f: Mat3A, mu: f32, lambda: f32) -> f32 {
     mu * eps.length_squared() + 0.5 * lambda * tr * tr
 }
 
-/// Von Mises return mapping in principal log-strain space: removes the part of the deviatoric
-/// strain beyond `yield_stress_pa / (2 mu)` (times `fraction` in (0, 1] for viscoplastic flow).
-/// Rebuilds F = U exp(ε) Vᵀ and returns the plastic strain increment |Δε_dev|.
+/// Von Mises return mapping in principal log-strain space, yield stress `yield_stress_pa` σ_y
+/// in the uniaxial convention: a bar in tension yields at σ_y, which on the norm of the
+/// deviatoric Kirchhoff stress is |dev τ| = 2μ |dev ε| = √(2/3) σ_y (Simo and Hughes 1998,
+/// section 2.3; the convention of every engineering table of yield stresses). Removes the part
+/// of the deviatoric strain beyond √(2/3) σ_y / (2μ) (times `fraction` in (0, 1] for
+/// viscoplastic flow), rebuilds F = U exp(ε) Vᵀ and returns the plastic strain increment
+/// |Δε_dev|.
 pub(crate) fn von_mises_project(
     f: &mut Mat3A,
     mu: f32,
@@ -48,7 +55,7 @@ pub(crate) fn von_mises_project(
     let mean = (eps.x + eps.y + eps.z) / 3.0;
     let dev = eps - Vec3A::splat(mean);
     let norm = dev.length();
-    let excess = norm - yield_stress_pa / (2.0 * mu);
+    let excess = norm - UNIAXIAL_TO_DEVIATORIC_NORM * yield_stress_pa / (2.0 * mu);
     if excess <= 0.0 || norm <= 0.0 {
         return 0.0;
     }

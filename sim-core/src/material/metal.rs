@@ -1,8 +1,9 @@
 //! Metal: von Mises plasticity on Hencky strain with St. Venant-Kirchhoff elasticity (as in
 //! PhysGaussian's metal, after Klár et al. 2016's return mapping in log-strain space).
 //!
-//! Yield when |dev τ| = 2 mu |ε̂| exceeds the yield stress; the return mapping removes the excess
-//! deviatoric strain (perfect plasticity, no hardening). The plastic state accumulates |Δε̂|.
+//! Yield when |dev τ| = 2 mu |ε̂| exceeds √(2/3) σ_y, σ_y the uniaxial yield stress (a bar in
+//! tension yields at σ_y); the return mapping removes the excess deviatoric strain (perfect
+//! plasticity, no hardening). The plastic state accumulates |Δε̂|.
 
 use glam::Mat3A;
 
@@ -14,7 +15,8 @@ use super::{ConstitutiveModel, ElasticParams, MaterialError, check_range};
 pub struct Metal {
     /// E, nu, density and Lamé parameters.
     pub params: ElasticParams,
-    /// Yield stress in Pa (norm of the deviatoric Kirchhoff stress at yield).
+    /// Uniaxial yield stress σ_y in Pa (a bar in tension yields at σ_y; the deviatoric
+    /// Kirchhoff stress's norm at yield is √(2/3) σ_y).
     pub yield_stress_pa: f32,
 }
 

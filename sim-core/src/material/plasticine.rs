@@ -12,7 +12,7 @@ use super::{ConstitutiveModel, ElasticParams, MaterialError, check_range};
 pub struct Plasticine {
     /// E, nu, density and Lamé parameters.
     pub params: ElasticParams,
-    /// Initial yield stress τ_y0 in Pa.
+    /// Initial uniaxial yield stress τ_y0 in Pa (the convention of [`super::Metal`]).
     pub yield_stress_pa: f32,
     /// Fraction of the yield stress lost per unit accumulated plastic strain (dimensionless).
     pub softening: f32,

@@ -8,10 +8,11 @@ use splatphys_types::{MaterialEdit, MaterialModel};
 pub mod defaults {
     /// Sand: Drucker-Prager friction angle, degrees (Klár et al. 2016 use 30-40°).
     pub const FRICTION_ANGLE_DEG: f64 = 30.0;
-    /// Metal: yield stress as a fraction of E.
-    pub const METAL_YIELD_OVER_E: f64 = 1.0 / 100.0;
-    /// Plasticine: yield stress as a fraction of E.
-    pub const PLASTICINE_YIELD_OVER_E: f64 = 1.0 / 50.0;
+    /// Metal: uniaxial yield stress as a fraction of E (√(3/2) / 100: the deviatoric stress
+    /// norm E / 100 at yield that the default was before the yield stress became uniaxial).
+    pub const METAL_YIELD_OVER_E: f64 = 1.224_744_871 / 100.0;
+    /// Plasticine: uniaxial yield stress as a fraction of E (√(3/2) / 50, as for metal).
+    pub const PLASTICINE_YIELD_OVER_E: f64 = 1.224_744_871 / 50.0;
     /// Plasticine: fraction of the yield stress lost per unit accumulated plastic strain.
     pub const SOFTENING: f64 = 2.0;
     /// Foam: viscosity of the viscoplastic flow, Pa·s.
@@ -42,8 +43,9 @@ pub struct MaterialSpec {
     /// Sand: Drucker-Prager friction angle, degrees (default 30).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub friction_angle_deg: Option<f64>,
-    /// Metal and plasticine: yield stress, Pa, on the norm of the deviatoric Kirchhoff stress
-    /// (default E / 100 for metal, E / 50 for plasticine).
+    /// Metal and plasticine: uniaxial yield stress σ_y, Pa (a bar in tension yields at σ_y; the
+    /// norm of the deviatoric Kirchhoff stress at yield is √(2/3) σ_y)
+    /// (default √(3/2) E / 100 for metal, √(3/2) E / 50 for plasticine).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub yield_stress_pa: Option<f64>,
     /// Plasticine: fraction of the yield stress lost per unit accumulated plastic strain

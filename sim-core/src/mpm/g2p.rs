@@ -11,6 +11,7 @@ use super::bspline::Stencil;
 use super::grid::SparseGrid;
 use super::p2g::region_index;
 use super::particles::Particles;
+use super::plastic_flow;
 use crate::material::{ConstitutiveModel, Material};
 
 /// One particle block's 6³ node velocities (m/s, relative to the reference velocity).
@@ -66,14 +67,15 @@ pub fn gather(
         v,
         c,
         f,
+        f_plastic,
         plastic,
         material,
         ..
     } = particles;
-    let (speed2, bad) = (x, v, c, f, plastic, &*material, &bins.block_of)
+    let (speed2, bad) = (x, v, c, f, f_plastic, plastic, &*material, &bins.block_of)
         .into_par_iter()
         .enumerate()
-        .map(|(p, (x, v, c, f, plastic, mat, &b))| {
+        .map(|(p, (x, v, c, f, fp, plastic, mat, &b))| {
             let s = Stencil::new(*x, inv_dx);
             let origin = bins.blocks[b as usize].key * BLOCK;
             let local = (s.base - origin).as_uvec3();
@@ -126,9 +128,11 @@ pub fn gather(
             let new_v = new_v + v_ref;
             // d above is in cells: (4/dx²) · dx = 4/dx.
             let new_c = new_c * (d_inv * dx_m);
-            let mut new_f = (Mat3A::IDENTITY + new_c * dt_s) * *f;
+            let trial_f = (Mat3A::IDENTITY + new_c * dt_s) * *f;
+            let mut new_f = trial_f;
             let mut new_plastic = *plastic;
             materials[*mat as usize].project(&mut new_f, &mut new_plastic, dt_s);
+            let new_fp = plastic_flow::after_return_mapping(trial_f, new_f, *fp);
             let new_x = *x + new_v * dt_s;
             // x · 0 is ±0 for finite x and NaN otherwise, so a sum of such products is zero
             // exactly when every component is finite (one test instead of one per vector).
@@ -143,6 +147,7 @@ pub fn gather(
             *v = new_v;
             *c = new_c;
             *f = new_f;
+            *fp = new_fp;
             *plastic = new_plastic;
             (new_v.length_squared(), usize::MAX)
         })

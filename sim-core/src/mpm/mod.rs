@@ -5,7 +5,8 @@
 //! One substep: [`binning`] sorts particles into 4³-node blocks; [`p2g`] scatters mass, APIC
 //! momentum and stress into per-block scratch; [`grid_update`] sums the scratch in a fixed order,
 //! divides by mass, adds gravity and applies colliders; [`g2p`] gathers velocity and its gradient C,
-//! updates F = (I + dt C) F, runs the material's return mapping and advects. Every reduction has a
+//! updates F = (I + dt C) F, runs the material's return mapping (carrying the plastic part to
+//! F_p, [`plastic_flow`]) and advects. Every reduction has a
 //! fixed order, so the result is bit-identical for any thread count.
 
 pub mod binning;
@@ -17,6 +18,7 @@ pub mod grid_update;
 pub mod multi_field;
 pub mod p2g;
 pub mod particles;
+pub mod plastic_flow;
 mod prefetch;
 pub mod solver;
 pub mod system;

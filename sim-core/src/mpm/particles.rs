@@ -2,6 +2,12 @@
 
 use glam::{Mat3A, Vec3A};
 
+/// The smallest stretch (singular value) a particle's plastic deformation F_p keeps: sand and
+/// snow flow without bound, and a Gaussian following all of it turns into a needle or a disc.
+pub const PLASTIC_STRETCH_MIN: f32 = 0.25;
+/// The largest stretch a particle's plastic deformation F_p keeps ([`PLASTIC_STRETCH_MIN`]).
+pub const PLASTIC_STRETCH_MAX: f32 = 4.0;
+
 /// MPM particles. Every array has length `N`; index i is one particle throughout a run.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Particles {
@@ -13,6 +19,11 @@ pub struct Particles {
     pub c: Vec<Mat3A>,
     /// `[N]` elastic deformation gradient F (dimensionless; plasticity is projected out of it).
     pub f: Vec<Mat3A>,
+    /// `[N]` plastic deformation gradient F_p (dimensionless; identity for elastic models): the
+    /// total deformation is F F_p, which is what the Gaussians a particle carries follow
+    /// (`g2p`'s return mapping updates it; its stretches are bounded to
+    /// [[`PLASTIC_STRETCH_MIN`], [`PLASTIC_STRETCH_MAX`]] where flow is unbounded).
+    pub f_plastic: Vec<Mat3A>,
     /// `[N]` scalar plastic state of the material (snow: Jp; others: accumulated plastic strain).
     pub plastic: Vec<f32>,
     /// `[N]` mass (kg).
@@ -52,6 +63,7 @@ impl Particles {
         self.v.push(v_m_s);
         self.c.push(Mat3A::ZERO);
         self.f.push(Mat3A::IDENTITY);
+        self.f_plastic.push(Mat3A::IDENTITY);
         self.plastic.push(plastic);
         self.mass_kg.push(mass_kg);
         self.volume0_m3.push(volume0_m3);
@@ -65,6 +77,7 @@ impl Particles {
         self.v.extend_from_slice(&other.v);
         self.c.extend_from_slice(&other.c);
         self.f.extend_from_slice(&other.f);
+        self.f_plastic.extend_from_slice(&other.f_plastic);
         self.plastic.extend_from_slice(&other.plastic);
         self.mass_kg.extend_from_slice(&other.mass_kg);
         self.volume0_m3.extend_from_slice(&other.volume0_m3);
@@ -89,6 +102,7 @@ impl Particles {
             v,
             c,
             f,
+            f_plastic,
             plastic,
             mass_kg,
             volume0_m3,
@@ -103,6 +117,7 @@ impl Particles {
             v: pick(v, order),
             c: pick(c, order),
             f: pick(f, order),
+            f_plastic: pick(f_plastic, order),
             plastic: pick(plastic, order),
             mass_kg: pick(mass_kg, order),
             volume0_m3: pick(volume0_m3, order),

@@ -434,22 +434,18 @@ impl Body {
         match &mut self.carry {
             Some(carry) => {
                 carry.rebase(&self.particles, &mut self.sigma0);
-                self.particles
-                    .f
-                    .iter_mut()
-                    .for_each(|f| *f = Mat3A::IDENTITY);
             }
             None => {
                 for (s0, &j) in self.sigma0.iter_mut().zip(&self.gaussian_particle) {
-                    let f = self.particles.f[j as usize];
+                    let j = j as usize;
+                    let f = self.particles.f[j] * self.particles.f_plastic[j];
                     *s0 = f * *s0 * f.transpose();
                 }
-                self.particles
-                    .f
-                    .iter_mut()
-                    .for_each(|f| *f = Mat3A::IDENTITY);
             }
         }
+        let p = &mut self.particles;
+        p.f.iter_mut().for_each(|f| *f = Mat3A::IDENTITY);
+        p.f_plastic.iter_mut().for_each(|f| *f = Mat3A::IDENTITY);
         self.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
     }
 
@@ -475,6 +471,7 @@ impl Body {
         t.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
         t.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);
         t.f.iter_mut().for_each(|f| *f = Mat3A::IDENTITY);
+        t.f_plastic.iter_mut().for_each(|f| *f = Mat3A::IDENTITY);
         self.template = t;
     }
 

@@ -282,7 +282,8 @@ impl Carry {
                 continue;
             }
             let j = j as usize;
-            let fj = p.f[j];
+            // The total deformation: the plastic part too (`mpm::plastic_flow`).
+            let fj = p.f[j] * p.f_plastic[j];
             x += (p.x[j] + fj * (xg - self.rest_particles[j])) * w;
             f += fj * w;
         }
@@ -294,7 +295,8 @@ impl Carry {
     /// the particles' positions as the new X_g and X_j⁰. The caller then sets every F_j to the
     /// identity; neighbours and weights are kept.
     pub fn rebase(&mut self, p: &Particles, sigma0: &mut [Mat3A]) {
-        if p.x == self.rest_particles && p.f.iter().all(|f| *f == Mat3A::IDENTITY) {
+        let identity = |f: &[Mat3A]| f.iter().all(|f| *f == Mat3A::IDENTITY);
+        if p.x == self.rest_particles && identity(&p.f) && identity(&p.f_plastic) {
             return; // at rest already: x_g = X_g exactly (the weighted sum would round)
         }
         let poses: Vec<(Vec3A, Mat3A)> = (0..self.len())
@@ -336,7 +338,8 @@ impl Body {
             Some(c) => c.pose(g, &self.particles),
             None => {
                 let j = self.gaussian_particle[g] as usize;
-                (self.particles.x[j], self.particles.f[j])
+                let p = &self.particles;
+                (p.x[j], p.f[j] * p.f_plastic[j])
             }
         }
     }

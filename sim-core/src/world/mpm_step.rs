@@ -11,6 +11,7 @@ use super::measure::inverse_or_zero;
 use super::{Body, Env, WorldError, WorldStats};
 use crate::collider::Collider;
 use crate::contact::boundary::{self, Obstacle, Reaction};
+use crate::contact::crossing;
 use crate::contact::mix_friction;
 use crate::material::Material;
 use crate::mpm::{MpmError, MpmSolver, Particles, SubstepInput, SubstepReport, multi_field};
@@ -129,19 +130,24 @@ fn apply_obstacles(
     touched
 }
 
-/// Removes the velocity into `solids` of `particles` that lie inside them, after G2P
+/// After G2P of `step`: puts back `particles` whose path crossed a thin collider or one of
+/// `solids` ([`crossing`]), removes the velocity into the solids of those that lie inside them
 /// ([`boundary::project_particles`]), and adds the momentum this takes to the solids'
 /// `reactions`.
 fn project_out_of_solids(
+    step: Step<'_>,
     particles: &mut Particles,
     (obstacles, of): &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
     reactions: &mut [Reaction],
 ) {
-    let r = boundary::project_particles(particles, obstacles);
-    for (r, &k) in r.iter().zip(of) {
+    let end_s = step.time_s + step.dt_s as f64;
+    crossing::stop_collider_crossings(particles, step.colliders, end_s, step.dt_s);
+    let crossed = crossing::stop_crossings(particles, obstacles, step.dt_s);
+    let projected = boundary::project_particles(particles, obstacles);
+    for ((c, p), &k) in crossed.iter().zip(&projected).zip(of) {
         if let ObstacleOf::Object(k) = k {
-            reactions[k].impulse_n_s += r.impulse_n_s;
-            reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
+            reactions[k].impulse_n_s += c.impulse_n_s + p.impulse_n_s;
+            reactions[k].angular_impulse_n_m_s += c.angular_impulse_n_m_s + p.angular_impulse_n_m_s;
         }
     }
 }
@@ -282,7 +288,7 @@ pub(super) fn per_object(
         }
         let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
         if r.is_ok() {
-            project_out_of_solids(&mut particles, &solids, &mut reactions);
+            project_out_of_solids(step, &mut particles, &solids, &mut reactions);
         }
         let b = &mut bodies[k];
         b.solver = solver;
@@ -354,7 +360,7 @@ pub(super) fn multi_field(
         if r.is_ok() {
             let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
             let solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx_m);
-            project_out_of_solids(&mut particles, &solids, &mut reactions);
+            project_out_of_solids(step, &mut particles, &solids, &mut reactions);
             bodies[k].particles = particles;
         }
         step.finish(stats, &mut bodies[k], r)?;
@@ -405,6 +411,9 @@ pub(super) fn shared_grid(
         b.particles.v.copy_from_slice(&all.v[start..end]);
         b.particles.c.copy_from_slice(&all.c[start..end]);
         b.particles.f.copy_from_slice(&all.f[start..end]);
+        b.particles
+            .f_plastic
+            .copy_from_slice(&all.f_plastic[start..end]);
         b.particles
             .plastic
             .copy_from_slice(&all.plastic[start..end]);
