@@ -434,3 +434,59 @@ fn a_kinematic_pusher_moves_a_box_that_a_sticky_floor_holds_without_throwing_it(
     assert!((moved - 0.39).abs() < 0.02, "the box moved {moved} m");
     assert!(fastest < 0.3, "the box reached {fastest} m/s");
 }
+
+#[test]
+fn a_finger_pushing_a_jelly_box_across_a_sticky_floor_never_gives_it_more_than_its_work() {
+    // A low, wide jelly box (20 × 20 × 4 cm) on a sticky floor, pushed at its base by a
+    // kinematic finger at 0.2 m/s. The box's kinetic energy can only come from the finger's
+    // work (its reported contact force against its velocity) and from the box's own fall.
+    let scene = Scene::builder()
+        .grid_dx_m(0.01)
+        .frame_rate_hz(50.0)
+        .duration_s(1.0)
+        .sleep(false)
+        .collider(ColliderSpec::ground("floor").surface(Surface::Sticky))
+        .object(
+            SceneObject::cuboid("box", [0.0, -0.1, 0.0005], [0.2, 0.1, 0.0405])
+                .spacing_m(0.005)
+                .material(MaterialSpec::jelly(1e5, 0.3, 1000.0))
+                .friction(0.5)
+                .restitution(0.0),
+        )
+        .object(
+            SceneObject::cuboid("finger", [-0.03, -0.01, 0.005], [-0.005, 0.01, 0.02])
+                .kind(ObjectKind::Kinematic)
+                .velocity([0.2, 0.0, 0.0])
+                .friction(0.5)
+                .restitution(0.0),
+        )
+        .build()
+        .expect("scene");
+    let mut w = World::from_scene(&scene).expect("world");
+    let kinetic = |w: &World| {
+        let p = w.bodies()[0].particles();
+        (0..p.len())
+            .map(|i| 0.5 * p.mass_kg[i] as f64 * p.v[i].as_dvec3().length_squared())
+            .sum::<f64>()
+    };
+    let (z0, mass) = (w.objects()[0].com_m[2], w.objects()[0].mass_kg);
+    let (mut work, mut fastest) = (0.0f64, 0.0f64);
+    while !w.is_finished() {
+        w.advance_frame().expect("step");
+        // The force on the finger is the box's push back: the finger's work on the box is
+        // minus that against the finger's velocity.
+        let f = w.objects()[1].contact_force_n;
+        work += -(f[0] * 0.2) * w.frame_dt_s();
+        let o = &w.objects()[0];
+        fastest = fastest.max(o.velocity_m_s.iter().map(|c| c * c).sum::<f64>().sqrt());
+        let fall = mass * 9.81 * (z0 - o.com_m[2]).max(0.0);
+        let ke = kinetic(&w);
+        assert!(
+            ke <= 1.1 * (work.max(0.0) + fall) + 1e-5,
+            "t = {:.2} s: kinetic {ke:.5} J, finger's work {work:.5} J, fall {fall:.5} J",
+            w.time_s()
+        );
+    }
+    println!("finger's work {work:.4} J, fastest {fastest:.3} m/s");
+    assert!(fastest < 0.3, "the box reached {fastest} m/s");
+}

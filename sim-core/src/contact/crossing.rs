@@ -23,7 +23,7 @@
 //! deformation gradient stores no strain for the move), but only for a particle that has
 //! crossed a solid, where the alternative is tunnelling.
 
-use glam::Vec3A;
+use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::Geometry;
@@ -114,23 +114,27 @@ fn crossing(
     (n1.dot(normal) < FAR_SIDE_COSINE).then_some((point, normal))
 }
 
-/// [`stop_crossings`] for grid colliders at time `time_s` (s): what the particles lost goes
-/// nowhere (a collider takes no reaction).
+/// [`stop_crossings`] for grid colliders at time `time_s` (s); returns the normal impulse each
+/// collider gave the particles (N s), in order.
 pub fn stop_collider_crossings(
     particles: &mut Particles,
     colliders: &[Collider],
     time_s: f64,
     dt_s: f32,
-) {
-    if colliders.is_empty() || dt_s.is_nan() || dt_s <= 0.0 {
-        return;
+) -> Vec<DVec3> {
+    let n_colliders = colliders.len();
+    if n_colliders == 0 || dt_s.is_nan() || dt_s <= 0.0 {
+        return vec![DVec3::ZERO; n_colliders];
     }
-    let Particles { x, v, .. } = particles;
-    x.par_chunks_mut(CHUNK)
+    let Particles { x, v, mass_kg, .. } = particles;
+    let parts: Vec<Vec<DVec3>> = x
+        .par_chunks_mut(CHUNK)
         .zip(v.par_chunks_mut(CHUNK))
-        .for_each(|(x, v)| {
+        .zip(mass_kg.par_chunks(CHUNK))
+        .map(|((x, v), m)| {
+            let mut out = vec![DVec3::ZERO; n_colliders];
             for i in 0..x.len() {
-                for c in colliders {
+                for (k, c) in colliders.iter().enumerate() {
                     let solid_v = c.velocity_at(time_s);
                     let x0 = x[i] - (v[i] - solid_v) * dt_s;
                     let distance = |p| c.signed_distance(p, time_s);
@@ -141,10 +145,20 @@ pub fn stop_collider_crossings(
                     let into = (v[i] - solid_v).dot(normal);
                     if into < 0.0 {
                         v[i] -= normal * into;
+                        out[k] += (normal * (-into * m[i])).as_dvec3();
                     }
                 }
             }
-        });
+            out
+        })
+        .collect();
+    let mut total = vec![DVec3::ZERO; n_colliders];
+    for part in &parts {
+        for (t, j) in total.iter_mut().zip(part) {
+            *t += *j;
+        }
+    }
+    total
 }
 
 /// Puts back every particle of `particles` whose path over the substep `dt_s` (s) crossed one

@@ -133,23 +133,36 @@ fn apply_obstacles(
 /// After G2P of `step`: puts back `particles` whose path crossed a thin collider or one of
 /// `solids` ([`crossing`]), removes the velocity into the solids of those that lie inside them
 /// ([`boundary::project_particles`]), and adds the momentum this takes to the solids'
-/// `reactions`.
+/// `reactions`. Returns the solids the crossings touched, with the normal impulse they gave
+/// the particles (N s), for the restitution law: a plate thinner than a cell may hold no grid
+/// node, and these are then its only touches.
 fn project_out_of_solids(
     step: Step<'_>,
     particles: &mut Particles,
     (obstacles, of): &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
     reactions: &mut [Reaction],
-) {
+) -> Vec<(ObstacleOf, DVec3)> {
     let end_s = step.time_s + step.dt_s as f64;
-    crossing::stop_collider_crossings(particles, step.colliders, end_s, step.dt_s);
+    let mut touched = Vec::new();
+    let by_colliders =
+        crossing::stop_collider_crossings(particles, step.colliders, end_s, step.dt_s);
+    for (c, j) in by_colliders.into_iter().enumerate() {
+        if j != DVec3::ZERO {
+            touched.push((ObstacleOf::Collider(c), j));
+        }
+    }
     let crossed = crossing::stop_crossings(particles, obstacles, step.dt_s);
     let projected = boundary::project_particles(particles, obstacles);
     for ((c, p), &k) in crossed.iter().zip(&projected).zip(of) {
+        if c.normal_impulse_n_s != DVec3::ZERO {
+            touched.push((k, -c.normal_impulse_n_s));
+        }
         if let ObstacleOf::Object(k) = k {
             reactions[k].impulse_n_s += c.impulse_n_s + p.impulse_n_s;
             reactions[k].angular_impulse_n_m_s += c.angular_impulse_n_m_s + p.angular_impulse_n_m_s;
         }
     }
+    touched
 }
 
 /// Which solid an obstacle is.
@@ -288,7 +301,8 @@ pub(super) fn per_object(
         }
         let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
         if r.is_ok() {
-            project_out_of_solids(step, &mut particles, &solids, &mut reactions);
+            let t = project_out_of_solids(step, &mut particles, &solids, &mut reactions);
+            touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         }
         let b = &mut bodies[k];
         b.solver = solver;
@@ -360,7 +374,8 @@ pub(super) fn multi_field(
         if r.is_ok() {
             let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
             let solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx_m);
-            project_out_of_solids(step, &mut particles, &solids, &mut reactions);
+            let t = project_out_of_solids(step, &mut particles, &solids, &mut reactions);
+            touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
             bodies[k].particles = particles;
         }
         step.finish(stats, &mut bodies[k], r)?;
