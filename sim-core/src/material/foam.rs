@@ -15,13 +15,13 @@ pub struct Foam {
     pub params: ElasticParams,
     /// Viscosity η in Pa·s.
     pub viscosity_pa_s: f32,
-    /// Uniaxial yield stress in Pa ([`FOAM_YIELD_OVER_E`] × E).
+    /// Uniaxial yield stress in Pa (√(3/2) E / 100).
     pub yield_stress_pa: f32,
 }
 
 /// Foam's uniaxial yield stress as a fraction of E: √(3/2) / 100, a deviatoric stress norm of
 /// E / 100 at yield.
-pub const FOAM_YIELD_OVER_E: f32 = 1.224_744_9 / 100.0;
+const FOAM_YIELD_OVER_E: f32 = 1.224_744_9 / 100.0;
 
 impl Foam {
     /// Foam with viscosity η in Pa·s, in [0, 1e12].

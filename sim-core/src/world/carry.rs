@@ -292,8 +292,8 @@ impl Carry {
 
     /// Makes the current state the rest state (when an object becomes rigid): bakes each
     /// Gaussian's F_g into its rest covariance `sigma0` (`[G]`), and takes the carried centres and
-    /// the particles' positions as the new X_g and X_j⁰. The caller then sets every F_j to the
-    /// identity; neighbours and weights are kept.
+    /// the particles' positions as the new X_g and X_j⁰. The caller then sets every F_j and
+    /// F_p,j to the identity; neighbours and weights are kept.
     pub fn rebase(&mut self, p: &Particles, sigma0: &mut [Mat3A]) {
         let identity = |f: &[Mat3A]| f.iter().all(|f| *f == Mat3A::IDENTITY);
         if p.x == self.rest_particles && identity(&p.f) && identity(&p.f_plastic) {
