@@ -101,7 +101,7 @@ pub struct Reaction {
 impl Reaction {
     /// Adds the reaction to a node or particle at offset `r_m` from the solid's COM gaining
     /// momentum `dp_n_s` (N s) there, at the solid's outward normal `normal`.
-    fn receive(&mut self, dp_n_s: DVec3, r_m: Vec3A, normal: Vec3A) {
+    pub(super) fn receive(&mut self, dp_n_s: DVec3, r_m: Vec3A, normal: Vec3A) {
         self.impulse_n_s -= dp_n_s;
         self.angular_impulse_n_m_s -= r_m.as_dvec3().cross(dp_n_s);
         let n = normal.as_dvec3();
@@ -286,7 +286,7 @@ fn couple(
 
 /// The `n` obstacles' reactions summed over `parts` in their order (so the sums do not depend
 /// on how the parts were scheduled).
-fn sum_in_order(parts: &[Vec<Reaction>], n: usize) -> Vec<Reaction> {
+pub(super) fn sum_in_order(parts: &[Vec<Reaction>], n: usize) -> Vec<Reaction> {
     let mut total = vec![Reaction::default(); n];
     for part in parts {
         for (t, r) in total.iter_mut().zip(part) {

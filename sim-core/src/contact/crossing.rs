@@ -27,7 +27,7 @@ use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::Geometry;
-use super::boundary::{Obstacle, Reaction};
+use super::boundary::{Obstacle, Reaction, sum_in_order};
 use crate::collider::Collider;
 use crate::mpm::Particles;
 
@@ -202,26 +202,15 @@ pub fn stop_crossings(
                     let into = (v[i] - solid_v).dot(normal);
                     if into < 0.0 {
                         v[i] -= normal * into;
-                        let r = point - pose.com_m;
                         let dp = (normal * (-into * m[i])).as_dvec3();
-                        out[k].impulse_n_s -= dp;
-                        out[k].angular_impulse_n_m_s -= r.as_dvec3().cross(dp);
-                        out[k].normal_impulse_n_s -= dp;
+                        out[k].receive(dp, point - pose.com_m, normal);
                     }
                 }
             }
             out
         })
         .collect();
-    let mut total = vec![Reaction::default(); n_obstacles];
-    for part in &parts {
-        for (t, r) in total.iter_mut().zip(part) {
-            t.impulse_n_s += r.impulse_n_s;
-            t.angular_impulse_n_m_s += r.angular_impulse_n_m_s;
-            t.normal_impulse_n_s += r.normal_impulse_n_s;
-        }
-    }
-    total
+    sum_in_order(&parts, n_obstacles)
 }
 
 #[cfg(test)]
