@@ -429,7 +429,7 @@ struct Inside {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use glam::Quat;
 
     use super::*;
@@ -444,18 +444,24 @@ mod tests {
         })
     }
 
-    fn obstacle(g: &Geometry) -> Obstacle<'_> {
+    /// A still, immovable solid of surface `g` with its COM at `com_m` and world bounds
+    /// `bounds_m` (m), μ = 0.5, the separate rule.
+    pub(crate) fn still_obstacle(
+        g: &Geometry,
+        com_m: Vec3A,
+        bounds_m: (Vec3A, Vec3A),
+    ) -> Obstacle<'_> {
         Obstacle {
             placed: Placed {
                 geometry: g,
                 points: &[],
                 groups: None,
                 pose: crate::contact::Pose {
-                    rest_com_m: Vec3A::ZERO,
-                    com_m: Vec3A::ZERO,
+                    rest_com_m: com_m,
+                    com_m,
                     rotation: Quat::IDENTITY,
                 },
-                bounds_m: (Vec3A::new(-1.0, -1.0, -0.5), Vec3A::new(1.0, 1.0, 0.0)),
+                bounds_m,
             },
             velocity_m_s: Vec3A::ZERO,
             omega_rad_s: Vec3A::ZERO,
@@ -464,6 +470,11 @@ mod tests {
             inverse_mass: 0.0,
             inverse_inertia: DMat3::ZERO,
         }
+    }
+
+    fn obstacle(g: &Geometry) -> Obstacle<'_> {
+        let bounds = (Vec3A::new(-1.0, -1.0, -0.5), Vec3A::new(1.0, 1.0, 0.0));
+        still_obstacle(g, Vec3A::ZERO, bounds)
     }
 
     #[test]

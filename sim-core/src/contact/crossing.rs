@@ -30,7 +30,7 @@ use rayon::prelude::*;
 
 use super::Geometry;
 use super::boundary::{Obstacle, Reaction, sum_in_order};
-use crate::collider::Collider;
+use crate::collider::{Collider, Shape};
 use crate::mpm::Particles;
 
 /// The most steps of a conservative-advancement march along one particle's path.
@@ -117,7 +117,8 @@ fn crossing(
 }
 
 /// [`stop_crossings`] for grid colliders at time `time_s` (s); returns the normal impulse each
-/// collider gave the particles (N s), in order.
+/// collider gave the particles (N s), in order. Only box colliders can be crossed: a plane's
+/// half-space and the domain bound's outside have no far side, and are skipped.
 pub fn stop_collider_crossings(
     particles: &mut Particles,
     colliders: &[Collider],
@@ -125,7 +126,8 @@ pub fn stop_collider_crossings(
     dt_s: f32,
 ) -> Vec<DVec3> {
     let n_colliders = colliders.len();
-    if n_colliders == 0 || dt_s.is_nan() || dt_s <= 0.0 {
+    let boxes = |c: &Collider| matches!(c.shape, Shape::Box(_));
+    if !colliders.iter().any(boxes) || dt_s.is_nan() || dt_s <= 0.0 {
         return vec![DVec3::ZERO; n_colliders];
     }
     let Particles { x, v, mass_kg, .. } = particles;
@@ -136,7 +138,7 @@ pub fn stop_collider_crossings(
         .map(|((x, v), m)| {
             let mut out = vec![DVec3::ZERO; n_colliders];
             for i in 0..x.len() {
-                for (k, c) in colliders.iter().enumerate() {
+                for (k, c) in colliders.iter().enumerate().filter(|(_, c)| boxes(c)) {
                     let solid_v = c.velocity_at(time_s);
                     let x0 = x[i] - (v[i] - solid_v) * dt_s;
                     let distance = |p| c.signed_distance(p, time_s);
@@ -172,7 +174,13 @@ pub fn stop_crossings(
     dt_s: f32,
 ) -> Vec<Reaction> {
     let n_obstacles = obstacles.len();
-    if n_obstacles == 0 || dt_s.is_nan() || dt_s <= 0.0 {
+    let exact = |o: &Obstacle<'_>| {
+        matches!(
+            o.placed.geometry,
+            Geometry::Analytic(_) | Geometry::Turned { .. }
+        )
+    };
+    if !obstacles.iter().any(exact) || dt_s.is_nan() || dt_s <= 0.0 {
         return vec![Reaction::default(); n_obstacles];
     }
     let Particles { x, v, mass_kg, .. } = particles;
@@ -183,13 +191,7 @@ pub fn stop_crossings(
         .map(|((x, v), m)| {
             let mut out = vec![Reaction::default(); n_obstacles];
             for i in 0..x.len() {
-                for (k, o) in obstacles.iter().enumerate() {
-                    if !matches!(
-                        o.placed.geometry,
-                        Geometry::Analytic(_) | Geometry::Turned { .. }
-                    ) {
-                        continue;
-                    }
+                for (k, o) in obstacles.iter().enumerate().filter(|(_, o)| exact(o)) {
                     let pose = o.placed.pose;
                     let solid_v = o.velocity_m_s + o.omega_rad_s.cross(x[i] - pose.com_m);
                     let x0 = x[i] - (v[i] - solid_v) * dt_s;
@@ -217,48 +219,23 @@ pub fn stop_crossings(
 
 #[cfg(test)]
 mod tests {
-    use glam::{DMat3, Quat};
-
     use super::*;
-    use crate::collider::Surface;
-    use crate::contact::Geometry;
-    use crate::contact::geometry::Placed;
-    use crate::procedural::Shape;
+    use crate::contact::boundary::tests::still_obstacle;
+    use crate::procedural::Shape as Procedural;
 
     /// A static plate 1 mm thick with its top face at z = 0.
     fn plate() -> Geometry {
-        Geometry::Analytic(Shape::Box {
+        Geometry::Analytic(Procedural::Box {
             min_m: [-1.0, -1.0, -0.001],
             max_m: [1.0, 1.0, 0.0],
         })
     }
 
-    fn obstacle(g: &Geometry) -> Obstacle<'_> {
-        Obstacle {
-            placed: Placed {
-                geometry: g,
-                points: &[],
-                groups: None,
-                pose: crate::contact::Pose {
-                    rest_com_m: Vec3A::new(0.0, 0.0, -0.0005),
-                    com_m: Vec3A::new(0.0, 0.0, -0.0005),
-                    rotation: Quat::IDENTITY,
-                },
-                bounds_m: (Vec3A::new(-1.0, -1.0, -0.001), Vec3A::new(1.0, 1.0, 0.0)),
-            },
-            velocity_m_s: Vec3A::ZERO,
-            omega_rad_s: Vec3A::ZERO,
-            friction: 0.5,
-            surface: Surface::Separate,
-            inverse_mass: 0.0,
-            inverse_inertia: DMat3::ZERO,
-        }
-    }
-
     #[test]
     fn a_particle_that_crossed_a_thin_plate_is_put_back_on_the_side_it_came_from() {
         let g = plate();
-        let obstacles = [obstacle(&g)];
+        let bounds = (Vec3A::new(-1.0, -1.0, -0.001), Vec3A::new(1.0, 1.0, 0.0));
+        let obstacles = [still_obstacle(&g, Vec3A::new(0.0, 0.0, -0.0005), bounds)];
         let dt = 1e-3;
         let mut p = Particles::default();
         // At 5 m/s down over a 1 ms substep (5 mm): from 2 mm above the plate to 3 mm below
