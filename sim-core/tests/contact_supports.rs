@@ -321,18 +321,32 @@ fn a_jelly_bouncing_off_a_static_box_follows_e() {
             .build()
             .expect("scene");
         let mut w = World::from_scene(&scene).expect("world");
+        let mut lowest = f32::INFINITY;
         while !w.is_finished() {
             w.advance_frame().expect("step");
+            let z = w.bodies()[1].particles().x.iter().map(|x| x.z);
+            lowest = z.fold(lowest, f32::min);
         }
         let v = com(&w, 1).1[2];
-        println!("e = {e}: rebound {v:.4} m/s");
+        println!(
+            "e = {e}: rebound {v:.4} m/s, lowest particle {:.1} mm",
+            lowest * 1e3
+        );
+        // It lands on the slab, not on a cushion of grid nodes above it: its particles (5 mm
+        // apart, so their surface lies 2.5 mm below the lowest) come within a millimetre of the
+        // top. (When every node inside the slab took the rule, it turned back 7.4 mm up.)
+        assert!(
+            lowest < 0.0035,
+            "e = {e}: turned back {lowest} m above the slab"
+        );
         if e < 1.0 {
             // The law: e times the 1 m/s approach, to 1 % of it.
             assert!((v - f64::from(e)).abs() < 0.01, "e = {e}: rebound {v}");
         } else {
             // e = 1 asks for no loss; the law never adds energy, so the jelly keeps what its
-            // own elasticity returns (MPM dissipates a little).
-            assert!(v > 0.8 && v <= 1.0, "e = 1: rebound {v}");
+            // own elasticity returns. MPM loses some at the sudden stop of its bottom layer on
+            // a 1 cm grid: 0.79 m/s here (0.93 on the cushion of nodes, which never let it touch).
+            assert!(v > 0.75 && v <= 1.0, "e = 1: rebound {v}");
         }
     }
 }

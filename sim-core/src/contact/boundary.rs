@@ -6,7 +6,10 @@
 //!
 //! A node of the deformable's grid whose signed distance in a solid is ≤ 0 takes the solid's
 //! surface rule (sticky, slip, or by default "separate" with Coulomb friction, the rule whose grid
-//! friction matches the analytic law) relative to the solid's velocity there. The momentum this takes out of the grid, m (v' − v)
+//! friction matches the analytic law) relative to the solid's velocity there. Inside an
+//! immovable procedural solid that lets material leave, only where the material reaches the
+//! surface within the substep ([`crate::mpm::reach`]): a ball rolling on it is not braked by the
+//! nodes ahead of its contact, and a body lands on the surface, not on the nodes above it. The momentum this takes out of the grid, m (v' − v)
 //! summed over the solid's nodes, is the impulse the material gave the solid, reversed; it is
 //! returned with its moment about the solid's COM so a rigid object receives the reaction and the
 //! pair conserves momentum. Sums run per grid block in parallel and are added in block order, so
@@ -41,6 +44,7 @@ use crate::collider::{Surface, apply_surface};
 use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};
 use crate::mpm::grid::SparseGrid;
+use crate::mpm::reach::NodeGaps;
 
 /// A solid as a grid boundary.
 #[derive(Debug, Clone, Copy)]
@@ -94,7 +98,7 @@ pub struct Reaction {
     /// The normal part of `impulse_n_s`: Σ n (n·Δp) over the nodes, each with the solid's
     /// surface normal there (N s; what the restitution law takes its normal from).
     pub normal_impulse_n_s: DVec3,
-    /// Grid nodes the solid touched.
+    /// Grid nodes with mass inside the solid (whether or not they took its rule).
     pub nodes: u64,
 }
 
@@ -119,12 +123,16 @@ impl Reaction {
 /// Applies `obstacles` to the nodes of `grid` (cell `dx_m`, velocities relative to `v_ref`);
 /// returns each obstacle's reaction, in order. Immovable obstacles are applied first, in order
 /// at each node; then the movable ones, two-way, over [`COUPLING_SWEEPS`] sweeps
-/// ([`super::coupling`]).
+/// ([`super::coupling`]). With `reach` (the node gaps of the grid's particles against the exact
+/// obstacles, [`gaps`], and the substep dt in s), a node inside an exact obstacle takes the rule
+/// only where material meets the surface within the substep ([`crate::mpm::reach`]); nodes
+/// inside a sampled level set take it wherever they lie inside.
 pub fn apply(
     grid: &mut SparseGrid,
     dx_m: f32,
     v_ref: Vec3A,
     obstacles: &[Obstacle],
+    reach: Option<(&NodeGaps, f32)>,
 ) -> Vec<Reaction> {
     let n = obstacles.len();
     if n == 0 {
@@ -140,7 +148,8 @@ pub fn apply(
         .par_chunks(BLOCK_NODES)
         .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
         .zip(keys.par_iter())
-        .map(|((mass, vel), key)| {
+        .enumerate()
+        .map(|(block, ((mass, vel), key))| {
             let mut out = vec![Reaction::default(); n];
             let mut touches = Vec::new();
             let origin = *key * BLOCK;
@@ -175,7 +184,16 @@ pub fn apply(
                     }
                     let normal = pose.rotation * n0;
                     let r = x - pose.com_m;
+                    // Material inside the solid touches it (the restitution law's contact
+                    // lasts while any node does), even where it does not reach the surface yet.
                     out[k].nodes += 1;
+                    if let Some((gaps, dt_s)) = reach.filter(|_| gated(o)) {
+                        let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
+                        let v_n = (vel[l] + v_ref - solid_v).dot(normal);
+                        if !gaps.reaches(block * BLOCK_NODES + l, v_n, dt_s) {
+                            continue;
+                        }
+                    }
                     if o.is_movable() {
                         touches.push(Touch {
                             node: l as u16,
@@ -209,6 +227,45 @@ pub fn apply(
         );
     }
     total
+}
+
+/// The node gaps ([`NodeGaps`]) of `particles` on `grid` (cell `dx_m`) against those of
+/// `obstacles` whose nodes take the rule only where material reaches them (immovable, exact,
+/// not sticky); `None` when there is none.
+pub fn gaps(
+    grid: &SparseGrid,
+    dx_m: f32,
+    particles: &Particles,
+    obstacles: &[Obstacle],
+) -> Option<NodeGaps> {
+    if !obstacles.iter().any(gated) {
+        return None;
+    }
+    Some(NodeGaps::new(grid, dx_m, particles, |x| {
+        obstacles
+            .iter()
+            .filter(|o| gated(o))
+            .filter_map(|o| {
+                let (lo, hi) = o.placed.bounds_m;
+                let margin = 2.0 * dx_m;
+                if !(x.cmpge(lo - margin).all() && x.cmple(hi + margin).all()) {
+                    return None;
+                }
+                let pose = o.placed.pose;
+                let (phi, n0) = o.placed.geometry.distance(pose.to_rest(x));
+                Some((phi, pose.rotation * n0))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }))
+}
+
+/// Whether a node inside `o` takes its rule only where material reaches it (`apply`'s
+/// `reach`): an immovable solid with an exact surface whose rule lets material leave. A sticky
+/// solid holds every node inside it (a clamp holds the material it encloses), and a movable one
+/// meets the grid two-way over its whole band (what its reaction and the restitution law are
+/// measured on).
+fn gated(o: &Obstacle) -> bool {
+    o.placed.geometry.is_exact() && !o.is_movable() && o.surface != Surface::Sticky
 }
 
 /// A node of a block touching a movable obstacle.
@@ -550,7 +607,7 @@ pub(crate) mod tests {
         for ratio in [0.5f32, 1.0, 2.0, 3.0] {
             let obstacles = [free_slab(&g, 1.0, Vec3A::new(0.0, 0.0, -0.25))];
             let mut grid = grid_with(&[(0, ratio, Vec3A::new(0.0, 0.0, -1.0))]);
-            let r = apply(&mut grid, 0.01, Vec3A::ZERO, &obstacles);
+            let r = apply(&mut grid, 0.01, Vec3A::ZERO, &obstacles, None);
             let common = -(ratio as f64) / (ratio as f64 + 1.0);
             let v_solid = r[0].impulse_n_s.z;
             assert!(
@@ -587,7 +644,7 @@ pub(crate) mod tests {
         let mut grid = grid_with(&nodes);
         let dx = 0.01;
         let x = |l: usize| Vec3A::new((l % 4) as f32, ((l / 4) % 4) as f32, 0.0) * dx;
-        let r = apply(&mut grid, dx, Vec3A::ZERO, &obstacles);
+        let r = apply(&mut grid, dx, Vec3A::ZERO, &obstacles, None);
         let (mut p0, mut p1, mut l0, mut l1, mut e0, mut e1) =
             (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
         for &(l, m, v) in &nodes {

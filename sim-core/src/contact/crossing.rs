@@ -28,7 +28,6 @@
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
-use super::Geometry;
 use super::boundary::{Obstacle, Reaction, sum_in_order};
 use crate::collider::{Collider, Shape};
 use crate::mpm::Particles;
@@ -174,13 +173,7 @@ pub fn stop_crossings(
     dt_s: f32,
 ) -> Vec<Reaction> {
     let n_obstacles = obstacles.len();
-    let exact = |o: &Obstacle<'_>| {
-        matches!(
-            o.placed.geometry,
-            Geometry::Analytic(_) | Geometry::Turned { .. }
-        )
-    };
-    if !obstacles.iter().any(exact) || dt_s.is_nan() || dt_s <= 0.0 {
+    if !obstacles.iter().any(|o| o.placed.geometry.is_exact()) || dt_s.is_nan() || dt_s <= 0.0 {
         return vec![Reaction::default(); n_obstacles];
     }
     let Particles { x, v, mass_kg, .. } = particles;
@@ -191,7 +184,11 @@ pub fn stop_crossings(
         .map(|((x, v), m)| {
             let mut out = vec![Reaction::default(); n_obstacles];
             for i in 0..x.len() {
-                for (k, o) in obstacles.iter().enumerate().filter(|(_, o)| exact(o)) {
+                for (k, o) in obstacles
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, o)| o.placed.geometry.is_exact())
+                {
                     let pose = o.placed.pose;
                     let solid_v = o.velocity_m_s + o.omega_rad_s.cross(x[i] - pose.com_m);
                     let x0 = x[i] - (v[i] - solid_v) * dt_s;
@@ -220,6 +217,7 @@ pub fn stop_crossings(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::Geometry;
     use crate::contact::boundary::tests::still_obstacle;
     use crate::procedural::Shape as Procedural;
 

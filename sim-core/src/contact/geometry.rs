@@ -85,6 +85,12 @@ fn box2(a: f32, b: f32) -> f32 {
 }
 
 impl Geometry {
+    /// Whether its signed distance is exact (a procedural shape), not sampled on a grid (a level
+    /// set, which resolves nothing finer than its cells).
+    pub fn is_exact(&self) -> bool {
+        matches!(self, Geometry::Analytic(_) | Geometry::Turned { .. })
+    }
+
     /// Signed distance (m, negative inside) at rest-frame point `x0` and the outward unit
     /// normal there (any unit vector where it is undefined).
     pub fn distance(&self, x0: Vec3A) -> (f32, Vec3A) {

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use super::binning::{BLOCK, BLOCK_NODES, REGION};
 use super::grid::{CORNERS, NONE, SparseGrid};
 use super::p2g::{Region, region_index};
+use super::reach::NodeGaps;
 use crate::collider::Collider;
 
 /// The normal impulse each grid collider gave a grid in its last update, Σ m n (n·Δv) over the
@@ -24,7 +25,10 @@ pub struct ColliderImpulses {
 }
 
 /// Reduces `scratch` into `grid`, then updates node velocities; `impulses` gets each collider's
-/// normal impulse on the grid. Returns the first non-finite node velocity's block index if any.
+/// normal impulse on the grid. With `gaps` (the grid's particles against the colliders' surfaces),
+/// a node inside a plane or box collider takes its rule only where material meets the surface
+/// within the substep ([`super::reach`]); the domain bound holds every node outside it. Returns
+/// the first non-finite node velocity's block index if any.
 #[allow(clippy::too_many_arguments)]
 pub fn update(
     grid: &mut SparseGrid,
@@ -36,6 +40,7 @@ pub fn update(
     time_s: f64,
     v_ref: Vec3A,
     impulses: &mut ColliderImpulses,
+    gaps: Option<&NodeGaps>,
 ) -> Option<usize> {
     let SparseGrid {
         keys,
@@ -99,6 +104,12 @@ pub fn update(
                             // nodes they touch take the round trip through it.
                             for (ci, collider) in colliders.iter().enumerate() {
                                 if let Some(n) = collider.contact_normal(node, time_s) {
+                                    if let Some(g) = gaps.filter(|_| collider.is_gated()) {
+                                        let v_rel = v + v_ref - collider.velocity_at(time_s);
+                                        if !g.reaches(gb * BLOCK_NODES + l, v_rel.dot(n), dt_s) {
+                                            continue;
+                                        }
+                                    }
                                     let before = v;
                                     v = collider.apply(node, v + v_ref, time_s) - v_ref;
                                     pushed[ci] += (n * n.dot(v - before) * sum.w).as_dvec3();

@@ -20,6 +20,7 @@ pub mod p2g;
 pub mod particles;
 pub mod plastic_flow;
 mod prefetch;
+pub mod reach;
 pub mod solver;
 pub mod system;
 pub mod timestep;

@@ -15,6 +15,7 @@ use super::grid::SparseGrid;
 use super::grid_update;
 use super::p2g::{self, Region};
 use super::particles::Particles;
+use super::reach::NodeGaps;
 use crate::collider::Collider;
 use crate::material::Material;
 
@@ -162,6 +163,11 @@ impl MpmSolver {
             .map_err(|particle| MpmError::OutOfGrid { particle })?;
         self.grid.rebuild(&self.bins);
         self.v_ref = mean_velocity(particles);
+        let gaps = input
+            .colliders
+            .iter()
+            .any(|c| c.is_gated() && c.is_active(input.time_s))
+            .then(|| collider_gaps(&self.grid, self.dx_m, particles, input));
         p2g::scatter(
             particles,
             &self.bins,
@@ -181,6 +187,7 @@ impl MpmSolver {
             input.time_s,
             self.v_ref,
             &mut self.collider_impulses,
+            gaps.as_ref(),
         ) {
             Some(block) => Err(MpmError::NonFiniteGrid { block }),
             None => Ok(()),
@@ -244,6 +251,24 @@ impl MpmSolver {
         self.scratch.truncate(self.bins.blocks.len());
         self.scratch.shrink_to_fit();
     }
+}
+
+/// The node gaps of `particles` on `grid` (cell `dx_m`) against `input`'s plane and box
+/// colliders at the start of the substep ([`super::reach`]).
+fn collider_gaps(
+    grid: &SparseGrid,
+    dx_m: f32,
+    particles: &Particles,
+    input: &SubstepInput<'_>,
+) -> NodeGaps {
+    NodeGaps::new(grid, dx_m, particles, |x| {
+        input
+            .colliders
+            .iter()
+            .filter(|c| c.is_gated())
+            .filter_map(|c| c.signed_distance(x, input.time_s))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    })
 }
 
 /// Mass-weighted mean velocity (m/s), summed in f64 over fixed chunks (thread-count independent).

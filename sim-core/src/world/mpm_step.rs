@@ -99,12 +99,12 @@ fn bounds(particles: &Particles) -> (Vec3A, Vec3A) {
     )
 }
 
-/// Applies `solids` (obstacles and which solid each is) as boundaries on `solver`'s grid, adds
-/// their reactions to `reactions`, moves the movable ones by theirs (for the particle push-out
-/// after G2P) and returns the solids touched with the normal impulse the grid gave the
-/// deformable there (N s).
+/// Applies `solids` (obstacles and which solid each is) as boundaries on `solver`'s grid of
+/// `particles` in a substep of `dt_s`, adds their reactions to `reactions`, moves the movable
+/// ones by theirs (for the particle push-out after G2P) and returns the solids touched with the
+/// normal impulse the grid gave the deformable there (N s).
 fn apply_obstacles(
-    solver: &mut MpmSolver,
+    (solver, particles, dt_s): (&mut MpmSolver, &Particles, f32),
     (obstacles, of): &mut (Vec<Obstacle<'_>>, Vec<ObstacleOf>),
     reactions: &mut [Reaction],
 ) -> Vec<(ObstacleOf, DVec3)> {
@@ -113,7 +113,9 @@ fn apply_obstacles(
     }
     let v_ref = solver.reference_velocity_m_s();
     let dx = solver.dx_m;
-    let r = boundary::apply(solver.grid_mut(), dx, v_ref, obstacles);
+    let gaps = boundary::gaps(solver.grid(), dx, particles, obstacles);
+    let reach = gaps.as_ref().map(|g| (g, dt_s));
+    let r = boundary::apply(solver.grid_mut(), dx, v_ref, obstacles, reach);
     let mut touched = Vec::new();
     for ((r, &k), o) in r.iter().zip(of.iter()).zip(obstacles.iter_mut()) {
         o.receive(r);
@@ -296,7 +298,7 @@ pub(super) fn per_object(
         let r = solver.scatter_and_update(&particles, &step.input(materials));
         if r.is_ok() {
             touches.extend(collider_touches(k, &solver));
-            let t = apply_obstacles(&mut solver, &mut solids, &mut reactions);
+            let t = apply_obstacles((&mut solver, &particles, dt_s), &mut solids, &mut reactions);
             touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         }
         let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
@@ -359,7 +361,7 @@ pub(super) fn multi_field(
         let friction = b.friction;
         let particles = std::mem::take(&mut b.particles);
         let mut solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx_m);
-        let t = apply_obstacles(&mut solver, &mut solids, &mut reactions);
+        let t = apply_obstacles((&mut solver, &particles, dt_s), &mut solids, &mut reactions);
         touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         let b = &mut bodies[k];
         b.solver = solver;
@@ -413,7 +415,7 @@ pub(super) fn shared_grid(
     if r.is_ok() {
         // One grid for every object: no per-object impacts to follow.
         let mut solids = obstacles_near(env, bodies, &reactions, &all, friction, dx);
-        let _ = apply_obstacles(shared, &mut solids, &mut reactions);
+        let _ = apply_obstacles((shared, &all, dt_s), &mut solids, &mut reactions);
     }
     let r = r.and_then(|()| shared.gather(&mut all, &step.input(&materials)));
     let r = r.map_err(|e| step.error(stats, "shared grid", e))?;
