@@ -55,48 +55,54 @@ impl NodeGaps {
         particles: &Particles,
         surface: impl Fn(Vec3A) -> Option<(f32, Vec3A)> + Sync,
     ) -> Self {
-        let near: Vec<(Vec3A, f32, f32, Vec3A)> = particles
+        let inv_dx = 1.0 / dx_m;
+        // (node, gap) for every node in a near particle's column, found in parallel; the
+        // minimum per node is then taken in one pass (a minimum does not depend on order).
+        let touches: Vec<(usize, f32)> = particles
             .x
             .par_chunks(CHUNK)
             .zip(particles.volume0_m3.par_chunks(CHUNK))
             .flat_map_iter(|(x, v0)| {
-                x.iter()
-                    .zip(v0)
-                    .filter_map(|(&x, &v0)| {
-                        let (phi, n) = surface(x)?;
-                        let size = v0.cbrt();
-                        let gap = phi - (0.5 + REACH_TOLERANCE) * size;
-                        // The column's radius: half a cell, and wide enough that the columns
-                        // of a lattice of particles `size` apart leave no node between them.
-                        let radius = (0.5 * dx_m).max(0.75 * size);
-                        (gap.is_finite() && gap < 2.0 * dx_m && n.is_finite()).then_some((
-                            x,
-                            gap,
-                            radius * radius,
-                            n,
-                        ))
-                    })
-                    .collect::<Vec<_>>()
-            })
-            .collect();
-        let mut gap_m = vec![f32::INFINITY; grid.mass_kg.len()];
-        let inv_dx = 1.0 / dx_m;
-        for (x, gap, radius2, n) in near {
-            let base = (x * inv_dx - Vec3A::splat(0.5)).floor().as_ivec3();
-            for dz in 0..3 {
-                for dy in 0..3 {
-                    for dx in 0..3 {
-                        let node = base + IVec3::new(dx, dy, dz);
-                        let d = node.as_vec3a() * dx_m - x;
-                        if (d - n * d.dot(n)).length_squared() > radius2 {
-                            continue;
-                        }
-                        if let Some(i) = node_index(grid, node) {
-                            gap_m[i] = gap_m[i].min(gap);
+                let mut out = Vec::new();
+                for (&x, &v0) in x.iter().zip(v0) {
+                    let Some((phi, n)) = surface(x).filter(|(phi, _)| *phi < 3.0 * dx_m) else {
+                        continue;
+                    };
+                    let size = v0.cbrt();
+                    let gap = phi - (0.5 + REACH_TOLERANCE) * size;
+                    if !(gap.is_finite() && gap < 2.0 * dx_m && n.is_finite()) {
+                        continue;
+                    }
+                    // The column's radius: half a cell, and wide enough that the columns of a
+                    // lattice of particles `size` apart leave no node between them.
+                    let radius2 = (0.5 * dx_m).max(0.75 * size).powi(2);
+                    let base = (x * inv_dx - Vec3A::splat(0.5)).floor().as_ivec3();
+                    for dz in 0..3 {
+                        for dy in 0..3 {
+                            for dx in 0..3 {
+                                let node = base + IVec3::new(dx, dy, dz);
+                                let d = node.as_vec3a() * dx_m - x;
+                                // Only the nodes of the particle's column that lie about inside
+                                // the solid (φ there ≈ φ + d·n; half a cell of slack for a
+                                // curved surface) need a gap.
+                                if phi + d.dot(n) > 0.5 * dx_m
+                                    || (d - n * d.dot(n)).length_squared() > radius2
+                                {
+                                    continue;
+                                }
+                                if let Some(i) = node_index(grid, node) {
+                                    out.push((i, gap));
+                                }
+                            }
                         }
                     }
                 }
-            }
+                out
+            })
+            .collect();
+        let mut gap_m = vec![f32::INFINITY; grid.mass_kg.len()];
+        for (i, gap) in touches {
+            gap_m[i] = gap_m[i].min(gap);
         }
         Self { gap_m }
     }
