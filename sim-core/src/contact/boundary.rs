@@ -9,10 +9,10 @@
 //! friction matches the analytic law) relative to the solid's velocity there. Inside an
 //! immovable procedural solid that lets material leave, only where the material reaches the
 //! surface within the substep ([`crate::mpm::reach`]): a ball rolling on it is not braked by the
-//! nodes ahead of its contact, and a body lands on the surface, not on the nodes above it. The momentum this takes out of the grid, m (v' − v)
-//! summed over the solid's nodes, is the impulse the material gave the solid, reversed; it is
-//! returned with its moment about the solid's COM so a rigid object receives the reaction and the
-//! pair conserves momentum. Sums run per grid block in parallel and are added in block order, so
+//! nodes ahead of its contact, and a body lands on the surface, not on the nodes above it.
+//! The momentum this takes out of the grid, m (v' − v) summed over the solid's nodes, is the
+//! impulse the material gave the solid, reversed; it is returned with its moment about the
+//! solid's COM so a rigid object receives the reaction and the pair conserves momentum. Sums run per grid block in parallel and are added in block order, so
 //! the result does not depend on the thread count.
 //!
 //! An awake rigid object is movable and meets the grid two-way: each node's impulse is shared by
@@ -123,10 +123,11 @@ impl Reaction {
 /// Applies `obstacles` to the nodes of `grid` (cell `dx_m`, velocities relative to `v_ref`);
 /// returns each obstacle's reaction, in order. Immovable obstacles are applied first, in order
 /// at each node; then the movable ones, two-way, over [`COUPLING_SWEEPS`] sweeps
-/// ([`super::coupling`]). With `reach` (the node gaps of the grid's particles against the exact
-/// obstacles, [`gaps`], and the substep dt in s), a node inside an exact obstacle takes the rule
-/// only where material meets the surface within the substep ([`crate::mpm::reach`]); nodes
-/// inside a sampled level set take it wherever they lie inside.
+/// ([`super::coupling`]). With `reach` (the node gaps of the grid's particles, [`gaps`], and the
+/// substep dt in s), a node inside an immovable procedural obstacle that lets material leave
+/// takes the rule only where material meets the surface within the substep
+/// ([`crate::mpm::reach`]); inside any other obstacle (awake rigid, sticky, a sampled level set)
+/// every node takes it.
 pub fn apply(
     grid: &mut SparseGrid,
     dx_m: f32,
@@ -261,9 +262,9 @@ pub fn gaps(
 
 /// Whether a node inside `o` takes its rule only where material reaches it (`apply`'s
 /// `reach`): an immovable solid with an exact surface whose rule lets material leave. A sticky
-/// solid holds every node inside it (a clamp holds the material it encloses), and a movable one
-/// meets the grid two-way over its whole band (what its reaction and the restitution law are
-/// measured on).
+/// solid holds every node inside it (a clamp holds the material it encloses: gated, a clamped
+/// bar's period and damping were off), and a movable one meets the grid two-way over its whole
+/// band (gated, a 1.6 kg block sank 7.4 mm into a jelly that carries it 0.8 mm down).
 fn gated(o: &Obstacle) -> bool {
     o.placed.geometry.is_exact() && !o.is_movable() && o.surface != Surface::Sticky
 }
