@@ -252,9 +252,7 @@ pub fn gaps(
                 if !(x.cmpge(lo - margin).all() && x.cmple(hi + margin).all()) {
                     return None;
                 }
-                let pose = o.placed.pose;
-                let (phi, n0) = o.placed.geometry.distance(pose.to_rest(x));
-                Some((phi, pose.rotation * n0))
+                Some(o.placed.surface_at(x))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0))
     }))
@@ -392,13 +390,11 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
                     if !(x[i].cmpge(lo).all() && x[i].cmple(hi).all()) {
                         continue;
                     }
-                    let pose = o.placed.pose;
-                    let (phi, n0) = o.placed.geometry.distance(pose.to_rest(x[i]));
-                    let normal = pose.rotation * n0;
+                    let (phi, normal) = o.placed.surface_at(x[i]);
                     if !(phi < 0.0 && phi.is_finite() && normal.is_finite()) {
                         continue;
                     }
-                    let r = x[i] - pose.com_m;
+                    let r = x[i] - o.placed.pose.com_m;
                     let push = (-phi / PUSH_OUT_TIME_S).min(MAX_PUSH_OUT_M_S);
                     if o.is_movable() {
                         inside.push(Inside {

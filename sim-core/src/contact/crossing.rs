@@ -46,9 +46,7 @@ const CHUNK: usize = 4096;
 /// The signed distance (m) and outward world normal of obstacle `o` at `x` (m); `None` where it
 /// is not finite.
 fn distance(o: &Obstacle<'_>, x: Vec3A) -> Option<(f32, Vec3A)> {
-    let pose = o.placed.pose;
-    let (phi, n0) = o.placed.geometry.distance(pose.to_rest(x));
-    let n = pose.rotation * n0;
+    let (phi, n) = o.placed.surface_at(x);
     (phi.is_finite() && n.is_finite()).then_some((phi, n))
 }
 

@@ -432,6 +432,15 @@ pub struct Placed<'a> {
     pub bounds_m: (Vec3A, Vec3A),
 }
 
+impl Placed<'_> {
+    /// Its signed distance (m, negative inside) and outward normal (world frame) at world point
+    /// `x` (m).
+    pub fn surface_at(&self, x: Vec3A) -> (f32, Vec3A) {
+        let (phi, n0) = self.geometry.distance(self.pose.to_rest(x));
+        (phi, self.pose.rotation * n0)
+    }
+}
+
 /// One contact point before solving.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RawContact {

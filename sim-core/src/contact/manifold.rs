@@ -313,12 +313,6 @@ fn sphere_on_sampled(
     Some(reduce(out, margin_m))
 }
 
-/// `into`'s signed distance (m) and outward normal (world frame) at world point `x`.
-fn surface_at(into: &Placed, x: Vec3A) -> (f32, Vec3A) {
-    let (phi, n0) = into.geometry.distance(into.pose.to_rest(x));
-    (phi, into.pose.rotation * n0)
-}
-
 /// The contacts of sphere `s` posed by `pose` with `other` (normals from the sphere into it,
 /// features carrying `flag`): one exact point against an exact surface ([`sphere_contact`]), the
 /// nearest face points against a level set ([`sphere_on_sampled`]); `None` when the centre lies
@@ -333,7 +327,7 @@ fn sphere_against(
     if matches!(other.geometry, Geometry::Sampled(_)) {
         return sphere_on_sampled(s, pose, other, margin_m, flag);
     }
-    let mut out = sphere_contact(s, pose, |x| Some(surface_at(other, x)), margin_m);
+    let mut out = sphere_contact(s, pose, |x| Some(other.surface_at(x)), margin_m);
     for c in &mut out {
         c.feature = flag;
     }
