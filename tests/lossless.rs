@@ -1,4 +1,4 @@
-//! The lossless contract across processes (`docs/protocol.md`): a server told to wait for a
+//! The lossless contract across processes (`docs/reference/protocol.md`): a server told to wait for a
 //! recorder publishes its first frame once the recorder is ready and stops only once the
 //! recorder took the last one, so a short run of a heavy scene records every step, each once,
 //! also when the recorder is stopped (SIGSTOP) for a second at the start or at the end; and a

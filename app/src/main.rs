@@ -25,8 +25,8 @@ mod uplift;
   splatphys uplift --ply scene.ply --cameras transforms.json --features feats/ --out scene_feat.ply
   splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2
   splatphys bench mpm --vs-taichi                         # the same problem in Taichi, same run
-  splatphys bench ipc --sizes 1000,10000,100000,1000000 --out-dir docs/bench
-  splatphys bench stability --out-dir docs/bench"
+  splatphys bench ipc --sizes 1000,10000,100000,1000000 --out-dir docs/results/bench
+  splatphys bench stability --out-dir docs/results/bench"
 )]
 struct Cli {
     #[command(subcommand)]

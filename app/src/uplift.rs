@@ -1,5 +1,5 @@
 //! `splatphys uplift`: stage 1, per-Gaussian features from 2-D feature maps of
-//! the training views. See the `splatphys_stage1` crate docs and docs/stage1.md.
+//! the training views. See the `splatphys_stage1` crate docs and docs/design/stage1.md.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -50,7 +50,7 @@ pub struct CompareBenchArgs {
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
     /// Where the CSV files and charts go.
-    #[arg(long, default_value = "docs/bench")]
+    #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
 }
 

@@ -122,7 +122,7 @@ pub struct ContactBenchArgs {
     #[arg(long, default_value_t = 1)]
     pub threads: usize,
     /// Where `contact.csv`, `contact_bodies.csv`, `.svg` and `.png` go.
-    #[arg(long, default_value = "docs/bench")]
+    #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
 }
 

@@ -59,7 +59,7 @@ pub struct IpcBenchArgs {
     #[arg(long, default_value_t = 20)]
     pub warmup: u64,
     /// Where `ipc.csv`, `ipc.svg` and `ipc.png` go.
-    #[arg(long, default_value = "docs/bench")]
+    #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
     /// Commands per second of the flood runs (0 skips them).
     #[arg(long, default_value_t = 10_000.0)]

@@ -38,7 +38,7 @@ pub struct IslandsBenchArgs {
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
     /// Where `islands.csv` goes.
-    #[arg(long, default_value = "docs/bench")]
+    #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
 }
 

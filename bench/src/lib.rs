@@ -45,7 +45,7 @@ pub enum BenchCommand {
     /// Shared-memory frame latency and publish cost against a Unix socket, and stepping under a
     /// command flood.
     #[command(
-        after_help = "Example:\n  splatphys bench ipc --sizes 1000,10000,100000,1000000 --samples 200 --out-dir docs/bench"
+        after_help = "Example:\n  splatphys bench ipc --sizes 1000,10000,100000,1000000 --samples 200 --out-dir docs/results/bench"
     )]
     Ipc(crate::ipc::IpcBenchArgs),
     /// The COM method against the `mpm` and `multi-field` baselines: error against the

@@ -74,7 +74,7 @@ pub struct RealtimeBenchArgs {
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
     /// Where `realtime.csv`, `.svg` and `.png` go.
-    #[arg(long, default_value = "docs/bench")]
+    #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
 }
 

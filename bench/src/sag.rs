@@ -69,7 +69,7 @@ pub struct SagBenchArgs {
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
     /// Where `sag.csv` goes.
-    #[arg(long, default_value = "docs/bench")]
+    #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
 }
 

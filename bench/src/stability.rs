@@ -110,7 +110,7 @@ pub struct StabilityBenchArgs {
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
     /// Where the CSV files and heat maps go.
-    #[arg(long, default_value = "docs/bench")]
+    #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
 }
 

@@ -47,7 +47,7 @@ pub struct SubsetsBenchArgs {
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
     /// Where `subsets.csv`, `.svg` and `.png` go.
-    #[arg(long, default_value = "docs/bench")]
+    #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
 }
 

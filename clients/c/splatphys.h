@@ -486,7 +486,7 @@ typedef struct splatphys_SubscriberLag {
  * What a lossless subscriber (a recorder) tells the server on `lossless_ack`: that it is ready
  * before the first frame, and the newest frame it has taken (written) so far. The server waits
  * for the first before stepping and for the second to reach its last frame before it shuts
- * down (see `docs/protocol.md`, "The lossless contract").
+ * down (see `docs/reference/protocol.md`, "The lossless contract").
  */
 typedef struct splatphys_LosslessAck {
   /**

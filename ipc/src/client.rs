@@ -74,7 +74,7 @@ pub struct ClientOptions {
     /// limit). Default false: best effort, take the newest. A lossless client also opens
     /// `lossless_ack` and must say when it is ready ([`Connection::announce_ready`]) and which
     /// frames it took ([`Connection::acknowledge`]): the lossless contract of
-    /// `docs/protocol.md`.
+    /// `docs/reference/protocol.md`.
     pub lossless: bool,
     /// Frames buffered by our subscriber, 1..=4. Default 2 (4 when lossless).
     pub frame_buffer: usize,

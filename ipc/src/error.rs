@@ -67,7 +67,7 @@ pub enum IpcError {
         prefix: String,
     },
     /// The lossless subscribers the server was told to wait for (recorders) did not all say
-    /// they were ready in time (the readiness handshake of `docs/protocol.md`).
+    /// they were ready in time (the readiness handshake of `docs/reference/protocol.md`).
     #[error(
         "waited {waited_ms} ms for {expected} lossless subscriber(s) (recorders) to connect every port and take the scene; {ready} did (is the recorder running, under the same service prefix and iceoryx2 file prefix?)"
     )]

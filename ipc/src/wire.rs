@@ -2,7 +2,7 @@
 //!
 //! All types are `#[repr(C)]` plain old data (bytemuck [`Pod`], iceoryx2 [`ZeroCopySend`]),
 //! built from arrays of `f32`/`f64`/integers only (no glam types), with sizes checked at compile
-//! time. Python and C clients map these layouts byte for byte; see `docs/protocol.md`.
+//! time. Python and C clients map these layouts byte for byte; see `docs/reference/protocol.md`.
 //! Every type carries an explicit iceoryx2 type name (`splatphys::<Type>`) so that clients in
 //! other languages can open the services.
 //!
@@ -331,7 +331,7 @@ pub const ACK_TOOK_FRAME: u32 = 2;
 /// What a lossless subscriber (a recorder) tells the server on `lossless_ack`: that it is ready
 /// before the first frame, and the newest frame it has taken (written) so far. The server waits
 /// for the first before stepping and for the second to reach its last frame before it shuts
-/// down (see `docs/protocol.md`, "The lossless contract").
+/// down (see `docs/reference/protocol.md`, "The lossless contract").
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable, ZeroCopySend)]
 #[type_name("splatphys::LosslessAck")]

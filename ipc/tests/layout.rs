@@ -3,7 +3,7 @@
 //! - the C header `clients/c/splatphys.h` is what cbindgen generates from `ipc/src/wire.rs` now
 //!   (regenerate it with `SPLATPHYS_BLESS=1 cargo test -p splatphys-ipc --test layout`), and a
 //!   C program compiled against it prints `sizeof` and `offsetof` of every field;
-//! - the offset tables of `docs/protocol.md`;
+//! - the offset tables of `docs/reference/protocol.md`;
 //! - the Python client's ctypes structures and numpy dtypes (`clients/python`).
 //!
 //! The C and Python checks need `cc` and `python3` with numpy; without them they fail under CI
@@ -75,7 +75,7 @@ fn tool_missing(what: &str) {
 
 #[test]
 fn protocol_md_offset_tables_match_the_rust_layout() {
-    let doc = std::fs::read_to_string(root().join("docs/protocol.md")).expect("protocol.md");
+    let doc = std::fs::read_to_string(root().join("docs/reference/protocol.md")).expect("protocol.md");
     // "### Name (N B)" headings, then "| offset | `field` | ..." rows.
     let mut tables: BTreeMap<String, (usize, Vec<(String, usize)>)> = BTreeMap::new();
     let mut current: Option<String> = None;
@@ -99,12 +99,12 @@ fn protocol_md_offset_tables_match_the_rust_layout() {
     for (name, size, fields) in rust_layout() {
         let (doc_size, doc_fields) = tables
             .get(name)
-            .unwrap_or_else(|| panic!("docs/protocol.md has no `### {name} (N B)` table"));
-        assert_eq!(*doc_size, size, "{name}: size in docs/protocol.md");
+            .unwrap_or_else(|| panic!("docs/reference/protocol.md has no `### {name} (N B)` table"));
+        assert_eq!(*doc_size, size, "{name}: size in docs/reference/protocol.md");
         let want: Vec<(String, usize)> = fields.iter().map(|(f, o)| (f.to_string(), *o)).collect();
         assert_eq!(
             doc_fields, &want,
-            "{name}: offset table in docs/protocol.md"
+            "{name}: offset table in docs/reference/protocol.md"
         );
     }
 }

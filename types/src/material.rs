@@ -17,7 +17,7 @@ pub struct UnknownName {
     pub expected: String,
 }
 
-/// A constitutive model (docs/scene-format.md, "`material`"; one file each in
+/// A constitutive model (docs/reference/scene-format.md, "`material`"; one file each in
 /// `sim-core/src/material/`).
 ///
 /// Scene files and commands name it in kebab-case (`jelly`, `neo-hookean`, `snow`, `sand`,

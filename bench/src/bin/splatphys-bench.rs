@@ -15,8 +15,8 @@ use splatphys_bench::BenchCommand;
     after_help = "Examples:
   splatphys-bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2
   splatphys-bench mpm --vs-taichi                      # the same problem in Taichi, same run
-  splatphys-bench ipc --sizes 1000,10000,100000,1000000 --out-dir docs/bench
-  splatphys-bench stability --out-dir docs/bench
+  splatphys-bench ipc --sizes 1000,10000,100000,1000000 --out-dir docs/results/bench
+  splatphys-bench stability --out-dir docs/results/bench
   splatphys-bench soak --minutes 30                    # also `splatphys bench soak --minutes 30`"
 )]
 struct Cli {

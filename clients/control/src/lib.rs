@@ -10,7 +10,7 @@
 //! - [`latency`]: percentiles of latency samples.
 //!
 //! Every command gets a reply from the server: accepted with the step at which it takes
-//! effect, or rejected with a reason (see docs/protocol.md).
+//! effect, or rejected with a reason (see docs/reference/protocol.md).
 
 pub mod action;
 pub mod error;

@@ -2,7 +2,7 @@
 
 Frames, the scene and objects arrive as numpy structured arrays that view the iceoryx2 shared
 memory without copying; commands go out with replies; a dead server is noticed through the
-status heartbeat (1 s). See docs/protocol.md for the wire contract.
+status heartbeat (1 s). See docs/reference/protocol.md for the wire contract.
 
     from splatphys_client import Client, Impulse
     with Client("splatphys/vase") as c:

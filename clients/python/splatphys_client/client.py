@@ -126,7 +126,7 @@ class Reply:
     generation: int = 0
 
 
-# Commands: each builds a CommandMsg (see docs/protocol.md for the codes).
+# Commands: each builds a CommandMsg (see docs/reference/protocol.md for the codes).
 FIELD_POINT, FIELD_MODEL, FIELD_E, FIELD_NU = 1, 2, 4, 8
 FIELD_DENSITY, FIELD_RESTITUTION, FIELD_FRICTION = 16, 32, 64
 FIELD_ANGULAR, FIELD_AT_STEP = 128, 256

@@ -3,7 +3,7 @@
 Names, offsets and sizes match the Rust `#[repr(C)]` structs byte for byte; every size is
 asserted at import. Each ctypes structure has `type_name()` returning the iceoryx2 type name
 the Rust side registers (`splatphys::<Type>`), so services open with matching type details.
-Units are SI and in the field names (see docs/protocol.md).
+Units are SI and in the field names (see docs/reference/protocol.md).
 """
 
 import ctypes
@@ -125,7 +125,7 @@ class ObjectState(_Wire):
 
 
 class CommandMsg(_Wire):
-    """A command (184 B); see docs/protocol.md for kinds, codes and field flags."""
+    """A command (184 B); see docs/reference/protocol.md for kinds, codes and field flags."""
 
     _fields_ = [
         ("kind", ctypes.c_uint32),

@@ -1,4 +1,4 @@
-//! MCAP topics and schemas of a splatphys recording (documented in docs/protocol.md).
+//! MCAP topics and schemas of a splatphys recording (documented in docs/reference/protocol.md).
 //!
 //! Raw channels carry the wire PODs unchanged, message encoding [`POD_ENCODING`]:
 //! each message is the header struct's bytes followed by the payload slice's bytes

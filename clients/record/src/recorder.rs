@@ -55,7 +55,7 @@ pub enum RecordEnd {
 /// Records until the server shuts down (or dies, or a signal, or `max_frames`); the file is
 /// always finished with a summary.
 ///
-/// The recorder keeps its side of the lossless contract (`docs/protocol.md`): once every port
+/// The recorder keeps its side of the lossless contract (`docs/reference/protocol.md`): once every port
 /// is connected it takes the scene (from history) and writes it, then tells the server it is
 /// ready; after writing each frame with its objects it acknowledges it, so the server knows
 /// what was taken before it shuts down.

@@ -23,7 +23,7 @@
 //! deformation gradient stores no strain for the move), but only for a particle that has
 //! crossed a solid, where the alternative is tunnelling. The grid itself still does not see a
 //! solid that lies between its nodes, so the material stopped this way carries no strain for
-//! it: a soft ball thrown onto such a plate holds but lands flat (docs/com-layer.md).
+//! it: a soft ball thrown onto such a plate holds but lands flat (docs/design/com-layer.md).
 
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;

@@ -1,6 +1,6 @@
 //! Contact between objects, the captured background and grid colliders.
 //!
-//! Which mechanism handles which pair, so that nothing is pushed twice (docs/com-layer.md):
+//! Which mechanism handles which pair, so that nothing is pushed twice (docs/design/com-layer.md):
 //!
 //! | pair | mechanism |
 //! |---|---|

@@ -10,7 +10,7 @@ pub enum ContactSolver {
     SequentialImpulses,
     /// The soft step ([`super::soft_step`]): [`SolverSettings::substeps`] steps of one soft and
     /// one relaxing iteration each, the scheme of Box2D v3 and rapier: fewer passes, but soft
-    /// contacts give under load (docs/performance.md).
+    /// contacts give under load (docs/results/performance.md).
     SoftStep,
 }
 

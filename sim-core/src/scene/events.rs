@@ -38,7 +38,7 @@ pub(super) fn events(
         )?;
         let command = if let Some(old) = deprecated_event(ctx, &key, &table)? {
             warnings.push(format!(
-                "{}: {key}: `impulse = {{..}}`, `set_velocity = {{..}}` and `set_material = {{..}}` are deprecated; write `command = \"{}\"` and its keys (docs/scene-format.md)",
+                "{}: {key}: `impulse = {{..}}`, `set_velocity = {{..}}` and `set_material = {{..}}` are deprecated; write `command = \"{}\"` and its keys (docs/reference/scene-format.md)",
                 ctx.file.display(),
                 old.name()
             ));

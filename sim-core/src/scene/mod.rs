@@ -1,4 +1,4 @@
-//! The scene: a TOML file (docs/scene-format.md) naming 3DGS sources and their
+//! The scene: a TOML file (docs/reference/scene-format.md) naming 3DGS sources and their
 //! world transforms, the objects selected from them or built procedurally, materials, colliders,
 //! scripted events, cameras and simulation settings, built into a plain-data [`Scene`].
 //!

@@ -6,7 +6,7 @@ pub use splatphys_types::Command;
 
 use crate::gaussians::GaussianCloud;
 
-/// Simulation method (docs/com-layer.md, "One substep" and "Baselines").
+/// Simulation method (docs/design/com-layer.md, "One substep" and "Baselines").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Method {

@@ -1,5 +1,5 @@
 //! The TOML scene file as written (serde, unknown keys refused). Documented key by key in
-//! `docs/scene-format.md`; [`super::build`] turns it into a [`super::Scene`].
+//! `docs/reference/scene-format.md`; [`super::build`] turns it into a [`super::Scene`].
 
 use serde::Deserialize;
 

@@ -1,7 +1,7 @@
 //! The world: every object of a scene, stepped with the COM method (the paper's stage 2) or the
 //! shared-grid MPM baseline, frame by frame.
 //!
-//! COM method, one substep (docs/com-layer.md; the stages in order in `world/step.rs`):
+//! COM method, one substep (docs/design/com-layer.md; the stages in order in `world/step.rs`):
 //! 0. gravity on awake rigid objects;
 //! 1. each awake deformable object runs P2G, grid update and G2P on its own grid ([`Body`]),
 //!    with grid colliders, static and rigid objects and the captured background as boundary

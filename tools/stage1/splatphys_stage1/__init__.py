@@ -11,7 +11,7 @@ Two steps, both optional at run time (the Rust side only reads their files):
 
 The pipeline works on small encoder protocols (:mod:`splatphys_stage1.encoders`), so it runs
 and is tested with stub encoders; the real models (torch, open_clip, segment_anything,
-transformers) are imported only when a real encoder is built. See docs/stage1-extract.md.
+transformers) are imported only when a real encoder is built. See docs/guide/feature-extraction.md.
 """
 
 from .encode_text import CANONICAL, write_embeddings

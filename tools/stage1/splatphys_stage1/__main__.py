@@ -22,7 +22,7 @@ examples:
       --negative plate --negative table \\
       --clip-pretrained weights/open_clip_vit_b_16_laion2b.bin --features data/cake/features
 
-See docs/stage1-extract.md for installing the models and feeding `splatphys uplift`.
+See docs/guide/feature-extraction.md for installing the models and feeding `splatphys uplift`.
 """
 
 

@@ -76,7 +76,7 @@ def require(module: str) -> Any:
     except ImportError as e:
         raise Stage1Error(
             f"the real encoders need the Python package providing {module!r} ({e}); install "
-            "them with: python3 -m pip install 'tools/stage1[models]' (see docs/stage1-extract.md)"
+            "them with: python3 -m pip install 'tools/stage1[models]' (see docs/guide/feature-extraction.md)"
         ) from e
 
 
@@ -320,7 +320,7 @@ class Dinov2:
         except (RuntimeError, OSError, ValueError) as e:
             raise Stage1Error(
                 f"DINOv2 {source!r} did not load ({e}); offline, pass a local model folder "
-                "as --dino (see docs/stage1-extract.md)"
+                "as --dino (see docs/guide/feature-extraction.md)"
             ) from e
         self.model = model.to(device).eval()
 

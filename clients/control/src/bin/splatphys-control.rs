@@ -152,7 +152,7 @@ enum Cmd {
     Shutdown,
     /// Send the commands of a TOML timeline at their simulated times.
     Timeline {
-        /// Timeline file (see `splatphys_control::timeline` or docs/protocol.md).
+        /// Timeline file (see `splatphys_control::timeline` or docs/reference/protocol.md).
         file: PathBuf,
         /// Event times count from the server's simulated time when the timeline starts
         /// (default: absolute simulated time).

@@ -1,5 +1,5 @@
 //! Contact between two deformable objects (method `com`): the paper's stage 2 (eqs. 3-6), an
-//! impulse law at the COM level, applied per contact patch (docs/com-layer.md maps one to the
+//! impulse law at the COM level, applied per contact patch (docs/design/com-layer.md maps one to the
 //! other).
 //!
 //! Broad phase: bounding spheres (eq. 3: |c_i - c_j| <= r_i + r_j) and boxes. Narrow phase
