@@ -1,5 +1,6 @@
 //! splatphys: the application around the simulation core. The `splatphys` command (run, serve,
-//! inspect, uplift, bench) lives in `src/main.rs`; this library holds what its subcommands share:
+//! inspect, uplift, bench) is [`cli`], each subcommand a module ([`run`], [`serve`], [`inspect`],
+//! [`uplift`]); `src/main.rs` only dispatches. What the subcommands share:
 //!
 //! - [`world_sim`]: the adapter that makes a sim-core [`World`](splatphys_core::world::World) a
 //!   server-ready [`Simulation`](splatphys_ipc::Simulation);
@@ -14,9 +15,14 @@
 
 pub mod calibration;
 pub mod child_args;
+pub mod cli;
+pub mod inspect;
 pub mod level_of_detail;
 pub mod plan;
 pub mod report;
+pub mod run;
+pub mod serve;
 pub mod trace;
+pub mod uplift;
 pub mod view;
 pub mod world_sim;

@@ -3,13 +3,13 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use crate::level_of_detail::{self, LodArgs};
+use crate::plan::camera_args;
+use crate::report::{ServerJson, method_name, write_json};
+use crate::view::{ViewArgs, Viewer};
+use crate::world_sim::WorldSim;
 use anyhow::{Context, Result};
 use clap::Args;
-use splatphys::level_of_detail::{self, LodArgs};
-use splatphys::plan::camera_args;
-use splatphys::report::{ServerJson, method_name, write_json};
-use splatphys::view::{ViewArgs, Viewer};
-use splatphys::world_sim::WorldSim;
 use splatphys_core::scene::CameraSpec;
 use splatphys_ipc::fake::FreeFall;
 use splatphys_ipc::server::{ServerConfig, serve};

@@ -14,6 +14,7 @@
 
 pub mod chart;
 pub mod child;
+pub mod cli;
 pub mod compare;
 pub mod contact;
 pub mod flood;

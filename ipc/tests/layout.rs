@@ -75,7 +75,8 @@ fn tool_missing(what: &str) {
 
 #[test]
 fn protocol_md_offset_tables_match_the_rust_layout() {
-    let doc = std::fs::read_to_string(root().join("docs/reference/protocol.md")).expect("protocol.md");
+    let doc =
+        std::fs::read_to_string(root().join("docs/reference/protocol.md")).expect("protocol.md");
     // "### Name (N B)" headings, then "| offset | `field` | ..." rows.
     let mut tables: BTreeMap<String, (usize, Vec<(String, usize)>)> = BTreeMap::new();
     let mut current: Option<String> = None;
@@ -97,10 +98,13 @@ fn protocol_md_offset_tables_match_the_rust_layout() {
         }
     }
     for (name, size, fields) in rust_layout() {
-        let (doc_size, doc_fields) = tables
-            .get(name)
-            .unwrap_or_else(|| panic!("docs/reference/protocol.md has no `### {name} (N B)` table"));
-        assert_eq!(*doc_size, size, "{name}: size in docs/reference/protocol.md");
+        let (doc_size, doc_fields) = tables.get(name).unwrap_or_else(|| {
+            panic!("docs/reference/protocol.md has no `### {name} (N B)` table")
+        });
+        assert_eq!(
+            *doc_size, size,
+            "{name}: size in docs/reference/protocol.md"
+        );
         let want: Vec<(String, usize)> = fields.iter().map(|(f, o)| (f.to_string(), *o)).collect();
         assert_eq!(
             doc_fields, &want,

@@ -13,6 +13,7 @@
 //! effect, or rejected with a reason (see docs/reference/protocol.md).
 
 pub mod action;
+pub mod cli;
 pub mod error;
 pub mod follow;
 pub mod latency;

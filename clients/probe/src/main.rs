@@ -18,43 +18,7 @@ use clap::Parser;
 use splatphys_ipc::IpcError;
 use splatphys_ipc::client::{ClientOptions, Connection, PendingCommand};
 use splatphys_ipc::command::{Command, Reply};
-
-/// Subscribe to a splatphys server and count frames.
-#[derive(Parser, Debug)]
-struct Args {
-    /// Service prefix of the server.
-    prefix: String,
-    /// Ask for lossless delivery (like a recorder).
-    #[arg(long)]
-    lossless: bool,
-    /// Stop after this many frames.
-    #[arg(long)]
-    frames: Option<u64>,
-    /// Sleep this long after every frame, milliseconds (simulates a slow client).
-    #[arg(long, default_value_t = 0)]
-    delay_ms: u64,
-    /// Connect timeout, milliseconds.
-    #[arg(long, default_value_t = 5000)]
-    connect_timeout_ms: u64,
-    /// Length of a random stall after a frame, milliseconds.
-    #[arg(long, default_value_t = 0)]
-    stall_ms: u64,
-    /// Probability of a stall after each frame, 0..=1.
-    #[arg(long, default_value_t = 0.0)]
-    stall_probability: f64,
-    /// Seed of the stall sequence.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Send impulse commands (1e-6 N·s up, to `--object`) at this rate, per second.
-    #[arg(long, default_value_t = 0.0)]
-    commands_hz: f64,
-    /// Object the commands push.
-    #[arg(long, default_value_t = 0)]
-    object: u32,
-    /// Stop after this many command replies.
-    #[arg(long)]
-    replies: Option<u64>,
-}
+use splatphys_probe::Cli as Args;
 
 /// SplitMix64 (Steele et al. 2014): a tiny seeded generator, enough to place stalls.
 struct SplitMix64(u64);

@@ -7,6 +7,7 @@
 //! - [`replay`]: publishing a recording back onto the services.
 
 pub mod channels;
+pub mod cli;
 pub mod error;
 pub mod objects_csv;
 pub mod pointcloud;

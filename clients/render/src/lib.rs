@@ -25,6 +25,7 @@
 //! ```
 
 pub mod camera;
+pub mod cli;
 pub mod framing;
 pub mod image;
 pub mod orbit;

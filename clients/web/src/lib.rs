@@ -6,6 +6,7 @@
 //! ([`messages`]): the static part once per scene generation, then only what changed, and never
 //! more frames than the page draws.
 
+pub mod cli;
 pub mod commands;
 pub mod feed;
 pub mod messages;

@@ -1,88 +1,14 @@
 //! `splatphys-record`: record a run to MCAP, replay it, export objects to CSV.
 
-use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use clap::{Parser, Subcommand};
+use clap::Parser;
+use splatphys_record::cli::{Cli, Cmd};
 use splatphys_record::read::{Recording, object_names, objects_csv};
 use splatphys_record::recorder::{RecordEnd, RecordOptions, record};
 use splatphys_record::replay::{ReplayOptions, replay};
 use splatphys_record::writer::ChunkCompression;
-
-/// Record, replay and export splatphys runs (MCAP).
-#[derive(Parser, Debug)]
-#[command(version, about)]
-struct Cli {
-    #[command(subcommand)]
-    command: Cmd,
-}
-
-#[derive(Subcommand, Debug)]
-enum Cmd {
-    /// Record a live server losslessly until it shuts down (or Ctrl-C).
-    Record {
-        /// Service prefix of the server (e.g. splatphys/<scene>).
-        #[arg(long)]
-        prefix: String,
-        /// Output MCAP file.
-        #[arg(long, short)]
-        out: PathBuf,
-        /// Use lz4 instead of zstd.
-        #[arg(long)]
-        lz4: bool,
-        /// Stop after this many frames.
-        #[arg(long)]
-        frames: Option<u64>,
-        /// Write a /pointcloud every N frames (0 = never).
-        #[arg(long, default_value_t = 1)]
-        pointcloud_every: u64,
-        /// Seconds to wait for the server.
-        #[arg(long, default_value_t = 5.0)]
-        connect_timeout_s: f64,
-        /// Target size of an MCAP chunk (uncompressed), MiB. The recorder keeps one index entry
-        /// (about 300 B) per chunk in memory until the file is finished, for the file's summary:
-        /// larger chunks mean fewer entries. A chunk is also closed every second, so a killed
-        /// recorder loses at most that.
-        #[arg(long, default_value_t = 4)]
-        chunk_mb: u64,
-    },
-    /// Publish a recording back onto the services.
-    Replay {
-        /// The MCAP file.
-        file: PathBuf,
-        /// Service prefix to publish under.
-        #[arg(long, default_value = "splatphys/replay")]
-        prefix: String,
-        /// As fast as possible instead of the recorded timing.
-        #[arg(long)]
-        fast: bool,
-        /// Publish nothing before this many clients subscribed (frames keep no history).
-        #[arg(long, default_value_t = 0)]
-        wait_for_subscribers: usize,
-        /// Longest wait for those clients, seconds; the replay then starts anyway.
-        #[arg(long, default_value_t = 10.0)]
-        wait_timeout_s: f64,
-        /// Longest wait on a lagging lossless subscriber (recorder) per message, milliseconds.
-        #[arg(long, default_value_t = 2000)]
-        lossless_limit_ms: u64,
-        /// Replay a truncated or corrupt file (a killed recorder) up to the damage instead of
-        /// refusing it.
-        #[arg(long)]
-        recover: bool,
-    },
-    /// Export the objects of every frame as CSV.
-    ExportObjects {
-        /// The MCAP file.
-        file: PathBuf,
-        /// Output CSV (stdout if absent).
-        #[arg(long, short)]
-        out: Option<PathBuf>,
-        /// Read a truncated or corrupt file up to the damage instead of refusing it.
-        #[arg(long)]
-        recover: bool,
-    },
-}
 
 /// With the `dhat-heap` feature every allocation is counted with its call stack (`dhat-heap.json`
 /// at exit), to attribute the recorder's memory.

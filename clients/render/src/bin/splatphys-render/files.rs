@@ -8,58 +8,12 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
-use glam::Vec3;
 use splatphys_render::{
     Bounds, Camera, ImageRgb8, OrbitPath, RenderSettings, Splats, render_rgb8, write_gif,
     write_mp4, write_png,
 };
 
-use crate::parse_vec3;
-
-/// Camera and image flags of `image` and `orbit`.
-#[derive(Args)]
-pub struct ViewArgs {
-    /// Image width, px.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Image height, px.
-    #[arg(long, default_value_t = 480)]
-    height: u32,
-    /// Vertical field of view, degrees.
-    #[arg(long, default_value_t = 50.0)]
-    fov_deg: f32,
-    /// Up direction `x,y,z` (z up in the world; PlayCanvas captures are y-down: use 0,-1,0).
-    #[arg(long, default_value = "0,0,1", value_parser = parse_vec3)]
-    up: Vec3,
-    /// Camera azimuth about `--up` for automatic framing, degrees (first orbit frame).
-    #[arg(long, default_value_t = 30.0)]
-    azimuth_deg: f32,
-    /// Camera elevation above the plane normal to `--up` for automatic framing, degrees.
-    #[arg(long, default_value_t = 20.0)]
-    elevation_deg: f32,
-    /// Camera distance from the look-at point, m (default: the whole scene in view).
-    #[arg(long)]
-    distance_m: Option<f32>,
-    /// Explicit camera position `x,y,z`, m (overrides automatic framing in `image`).
-    #[arg(long, value_parser = parse_vec3)]
-    eye: Option<Vec3>,
-    /// Look-at point `x,y,z`, m (default: the centre of the trimmed bounds).
-    #[arg(long, value_parser = parse_vec3)]
-    look_at: Option<Vec3>,
-    /// Fraction of Gaussians ignored at each end of each axis when framing (0 to 0.49).
-    #[arg(long, default_value_t = 0.01)]
-    trim: f32,
-    /// Near plane, m (default: 0.2 m, less when the camera is closer to the scene).
-    #[arg(long)]
-    near_m: Option<f32>,
-    /// Background colour `r,g,b` in [0, 1].
-    #[arg(long, default_value = "0,0,0", value_parser = parse_vec3)]
-    background: Vec3,
-    /// Highest SH degree evaluated.
-    #[arg(long, default_value_t = 3)]
-    sh_degree: u8,
-}
+pub use splatphys_render::cli::ViewArgs;
 
 /// Loads a 3DGS file into renderer input, capped at `sh_degree`, and its trimmed bounds.
 fn load(path: &Path, view: &ViewArgs) -> Result<(Splats, Bounds)> {

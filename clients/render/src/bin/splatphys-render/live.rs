@@ -12,24 +12,11 @@
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
-use clap::Args;
 use splatphys_ipc::IpcError;
 use splatphys_ipc::client::{ClientOptions, Connection};
 
-use crate::sequence::{FrameRenderer, SequenceArgs, StaticScene};
-
-/// Arguments of `live`.
-#[derive(Args, Debug, Clone)]
-pub struct LiveArgs {
-    /// Service prefix of the server (as given to `splatphys serve --prefix`).
-    #[arg(long)]
-    pub prefix: String,
-    /// How long to wait for the server to appear, seconds.
-    #[arg(long, default_value_t = 10.0)]
-    pub timeout_s: f64,
-    #[command(flatten)]
-    pub seq: SequenceArgs,
-}
+use crate::sequence::{FrameRenderer, StaticScene};
+pub use splatphys_render::cli::{LiveArgs, SequenceArgs};
 
 /// How the frame loop ended.
 enum End {

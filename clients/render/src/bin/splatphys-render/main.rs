@@ -20,76 +20,8 @@ mod mcap;
 mod sequence;
 
 use anyhow::{Context, Result};
-use clap::{Parser, Subcommand};
-use glam::Vec3;
-use std::path::PathBuf;
-
-#[derive(Parser)]
-#[command(
-    name = "splatphys-render",
-    version,
-    about = "Render 3D Gaussian Splatting scenes and splatphys runs on the CPU"
-)]
-struct Cli {
-    /// Worker threads (default: all cores).
-    #[arg(long, global = true)]
-    threads: Option<usize>,
-    #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// Render one frame of a 3DGS file (INRIA PLY, compressed PLY or .splat) to PNG.
-    Image {
-        /// The 3DGS file.
-        scene: PathBuf,
-        /// Output PNG.
-        #[arg(long, short)]
-        out: PathBuf,
-        #[command(flatten)]
-        view: files::ViewArgs,
-        /// Render this many times and report the median frame time.
-        #[arg(long, default_value_t = 1)]
-        repeat: usize,
-    },
-    /// Render an orbit around a 3DGS file: N PNGs, an animated GIF and, with ffmpeg, an MP4.
-    Orbit {
-        /// The 3DGS file.
-        scene: PathBuf,
-        /// Output folder (created): frame_0000.png ..., orbit.gif, orbit.mp4.
-        #[arg(long)]
-        out_dir: PathBuf,
-        /// Number of frames in one turn.
-        #[arg(long, default_value_t = 36)]
-        frames: usize,
-        /// Animation frame rate, frames/s.
-        #[arg(long, default_value_t = 12.0)]
-        fps: f32,
-        /// Also write orbit.mp4 (needs ffmpeg on PATH; skipped with a note otherwise).
-        #[arg(long)]
-        mp4: bool,
-        #[command(flatten)]
-        view: files::ViewArgs,
-    },
-    /// Subscribe to a running server and render the newest frame each time (PNGs, GIF, MP4).
-    Live(live::LiveArgs),
-    /// Render every frame of an MCAP recording (PNGs, GIF, MP4).
-    Mcap(mcap::McapArgs),
-}
-
-/// Parses `x,y,z` into a finite vector.
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let parts: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("`{s}`: {e}; expected x,y,z"))?;
-    match parts[..] {
-        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Vec3::new(x, y, z)),
-        _ => Err(format!("`{s}`: expected three finite numbers x,y,z")),
-    }
-}
+use clap::Parser;
+use splatphys_render::cli::{Cli, Command};
 
 fn main() -> Result<()> {
     let cli = Cli::parse();

@@ -3,24 +3,13 @@
 //! A recording cut off by a killed recorder is read up to the last closed chunk. Frames missing
 //! from the recording (frame-index gaps) are counted as dropped.
 
-use std::path::PathBuf;
-
 use anyhow::{Context, Result};
-use clap::Args;
 use splatphys_ipc::wire::{FrameGaussian, FrameHeader, SceneGaussian, SceneHeader};
 use splatphys_record::channels::{FRAME, SCENE};
 use splatphys_record::read::{Recording, split};
 
-use crate::sequence::{FrameRenderer, SequenceArgs, StaticScene};
-
-/// Arguments of `mcap`.
-#[derive(Args, Debug, Clone)]
-pub struct McapArgs {
-    /// The recording (`splatphys-record record --out RUN.mcap`).
-    pub recording: PathBuf,
-    #[command(flatten)]
-    pub seq: SequenceArgs,
-}
+use crate::sequence::{FrameRenderer, StaticScene};
+pub use splatphys_render::cli::McapArgs;
 
 /// Runs `mcap`; prints the JSON summary on stdout.
 pub fn mcap(args: &McapArgs) -> Result<()> {

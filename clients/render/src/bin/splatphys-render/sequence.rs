@@ -7,7 +7,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use clap::Args;
 use glam::Vec3;
 use splatphys_ipc::wire::{FrameGaussian, FrameHeader, SceneGaussian, SceneHeader};
 use splatphys_render::{
@@ -15,81 +14,31 @@ use splatphys_render::{
     write_gif, write_mp4, write_png,
 };
 
-use crate::parse_vec3;
+pub use splatphys_render::cli::SequenceArgs;
 
 /// Default view direction of the automatic framing, from the centre towards the camera.
 const AUTO_VIEW_DIR: Vec3 = Vec3::new(1.0, -1.0, 0.6);
 /// Fraction of Gaussians ignored at each end of each axis by the automatic framing.
 const FRAMING_TRIM: f32 = 0.01;
 
-/// Output, camera and selection flags shared by `live` and `mcap`.
-#[derive(Args, Debug, Clone)]
-pub struct SequenceArgs {
-    /// Output folder (created): frame_{step:05}.png for each rendered frame, the GIF and MP4.
-    #[arg(long)]
-    pub out_dir: PathBuf,
-    /// Animated GIF of the rendered frames (default: OUT_DIR/animation.gif).
-    #[arg(long)]
-    pub gif: Option<PathBuf>,
-    /// MP4 of the rendered frames, written when ffmpeg is on PATH (default: OUT_DIR/animation.mp4).
-    #[arg(long)]
-    pub mp4: Option<PathBuf>,
-    /// Animation frame rate, frames/s.
-    #[arg(long, default_value_t = 25.0)]
-    pub fps: f32,
-    /// Most frames put into the GIF and MP4 (evenly subsampled beyond; every PNG is kept).
-    #[arg(long, default_value_t = 300)]
-    pub max_animation_frames: usize,
-    /// Camera position `x,y,z`, m (default: framed automatically from the first frame, looking
-    /// from direction (1,-1,0.6) towards the centre of its trimmed bounds).
-    #[arg(long, value_parser = parse_vec3)]
-    pub camera_pos: Option<Vec3>,
-    /// Look-at point `x,y,z`, m (default: the centre of the first frame's trimmed bounds).
-    #[arg(long, value_parser = parse_vec3)]
-    pub look_at: Option<Vec3>,
-    /// Up direction `x,y,z`.
-    #[arg(long, default_value = "0,0,1", value_parser = parse_vec3)]
-    pub up: Vec3,
-    /// Vertical field of view, degrees.
-    #[arg(long, default_value_t = 50.0)]
-    pub fov_deg: f32,
-    /// Image width, px.
-    #[arg(long, default_value_t = 640)]
-    pub width: u32,
-    /// Image height, px.
-    #[arg(long, default_value_t = 480)]
-    pub height: u32,
-    /// Render at most one frame in N published frames (frame indices at least N apart).
-    #[arg(long, default_value_t = 1)]
-    pub every: u64,
-    /// Background colour `r,g,b` in [0, 1].
-    #[arg(long, default_value = "0,0,0", value_parser = parse_vec3)]
-    pub background: Vec3,
-    /// Highest SH degree evaluated (0 to 3).
-    #[arg(long, default_value_t = 3)]
-    pub sh_degree: u8,
-}
-
-impl SequenceArgs {
-    /// Checks the values clap cannot.
-    pub fn validate(&self) -> Result<()> {
-        if self.every == 0 {
-            bail!("--every must be at least 1");
-        }
-        if !(self.fps.is_finite() && self.fps > 0.0) {
-            bail!("--fps must be a positive number, got {}", self.fps);
-        }
-        if self.sh_degree > 3 {
-            bail!("--sh-degree must be 0 to 3, got {}", self.sh_degree);
-        }
-        if self.width == 0 || self.height == 0 {
-            bail!("--width and --height must be positive");
-        }
-        if self.max_animation_frames == 0 {
-            bail!("--max-animation-frames must be at least 1");
-        }
-        Ok(())
+/// Checks the values of `args` that clap cannot.
+pub fn validate(args: &SequenceArgs) -> Result<()> {
+    if args.every == 0 {
+        bail!("--every must be at least 1");
     }
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        bail!("--fps must be a positive number, got {}", args.fps);
+    }
+    if args.sh_degree > 3 {
+        bail!("--sh-degree must be 0 to 3, got {}", args.sh_degree);
+    }
+    if args.width == 0 || args.height == 0 {
+        bail!("--width and --height must be positive");
+    }
+    if args.max_animation_frames == 0 {
+        bail!("--max-animation-frames must be at least 1");
+    }
+    Ok(())
 }
 
 /// The static part of one scene generation, as renderer arrays.
@@ -247,7 +196,7 @@ pub struct FrameRenderer {
 impl FrameRenderer {
     /// Creates the output folder.
     pub fn new(args: &SequenceArgs) -> Result<Self> {
-        args.validate()?;
+        validate(args)?;
         std::fs::create_dir_all(&args.out_dir)
             .with_context(|| format!("creating {}", args.out_dir.display()))?;
         Ok(Self {
