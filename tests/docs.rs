@@ -128,7 +128,7 @@ fn commands(block: &str) -> Vec<(usize, Vec<String>)> {
         for segment in words.split(|w| matches!(w.as_str(), "&&" | "||" | "|" | ";" | "&")) {
             let start = segment
                 .iter()
-                .position(|w| !(w.contains('=') && !w.starts_with('-')))
+                .position(|w| !w.contains('=') || w.starts_with('-'))
                 .unwrap_or(segment.len());
             let segment = &segment[start..];
             if let Some(bin) = segment.first().and_then(|w| binary(w)) {
