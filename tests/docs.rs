@@ -5,7 +5,8 @@
 //!   binary's clap definition, in-process (`Cli::try_parse_from`);
 //! - every relative link resolves: the file exists and a `#heading` names a heading in it (the
 //!   GitHub anchor of its text);
-//! - every scene file the docs name (`scenes/NAME.toml`) loads;
+//! - every scene file the docs name (`scenes/NAME.toml`) loads, and so does every whole scene
+//!   quoted in a TOML block (as a file in `scenes/`); a fragment of one parses;
 //! - `docs/reference/cli/` is what clap-markdown writes for the clap definitions now. After
 //!   changing a command line, rewrite the pages with
 //!   `SPLATPHYS_BLESS=1 cargo test --release -p splatphys-tests --test docs`.
@@ -15,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use clap::error::ErrorKind;
 use clap::{CommandFactory, Parser};
-use pulldown_cmark::{CodeBlockKind, Event, HeadingLevel, Tag, TagEnd};
+use pulldown_cmark::{CodeBlockKind, Event, Tag, TagEnd};
 
 /// The project's binaries, as a command in the docs names them.
 const BINARIES: [&str; 7] = [
@@ -183,18 +184,25 @@ fn parse(argv: &[String]) -> Result<(), String> {
 
 /// The code blocks of a Markdown text: (first line of the block's content, text).
 fn code_blocks(text: &str) -> Vec<(usize, String)> {
+    blocks(text).into_iter().map(|(l, _, t)| (l, t)).collect()
+}
+
+/// The code blocks of a Markdown text: (first line of the content, fence language, text).
+fn blocks(text: &str) -> Vec<(usize, String, String)> {
     let mut out = Vec::new();
-    let mut current: Option<(usize, String)> = None;
+    let mut current: Option<(usize, String, String)> = None;
     for (event, range) in pulldown_cmark::Parser::new(text).into_offset_iter() {
         match event {
             Event::Start(Tag::CodeBlock(kind)) => {
                 // A fenced block's content starts on the line after its fence.
-                let line = line_of(text, range.start)
-                    + usize::from(matches!(kind, CodeBlockKind::Fenced(_)));
-                current = Some((line, String::new()));
+                let (skip, lang) = match kind {
+                    CodeBlockKind::Fenced(info) => (1, info.to_string()),
+                    CodeBlockKind::Indented => (0, String::new()),
+                };
+                current = Some((line_of(text, range.start) + skip, lang, String::new()));
             }
             Event::Text(t) => {
-                if let Some((_, s)) = current.as_mut() {
+                if let Some((_, _, s)) = current.as_mut() {
                     s.push_str(&t);
                 }
             }
@@ -353,6 +361,42 @@ fn every_scene_file_the_docs_name_loads() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+#[test]
+fn every_scene_quoted_in_the_docs_loads() {
+    // A TOML block with an `[[object]]` whose sources are all in it is a whole scene: it loads as
+    // a file in `scenes/` would (the docs say to save it there). Any other TOML block that uses a
+    // scene table is a fragment of one: it parses.
+    let mut failures = Vec::new();
+    let (mut whole, mut fragments) = (0, 0);
+    let scenes = root().join("scenes");
+    for file in markdown_files() {
+        let text = std::fs::read_to_string(&file).expect("read");
+        for (line, lang, block) in blocks(&text) {
+            if lang.trim() != "toml" {
+                continue;
+            }
+            let at = format!("{}:{line}", rel(&file));
+            let scene_tables = ["[simulation]", "[[source]]", "[[object]]", "[[collider]]"];
+            let needs_sources = block.contains("source = ") && !block.contains("[[source]]");
+            if block.contains("[[object]]") && !needs_sources {
+                whole += 1;
+                if let Err(e) = splatphys_core::scene::load_scene_str(&block, &scenes) {
+                    failures.push(format!("{at}: {e}"));
+                }
+            } else if scene_tables.iter().any(|t| block.contains(t)) {
+                fragments += 1;
+                let path = Path::new("<fragment>");
+                if let Err(e) = splatphys_core::scene::parse_scene_toml(path, &block) {
+                    failures.push(format!("{at}: {e}"));
+                }
+            }
+        }
+    }
+    println!("{whole} whole scenes loaded, {fragments} fragments parsed");
+    assert!(whole >= 2, "only {whole} whole scenes quoted in the docs");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// Each binary's name and clap definition.
 fn clis() -> Vec<(&'static str, clap::Command)> {
     vec![
@@ -422,6 +466,3 @@ fn shell_comments_and_separators_are_understood() {
         "{slugs:?}"
     );
 }
-
-#[allow(dead_code)]
-fn _levels(_: HeadingLevel) {}

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs the Python client's dependencies and runs its pytest suite against a live
-# `splatphys serve --fake` (build it first: cargo build -p splatphys-ipc --bin splatphys).
+# `splatphys serve --fake` (build it first: cargo build --release -p splatphys --bin splatphys).
 # Exits 0 only when every test passes.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"

@@ -2,7 +2,7 @@
 //! centre of mass and speed, and pushes it with an impulse half-way through.
 //!
 //! ```text
-//! target/release/splatphys serve --prefix splatphys/default &
+//! target/release/splatphys serve --prefix splatphys/default --realtime &
 //! cargo run --release -p splatphys-ipc --example watch_and_push -- --prefix splatphys/default --object jelly
 //! ```
 //!
@@ -59,7 +59,14 @@ fn parse_args() -> Result<Args, String> {
     Ok(args)
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("watch_and_push: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args = parse_args()?;
     let mut opts = ClientOptions::new(&args.prefix);
     opts.node_name = "watch-and-push".into();
@@ -87,7 +94,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let Some(frame) = conn.wait_frame(Duration::from_millis(100))? else {
             continue;
         };
-        let header = *frame.user_header();
         let gaussians = frame.payload().len();
         drop(frame);
         seen += 1;
@@ -96,6 +102,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let Some(o) = object_id.and_then(|i| objects.payload().get(i).copied()) else {
                 continue;
             };
+            let header = *objects.user_header();
             let speed = o.velocity_m_s.iter().map(|v| v * v).sum::<f32>().sqrt();
             println!(
                 "step {:>5}  t {:.3} s  {gaussians} Gaussians  object {} at ({:.3}, {:.3}, {:.3}) m, {speed:.3} m/s",

@@ -1,7 +1,7 @@
 """splatphys_client against a live `splatphys serve --fake` process (free-fall stand-in).
 
 Needs the `splatphys` binary: target/release/splatphys if built, else target/debug/splatphys
-(`cargo build -p splatphys-ipc --bin splatphys`); skipped with a message when neither exists.
+(`cargo build --release -p splatphys --bin splatphys`); skipped with a message when neither exists.
 Each test uses its own iceoryx2 file prefix, so tests never see each other's services.
 """
 
@@ -32,7 +32,7 @@ def server_binary():
 BIN = server_binary()
 needs_server = pytest.mark.skipif(
     BIN is None,
-    reason="splatphys binary not built: run `cargo build -p splatphys-ipc --bin splatphys` first",
+    reason="splatphys binary not built: run `cargo build --release -p splatphys --bin splatphys` first",
 )
 
 
