@@ -58,6 +58,10 @@ fn the_robot_rests_on_the_captured_ground_as_rigid_and_as_deformable() {
     for kind in [ObjectKind::Rigid, ObjectKind::Deformable] {
         let mut scene = load_scene(&file).expect("scene");
         scene.objects[0].kind = kind;
+        // Half a second past the scene's end: on the rocks the rigid robot may come to rest,
+        // then settle once more into a nearby pose (measured: at rest at 1.83 s, a last tip
+        // peaking at 0.017 m/s, at rest from 2.23 s on).
+        scene.simulation.duration_s += 0.5;
         let mut w = World::from_scene(&scene).expect("world");
         println!("{}", w.explain().background);
         while !w.is_finished() {

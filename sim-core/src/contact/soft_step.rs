@@ -22,7 +22,8 @@
 //! 5. relaxes: the same iteration without the bias, so the push-out leaves no velocity behind.
 //!
 //! After the n steps one restitution pass gives an impact (approach faster than
-//! [`SolverSettings::resting_speed_m_s`] at the start that took an impulse) −e times its
+//! [`SolverSettings::resting_speed_m_s`] at the start that took an impulse, at a point that
+//! carried none in the last substep) −e times its
 //! approach speed. A body's motion over the substep is returned as velocity plus a
 //! pseudo-velocity (Δp/dt − v), which the world's position half integrates.
 //!
@@ -57,6 +58,9 @@ struct Point {
     base_separation_m: f64,
     /// Normal velocity at the start (m/s), for restitution.
     approach_m_s: f64,
+    /// It carried a normal impulse in the last substep (warm start): lasting contact, which
+    /// takes no restitution.
+    lasting: bool,
     /// Soft coefficients of its pair (bias rate, mass scale, impulse scale).
     soft: (f64, f64, f64),
     /// Normal impulse applied over the whole substep so far (N s).
@@ -104,6 +108,7 @@ pub(super) fn solve(
         points.push(Point {
             base_separation_m: c.separation_m,
             approach_m_s: relative(bodies, c.a, c.b, ra, rb).dot(c.normal),
+            lasting: c.normal_impulse > 0.0,
             soft: if bodies[c.a].is_immovable() || bodies[c.b].is_immovable() {
                 against_immovable
             } else {
@@ -326,6 +331,7 @@ fn restitution(
         .filter(|&i| {
             let (c, p, row) = (&contacts[i], &points[i], &rows[i]);
             c.restitution > 0.0
+                && !p.lasting
                 && -p.approach_m_s > settings.resting_speed_m_s
                 && p.total_n_s > 0.0
                 && row.k_n > 0.0

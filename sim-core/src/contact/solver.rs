@@ -20,8 +20,8 @@
 //! the tangent plane against the relative rolling, clamped to b Σ P_n.
 //!
 //! Normal targets:
-//! - impact (−v_n above the resting speed, the surfaces touching within the substep, e > 0):
-//!   −e v_n;
+//! - impact (−v_n above the resting speed, the surfaces touching within the substep, e > 0,
+//!   and the point new: no normal impulse carried over from the last substep): −e v_n;
 //! - speculative (separation s > 0): v_n ≥ −s/dt, the gap may close but not overshoot;
 //! - otherwise 0.
 //!
@@ -70,9 +70,14 @@ fn sequential_impulses(
         let s = c.separation_m;
         row.target_vn = if s > 0.0 { -s / dt_s } else { 0.0 };
         // An impact within this substep bounces now (a gap closed first would leave only the
-        // slower remaining approach to restitution); with e = 0 the gap just closes.
+        // slower remaining approach to restitution); with e = 0 the gap just closes. A point
+        // that already carried load in the last substep (its warm-start impulse) is lasting
+        // contact, not an impact: a body driven into another that cannot give way (a
+        // kinematic pusher wedging a box against a grippy floor) approaches again every
+        // substep, and bouncing each time pumps energy in.
         let touches = s <= 0.0 || -vn * dt_s >= s;
-        if touches && -vn > settings.resting_speed_m_s && c.restitution > 0.0 {
+        let lasting = c.normal_impulse > 0.0;
+        if touches && !lasting && -vn > settings.resting_speed_m_s && c.restitution > 0.0 {
             row.target_vn = row.target_vn.max(-c.restitution * vn);
         }
         if s < -settings.slop_m {
