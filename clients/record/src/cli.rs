@@ -19,7 +19,7 @@ pub struct Cli {
 pub enum Cmd {
     /// Record a live server losslessly until it shuts down (or Ctrl-C).
     Record {
-        /// Service prefix of the server (e.g. splatphys/<scene>).
+        /// Service prefix of the server (e.g. `splatphys/<scene>`).
         #[arg(long)]
         prefix: String,
         /// Output MCAP file.
