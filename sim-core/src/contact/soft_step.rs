@@ -23,9 +23,9 @@
 //!
 //! After the n steps one restitution pass gives an impact (approach faster than
 //! [`SolverSettings::resting_speed_m_s`] at the start that took an impulse, at a point that
-//! carried none in the last substep) −e times its
-//! approach speed. A body's motion over the substep is returned as velocity plus a
-//! pseudo-velocity (Δp/dt − v), which the world's position half integrates.
+//! carried none in the last substep) −e times its approach speed. A body's motion over the
+//! substep is returned as velocity plus a pseudo-velocity (Δp/dt − v), which the world's
+//! position half integrates.
 //!
 //! The soft constraint leaves a resting contact pressed by a load F into depth F / (m_n ω²)
 //! (m_n its effective mass); f is a quarter of the step rate 1/h (Box2D's bound for
