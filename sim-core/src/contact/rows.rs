@@ -111,6 +111,9 @@ pub struct ContactPoint {
     /// Rolling resistance b of the pair (m): its patch resists rolling with a couple of at most
     /// b times its normal impulse.
     pub rolling_resistance_m: f64,
+    /// Its pair carried a normal impulse in the last substep: lasting contact, which takes no
+    /// restitution at any of its points (a jam re-makes points that no warm start matches).
+    pub lasting: bool,
     /// Accumulated normal impulse on B (N s); warm-start value on entry.
     pub normal_impulse: f64,
     /// This point's share of its patch's tangential impulse on B (N s), in proportion to its

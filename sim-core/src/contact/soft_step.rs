@@ -22,7 +22,7 @@
 //! 5. relaxes: the same iteration without the bias, so the push-out leaves no velocity behind.
 //!
 //! After the n steps one restitution pass gives an impact (approach faster than
-//! [`SolverSettings::resting_speed_m_s`] at the start that took an impulse, at a point that
+//! [`SolverSettings::resting_speed_m_s`] at the start that took an impulse, of a pair that
 //! carried none in the last substep) −e times its approach speed. A body's motion over the
 //! substep is returned as velocity plus a pseudo-velocity (Δp/dt − v), which the world's
 //! position half integrates.
@@ -58,7 +58,7 @@ struct Point {
     base_separation_m: f64,
     /// Normal velocity at the start (m/s), for restitution.
     approach_m_s: f64,
-    /// It carried a normal impulse in the last substep (warm start): lasting contact, which
+    /// It or its pair carried a normal impulse in the last substep: lasting contact, which
     /// takes no restitution.
     lasting: bool,
     /// Soft coefficients of its pair (bias rate, mass scale, impulse scale).
@@ -108,7 +108,7 @@ pub(super) fn solve(
         points.push(Point {
             base_separation_m: c.separation_m,
             approach_m_s: relative(bodies, c.a, c.b, ra, rb).dot(c.normal),
-            lasting: c.normal_impulse > 0.0,
+            lasting: c.lasting || c.normal_impulse > 0.0,
             soft: if bodies[c.a].is_immovable() || bodies[c.b].is_immovable() {
                 against_immovable
             } else {
@@ -391,6 +391,7 @@ mod tests {
             friction: 0.5,
             rolling_resistance_m: 0.0,
             normal_impulse: 0.0,
+            lasting: false,
             tangent_impulse: DVec3::ZERO,
             twist_impulse: 0.0,
         };

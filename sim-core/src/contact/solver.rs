@@ -21,7 +21,7 @@
 //!
 //! Normal targets:
 //! - impact (−v_n above the resting speed, the surfaces touching within the substep, e > 0,
-//!   and the point new: no normal impulse carried over from the last substep): −e v_n;
+//!   and its pair new: no normal impulse carried over from the last substep): −e v_n;
 //! - speculative (separation s > 0): v_n ≥ −s/dt, the gap may close but not overshoot;
 //! - otherwise 0.
 //!
@@ -71,12 +71,12 @@ fn sequential_impulses(
         row.target_vn = if s > 0.0 { -s / dt_s } else { 0.0 };
         // An impact within this substep bounces now (a gap closed first would leave only the
         // slower remaining approach to restitution); with e = 0 the gap just closes. A point
-        // that already carried load in the last substep (its warm-start impulse) is lasting
-        // contact, not an impact: a body driven into another that cannot give way (a
-        // kinematic pusher wedging a box against a grippy floor) approaches again every
-        // substep, and bouncing each time pumps energy in.
+        // of a pair that already carried load in the last substep is lasting contact, not an
+        // impact: a body driven into another that cannot give way (a kinematic pusher wedging
+        // a box against a grippy floor) approaches again every substep, and bouncing each time
+        // pumps energy in.
         let touches = s <= 0.0 || -vn * dt_s >= s;
-        let lasting = c.normal_impulse > 0.0;
+        let lasting = c.lasting || c.normal_impulse > 0.0;
         if touches && !lasting && -vn > settings.resting_speed_m_s && c.restitution > 0.0 {
             row.target_vn = row.target_vn.max(-c.restitution * vn);
         }
@@ -195,6 +195,7 @@ mod tests {
             restitution: e,
             friction: 0.5,
             normal_impulse: 0.0,
+            lasting: false,
             tangent_impulse: DVec3::ZERO,
             twist_impulse: 0.0,
             rolling_resistance_m: 0.0,

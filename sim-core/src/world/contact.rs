@@ -258,6 +258,13 @@ pub(super) fn solve(
     solver_bodies.push(SolverBody::immovable(DVec3::ZERO));
     let local = |a: usize, x: Vec3A| poses[a].map_or(x, |p| p.to_rest(x));
     let mut cache = std::mem::take(&mut memory.cache);
+    // The pairs that carried load in the last substep: lasting contact takes no restitution.
+    let loaded: std::collections::HashSet<PairKey> = cache
+        .pairs
+        .iter()
+        .filter(|(_, (_, points))| points.iter().any(|(_, w)| w.0 > 0.0))
+        .map(|(key, _)| *key)
+        .collect();
     let mut points: Vec<ContactPoint> = raw
         .iter()
         .map(|(a, other, c)| {
@@ -306,6 +313,7 @@ pub(super) fn solve(
                 separation_m: c.separation_m as f64,
                 restitution,
                 friction,
+                lasting: loaded.contains(&(*a as u32, *other)),
                 normal_impulse: p_n,
                 tangent_impulse: p_t,
                 twist_impulse: twist,
