@@ -65,8 +65,8 @@ fn case() -> impl Strategy<Value = Case> {
         1 => Just(Event::None),
         // A jelly made rigid in contact is left out: the frozen shape then jitters on its
         // supports (ω flipping by several rad/s from frame to frame) and the pair creeps
-        // upwards, gaining up to 4 % a frame (5 cases in 300; undoing the overlaps at the
-        // command did not change it). See the docs' limitations.
+        // upwards (with it, 22 of these 1,000 scenes gain 1-8 % in a frame; undoing the
+        // overlaps at the command did not change it). See the docs' limitations.
         2 => Just(Event::Kind(1, ObjectKind::Deformable)),
         2 => (0..2usize, prop_oneof![100.0..500.0f64, 500.0..8000.0f64])
             .prop_map(|(k, rho)| Event::Density(k, rho)),
