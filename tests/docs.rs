@@ -30,10 +30,7 @@ const BINARIES: [&str; 7] = [
 ];
 
 fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("workspace root")
-        .to_path_buf()
+    splatphys_tests::workspace().to_path_buf()
 }
 
 /// The project's Markdown files (not build outputs, not installed packages).

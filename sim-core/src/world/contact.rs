@@ -40,15 +40,19 @@ pub enum Other {
 pub type PairKey = (u32, Other);
 
 /// Accumulated impulses of the last substep's points, for warm starting: per pair, the substep
-/// (s) they were solved over and each point in A's rest frame with its normal impulse and its
-/// share of its patch's friction. A new point takes the impulses of the nearest old point of its
+/// (s) they were solved over, whether any of its points carried a normal impulse (lasting
+/// contact, which takes no restitution), and each point in A's rest frame with its normal
+/// impulse and its share of its patch's friction. A new point takes the impulses of the nearest old point of its
 /// pair within [`WARM_RADIUS_CELLS`] (each old point once), scaled by the ratio of the substeps,
 /// so warm starting survives a manifold that picks different surface points as the bodies move,
 /// and pairs of islands stepped at different rates (`islands.rs`) keep their own substep.
 #[derive(Debug, Clone, Default)]
 pub struct ContactCache {
-    pairs: HashMap<PairKey, (f64, Vec<(Vec3A, Warm)>)>,
+    pairs: HashMap<PairKey, CachedPair>,
 }
+
+/// One pair's entry of [`ContactCache`]: substep (s), loaded, points.
+type CachedPair = (f64, bool, Vec<(Vec3A, Warm)>);
 
 /// A point's accumulated impulses: normal (N s), its share of the patch's tangential (N s) and
 /// torsional (N m s) friction.
@@ -62,7 +66,7 @@ impl ContactCache {
     /// `local` (A's rest frame).
     /// `dt_s`: the new substep (s); the impulses come scaled by it over the old one.
     fn take(&mut self, pair: PairKey, local: Vec3A, radius_m: f32, dt_s: f64) -> Option<Warm> {
-        let (old_dt_s, old) = self.pairs.get_mut(&pair)?;
+        let (old_dt_s, _, old) = self.pairs.get_mut(&pair)?;
         let ratio = if *old_dt_s > 0.0 {
             dt_s / *old_dt_s
         } else {
@@ -78,6 +82,11 @@ impl ContactCache {
         }
         let (p_n, p_t, twist) = old.swap_remove(i).1;
         Some((p_n * ratio, p_t * ratio, twist * ratio))
+    }
+
+    /// Whether `pair` carried a normal impulse at any point in the last substep.
+    fn carried_load(&self, pair: PairKey) -> bool {
+        self.pairs.get(&pair).is_some_and(|p| p.1)
     }
 
     /// Moves the pairs for which `keep` is false into a cache of their own (island stepping
@@ -258,13 +267,6 @@ pub(super) fn solve(
     solver_bodies.push(SolverBody::immovable(DVec3::ZERO));
     let local = |a: usize, x: Vec3A| poses[a].map_or(x, |p| p.to_rest(x));
     let mut cache = std::mem::take(&mut memory.cache);
-    // The pairs that carried load in the last substep: lasting contact takes no restitution.
-    let loaded: std::collections::HashSet<PairKey> = cache
-        .pairs
-        .iter()
-        .filter(|(_, (_, points))| points.iter().any(|(_, w)| w.0 > 0.0))
-        .map(|(key, _)| *key)
-        .collect();
     let mut points: Vec<ContactPoint> = raw
         .iter()
         .map(|(a, other, c)| {
@@ -313,7 +315,7 @@ pub(super) fn solve(
                 separation_m: c.separation_m as f64,
                 restitution,
                 friction,
-                lasting: loaded.contains(&(*a as u32, *other)),
+                lasting: cache.carried_load((*a as u32, *other)),
                 normal_impulse: p_n,
                 tangent_impulse: p_t,
                 twist_impulse: twist,
@@ -328,12 +330,13 @@ pub(super) fn solve(
     };
     let patches = solver::solve(&mut solver_bodies, &mut points, dt_s, &settings);
     stats.contact_impulses += points.iter().filter(|p| p.normal_impulse > 0.0).count() as u64;
-    let mut pairs: HashMap<PairKey, (f64, Vec<(Vec3A, Warm)>)> = HashMap::new();
+    let mut pairs: HashMap<PairKey, CachedPair> = HashMap::new();
     for ((a, other, c), p) in raw.iter().zip(&points) {
         let pair = pairs
             .entry((*a as u32, *other))
-            .or_insert((dt_s, Vec::new()));
-        pair.1.push((
+            .or_insert((dt_s, false, Vec::new()));
+        pair.1 |= p.normal_impulse > 0.0;
+        pair.2.push((
             local(*a, c.point_m),
             (p.normal_impulse, p.tangent_impulse, p.twist_impulse),
         ));
