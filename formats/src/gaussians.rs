@@ -129,4 +129,78 @@ impl GaussianCloud {
         }
         out
     }
+
+    /// Appends the Gaussians of `more`. SH degrees may differ: the lower one's missing higher
+    /// coefficients become zeros. Extra properties are kept when both clouds carry the same
+    /// names in the same order, and dropped otherwise; normals likewise.
+    pub fn append(&mut self, mut more: GaussianCloud) {
+        if self.is_empty() && self.sh_rest_len == 0 && self.extra.is_empty() {
+            *self = more;
+            return;
+        }
+        let rest_len = self.sh_rest_len.max(more.sh_rest_len);
+        self.widen_sh(rest_len);
+        more.widen_sh(rest_len);
+        let same_extra = self.extra.len() == more.extra.len()
+            && self.extra.iter().zip(&more.extra).all(|(a, b)| a.0 == b.0);
+        if same_extra {
+            for (a, b) in self.extra.iter_mut().zip(more.extra.iter_mut()) {
+                a.1.append(&mut b.1);
+            }
+        } else {
+            self.extra.clear();
+        }
+        match (&mut self.normals, &mut more.normals) {
+            (Some(a), Some(b)) => a.append(b),
+            _ => self.normals = None,
+        }
+        self.positions.append(&mut more.positions);
+        self.sh_dc.append(&mut more.sh_dc);
+        self.sh_rest.append(&mut more.sh_rest);
+        self.opacity_logit.append(&mut more.opacity_logit);
+        self.log_scales.append(&mut more.log_scales);
+        self.rotations_wxyz.append(&mut more.rotations_wxyz);
+    }
+
+    /// Pads each Gaussian's channel-major `f_rest` to `rest_len` values (0, 9, 24 or 45): zeros
+    /// for the missing higher coefficients of every channel. No-op when it already has as many.
+    pub fn widen_sh(&mut self, rest_len: usize) {
+        let (from_k, to_k) = (self.sh_rest_len / 3, rest_len / 3);
+        if to_k <= from_k {
+            return;
+        }
+        let n = self.len();
+        let mut rest = vec![0.0f32; n * rest_len];
+        for i in 0..n {
+            for c in 0..3 {
+                let src = &self.sh_rest[i * self.sh_rest_len + c * from_k..][..from_k];
+                rest[i * rest_len + c * to_k..][..from_k].copy_from_slice(src);
+            }
+        }
+        self.sh_rest = rest;
+        self.sh_rest_len = rest_len;
+        self.sh_degree = match rest_len {
+            9 => 1,
+            24 => 2,
+            _ => 3,
+        };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn widening_keeps_each_channel_block() {
+        let mut c = GaussianCloud::with_capacity(1, 9);
+        c.positions.push([0.0; 3]);
+        c.sh_rest.extend_from_slice(&[1., 2., 3., 4., 5., 6., 7., 8., 9.]);
+        c.widen_sh(24);
+        assert_eq!(c.sh_rest[0..3], [1., 2., 3.]);
+        assert_eq!(c.sh_rest[3..8], [0.; 5]);
+        assert_eq!(c.sh_rest[8..11], [4., 5., 6.]);
+        assert_eq!(c.sh_rest[16..19], [7., 8., 9.]);
+        assert_eq!(c.sh_degree, 2);
+    }
 }

@@ -1,19 +1,27 @@
 //! splatphys-formats: 3D Gaussian Splatting files and the Gaussians they hold, without the
 //! simulation, so renderers, recorders and the engine share one reader.
 //!
-//! 3DGS file formats: INRIA PLY (Kerbl et al. 2023, read and write), antimatter15 `.splat`
-//! and SuperSplat/PlayCanvas compressed PLY (read), and a file report for `splatphys inspect`;
-//! [`gaussians`] is the cloud they read into, with the SH rotation that turns its colours.
+//! 3DGS file formats: INRIA PLY (Kerbl et al. 2023, read and write), Niantic SPZ (read and
+//! write), antimatter15 `.splat`, SuperSplat/PlayCanvas compressed PLY, PlayCanvas SOG (folder,
+//! `.sog` bundle, streamed level of detail) and glTF/GLB with `KHR_gaussian_splatting` (read),
+//! and a file report for `splatphys inspect`; [`gaussians`] is the cloud they read into, with
+//! the SH rotation that turns its colours; [`posed`] turns a simulated frame back into one.
 //!
-//! Every reader returns a [`GaussianCloud`] in the file's own frame and units with the values
-//! exactly as the file stores them (log scales, opacity logits, raw quaternions). Bad input gives
+//! Every reader returns a [`GaussianCloud`] in the INRIA parameterisation (log scales, opacity
+//! logits, quaternions w x y z) and in PLY's frame (COLMAP's: x right, y down, z forward):
+//! formats whose convention differs (SPZ: y up, z back; glTF: y up, x left) are turned once, on
+//! reading, by a proper rotation. Values a PLY stores are kept exactly as stored. Bad input gives
 //! a [`FormatError`] naming the file, element and property; no reader panics on input.
 
 pub mod compressed;
 pub mod gaussians;
+pub mod gltf;
 pub mod inspect;
 pub mod npy;
 pub mod ply;
+pub mod posed;
+pub mod sog;
+pub mod spz;
 pub mod splat;
 
 use std::path::{Path, PathBuf};
@@ -158,6 +166,26 @@ pub enum FileFormat {
     CompressedPly,
     /// antimatter15 `.splat`, 32 bytes per Gaussian, no header.
     Splat,
+    /// PlayCanvas SOG: a folder with `meta.json` and WebP images, or its `meta.json`.
+    Sog,
+    /// PlayCanvas SOG bundled in one `.sog` ZIP.
+    SogBundle,
+    /// PlayCanvas streamed SOG (`lod-meta.json` and chunk folders), one level read.
+    SogLod,
+    /// Niantic SPZ (versions 1–4).
+    Spz,
+    /// glTF or GLB with `KHR_gaussian_splatting`.
+    Gltf,
+}
+
+/// Choices a reader cannot take from the file alone.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Level of a streamed SOG to read, 0 the finest (the default).
+    pub lod: Option<usize>,
+    /// Frame of an SPZ's stored values ([`spz::SpzFrame::Rub`], the format's convention, by
+    /// default).
+    pub spz_frame: spz::SpzFrame,
 }
 
 impl std::fmt::Display for FileFormat {
@@ -166,6 +194,11 @@ impl std::fmt::Display for FileFormat {
             Self::InriaPly => "INRIA PLY",
             Self::CompressedPly => "compressed PLY (SuperSplat)",
             Self::Splat => "antimatter15 .splat",
+            Self::Sog => "SOG (PlayCanvas)",
+            Self::SogBundle => "bundled SOG (PlayCanvas .sog)",
+            Self::SogLod => "streamed SOG (PlayCanvas lod-meta.json)",
+            Self::Spz => "SPZ (Niantic)",
+            Self::Gltf => "glTF KHR_gaussian_splatting",
         })
     }
 }
@@ -178,9 +211,13 @@ pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
     })
 }
 
-/// Guesses the format of `bytes` (named `path`): a PLY magic number selects PLY (compressed when
-/// it declares a `chunk` element), otherwise `.splat`.
+/// Guesses the format of `bytes` (named `path`) from its content: a PLY magic number selects
+/// PLY (compressed when it declares a `chunk` element), `PK` a SOG bundle, the gzip magic or
+/// `NGSP` SPZ, `glTF` or a JSON object with `"asset"` glTF, a JSON object with `"means"` a SOG
+/// `meta.json` and one with `"filenames"` and `"tree"` a streamed SOG; a file named `.splat`,
+/// and anything else, `.splat` (which has no magic number).
 pub fn detect_format(path: &Path, bytes: &[u8]) -> FileFormat {
+    let named_splat = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("splat"));
     if bytes.starts_with(b"ply") {
         let head = &bytes[..bytes.len().min(64 * 1024)];
         let text = String::from_utf8_lossy(head);
@@ -193,24 +230,73 @@ pub fn detect_format(path: &Path, bytes: &[u8]) -> FileFormat {
         } else {
             FileFormat::InriaPly
         }
+    } else if named_splat {
+        FileFormat::Splat
+    } else if bytes.starts_with(b"PK\x03\x04") {
+        FileFormat::SogBundle
+    } else if bytes.starts_with(&spz::GZIP_MAGIC) || bytes.starts_with(b"NGSP") {
+        FileFormat::Spz
+    } else if bytes.starts_with(gltf::GLB_MAGIC) {
+        FileFormat::Gltf
+    } else if bytes.trim_ascii_start().starts_with(b"{") {
+        let head = String::from_utf8_lossy(&bytes[..bytes.len().min(64 * 1024)]);
+        if head.contains("\"filenames\"") && head.contains("\"tree\"") {
+            FileFormat::SogLod
+        } else if head.contains("\"means\"") {
+            FileFormat::Sog
+        } else if head.contains("\"asset\"") {
+            FileFormat::Gltf
+        } else {
+            FileFormat::Splat
+        }
     } else {
-        let _ = path;
         FileFormat::Splat
     }
 }
 
-/// Reads any supported 3DGS file (format detected from its content) into a [`GaussianCloud`].
+/// Reads any supported 3DGS file (format detected from its content) into a [`GaussianCloud`];
+/// a folder is read as a SOG (or a streamed SOG when it holds `lod-meta.json`).
 ///
 /// # Errors
 /// [`FormatError`] naming the file, element and property for unreadable or malformed input.
 pub fn read_gaussians(path: impl AsRef<Path>) -> Result<GaussianCloud, FormatError> {
-    let path = path.as_ref();
-    let bytes = read_bytes(path)?;
-    parse_gaussians(path, &bytes).map(|(cloud, _)| cloud)
+    read_gaussians_with(path, &ReadOptions::default()).map(|(cloud, _)| cloud)
 }
 
-/// Parses `bytes` (reported as `path` in errors) in any supported format; returns the cloud and
-/// the format found.
+/// [`read_gaussians`] with the choices of [`ReadOptions`]; also returns the format found.
+///
+/// # Errors
+/// As [`read_gaussians`].
+pub fn read_gaussians_with(
+    path: impl AsRef<Path>,
+    options: &ReadOptions,
+) -> Result<(GaussianCloud, FileFormat), FormatError> {
+    let path = path.as_ref();
+    if path.is_dir() {
+        let format = if path.join(sog::LOD_META_JSON).is_file() {
+            FileFormat::SogLod
+        } else {
+            FileFormat::Sog
+        };
+        return Ok((sog::read_sog(path, options.lod)?, format));
+    }
+    let bytes = read_bytes(path)?;
+    let format = detect_format(path, &bytes);
+    let cloud = match format {
+        FileFormat::Sog | FileFormat::SogBundle | FileFormat::SogLod => {
+            sog::read_sog(path, options.lod)?
+        }
+        FileFormat::Spz => spz::parse_spz(path, &bytes, options.spz_frame)?,
+        FileFormat::Gltf => gltf::parse_gltf(path, &bytes)?,
+        _ => parse_gaussians(path, &bytes)?.0,
+    };
+    Ok((cloud, format))
+}
+
+/// Parses `bytes` (reported as `path` in errors) in any format held in one file without
+/// companions (PLY, compressed PLY, `.splat`, SPZ, GLB, a `.sog` bundle); returns the cloud and
+/// the format found. A SOG `meta.json`, a streamed SOG or a `.gltf` with external buffers need
+/// their folder: use [`read_gaussians`].
 ///
 /// # Errors
 /// [`FormatError`] for malformed input.
@@ -223,6 +309,16 @@ pub fn parse_gaussians(
         FileFormat::InriaPly => ply::parse_ply(path, bytes)?.cloud,
         FileFormat::CompressedPly => compressed::parse_compressed_ply(path, bytes)?,
         FileFormat::Splat => splat::parse_splat(path, bytes)?,
+        FileFormat::SogBundle => sog::parse_bundle(path, bytes)?,
+        FileFormat::Spz => spz::parse_spz(path, bytes, spz::SpzFrame::default())?,
+        FileFormat::Gltf => gltf::parse_gltf(path, bytes)?,
+        FileFormat::Sog | FileFormat::SogLod => {
+            return Err(FormatError::Layout {
+                path: path.to_path_buf(),
+                element: "body".into(),
+                problem: format!("a {format} needs the files beside it: read it from its folder"),
+            });
+        }
     };
     Ok((cloud, format))
 }

@@ -68,6 +68,34 @@ pub enum Cmd {
         #[arg(long)]
         recover: bool,
     },
+    /// Export chosen frames as 3DGS files (INRIA PLY, SPZ) that a splat viewer opens.
+    ///
+    /// Each frame's Gaussians in world metres (z up): centres, scales and rotations from the
+    /// simulated covariance, SH colours turned with the material, opacity and, in PLY, each
+    /// Gaussian's `object_id` (-1 for the captured background). Files are
+    /// `OUT/frame_<index>.<ext>`.
+    #[command(after_help = "Examples:
+  splatphys-record export out/donut/recording.mcap --out out/donut/ply --every 10
+  splatphys-record export run.mcap --out frames --steps 100..200 --format ply --format spz")]
+    Export {
+        /// The MCAP file.
+        file: PathBuf,
+        /// Output folder (created; existing files of the same names are overwritten).
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Export one frame in N (frame index divisible by N).
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+        every: u64,
+        /// Only frames whose step lies in A..B (B excluded), A.., ..B, or the one step A.
+        #[arg(long, value_parser = crate::export::parse_steps)]
+        steps: Option<std::ops::Range<u64>>,
+        /// File format; repeat for several.
+        #[arg(long = "format", value_enum, default_values_t = [crate::export::ExportFormat::Ply])]
+        formats: Vec<crate::export::ExportFormat>,
+        /// Read a truncated or corrupt file up to the damage instead of refusing it.
+        #[arg(long)]
+        recover: bool,
+    },
     /// Export the objects of every frame as CSV.
     ExportObjects {
         /// The MCAP file.

@@ -44,6 +44,9 @@ pub enum RecordError {
         /// Expected layout.
         what: &'static str,
     },
+    /// Writing an exported frame failed (the file and what went wrong).
+    #[error(transparent)]
+    Format(#[from] splatphys_formats::FormatError),
     /// The IPC layer failed.
     #[error(transparent)]
     Ipc(#[from] splatphys_ipc::IpcError),

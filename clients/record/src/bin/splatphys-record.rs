@@ -5,6 +5,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use splatphys_record::cli::{Cli, Cmd};
+use splatphys_record::export::{ExportOptions, export_frames};
 use splatphys_record::read::{Recording, object_names, objects_csv};
 use splatphys_record::recorder::{RecordEnd, RecordOptions, record};
 use splatphys_record::replay::{ReplayOptions, replay};
@@ -85,6 +86,54 @@ fn main() -> Result<()> {
                 r.counts.frames,
                 r.counts.scenes,
                 peak_rss_mb().map_or("unknown".into(), |mb| format!("{mb:.1} MB"))
+            );
+        }
+        Cmd::Export {
+            file,
+            out,
+            every,
+            steps,
+            mut formats,
+            recover,
+        } => {
+            formats.sort();
+            formats.dedup();
+            let opts = ExportOptions {
+                every,
+                steps,
+                formats,
+            };
+            let spinner = indicatif::ProgressBar::new_spinner();
+            spinner.set_style(
+                indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+            );
+            let mut msgs = Recording::open(&file, recover)?;
+            let report = export_frames(&mut msgs, &file, &out, &opts, |r| {
+                spinner.set_message(format!("{} frames exported of {} read", r.frames, r.frames_seen));
+                spinner.tick();
+            })
+            .with_context(|| format!("exporting {}", file.display()))?;
+            spinner.finish_and_clear();
+            if let Some(damage) = msgs.damage() {
+                eprintln!(
+                    "splatphys-record export: {} ends early ({damage}); exported what came before",
+                    file.display()
+                );
+            }
+            if report.frames == 0 {
+                bail!(
+                    "no frame of {} matched (read {} frames; check --every and --steps)",
+                    file.display(),
+                    report.frames_seen
+                );
+            }
+            eprintln!(
+                "splatphys-record export: {} of {} frames -> {} files in {}",
+                report.frames,
+                report.frames_seen,
+                report.files.len(),
+                out.display()
             );
         }
         Cmd::ExportObjects { file, out, recover } => {
