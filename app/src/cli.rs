@@ -16,6 +16,7 @@ use clap::{Parser, Subcommand};
   splatphys run --out out/default                         # built-in scene: server + recorder + renderer
   splatphys run scenes/donut_drop.toml --out out/donut    # a captured donut on a table
   splatphys serve scenes/donut_drop.toml                  # the server alone
+  splatphys select scenes/donut_drop.toml --out out/selection  # objects as PLY + masks
   splatphys inspect ../shared/data/v3dg_donut.ply
   splatphys uplift --ply scene.ply --cameras transforms.json --features feats/ --out scene_feat.ply
   splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2
@@ -36,6 +37,9 @@ pub enum Command {
     Run(crate::run::RunArgs),
     /// Serve a scene over iceoryx2 shared memory; clients attach and detach freely.
     Serve(crate::serve::ServeArgs),
+    /// Write which Gaussians form which object (PLY with object ids, a mask per object), without
+    /// simulating.
+    Select(crate::select::SelectArgs),
     /// Describe a 3DGS file.
     Inspect(crate::inspect::InspectArgs),
     /// Stage 1: lift 2-D feature maps of the training views into per-Gaussian features.

@@ -1,6 +1,6 @@
 //! splatphys: the application around the simulation core. The `splatphys` command (run, serve,
-//! inspect, uplift, bench) is [`cli`], each subcommand a module ([`run`], [`serve`], [`inspect`],
-//! [`uplift`]); `src/main.rs` only dispatches. What the subcommands share:
+//! select, inspect, uplift, bench) is [`cli`], each subcommand a module ([`run`], [`serve`],
+//! [`select`], [`inspect`], [`uplift`]); `src/main.rs` only dispatches. What the subcommands share:
 //!
 //! - [`world_sim`]: the adapter that makes a sim-core [`World`](splatphys_core::world::World) a
 //!   server-ready [`Simulation`](splatphys_ipc::Simulation);
@@ -21,6 +21,7 @@ pub mod level_of_detail;
 pub mod plan;
 pub mod report;
 pub mod run;
+pub mod select;
 pub mod serve;
 pub mod trace;
 pub mod uplift;

@@ -3,13 +3,14 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use splatphys::cli::{Cli, Command};
-use splatphys::{inspect, run, serve, uplift};
+use splatphys::{inspect, run, select, serve, uplift};
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Serve(args) => serve::run(&args),
+        Command::Select(args) => select::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Bench { args } => bench(&args),
         Command::Uplift(args) => uplift::run(&args),

@@ -24,6 +24,7 @@ use splatphys_ipc::Simulation;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::wire::ObjectState;
 use splatphys_record::channels::FRAME;
+use splatphys_record::export::{ExportFormat, ExportOptions, export_frames};
 use splatphys_record::objects_csv::ObjectsCsv;
 use splatphys_record::read::{Recording, frame_header, objects_csv};
 use splatphys_render::report::RenderReport;
@@ -37,7 +38,8 @@ use splatphys_render::report::RenderReport;
   splatphys run scenes/donut_drop.toml --out out/d --in-process   # simulation only
   splatphys run scenes/guitar_topple.toml --out out/g --explain   # what each object needed
   splatphys run scenes/donut_snow_push.toml --out out/s --budget-fps 30   # coarsen to real time
-  splatphys run scenes/donut_snow_push.toml --out out/s2 --spacing-from out/s/summary.json")]
+  splatphys run scenes/donut_snow_push.toml --out out/s2 --spacing-from out/s/summary.json
+  splatphys run scenes/donut_drop.toml --out out/d --export-ply --every 10   # PLY files of the frames")]
 pub struct RunArgs {
     /// Scene file (TOML); the built-in default scene when absent.
     pub scene: Option<PathBuf>,
@@ -70,6 +72,30 @@ pub struct RunArgs {
     /// Level of detail by budget.
     #[command(flatten)]
     pub lod: LodArgs,
+    /// After the run, write frames as INRIA PLY files (`OUT/export/frame_<index>.ply`, world
+    /// metres, z up, with each Gaussian's `object_id`) from the recording.
+    #[arg(long)]
+    pub export_ply: bool,
+    /// After the run, write frames as SPZ files (`OUT/export/frame_<index>.spz`, y up).
+    #[arg(long)]
+    pub export_spz: bool,
+    /// With --export-ply/--export-spz: one frame in N.
+    #[arg(long, visible_alias = "every", default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    pub export_every: u64,
+}
+
+impl RunArgs {
+    /// The export formats asked for.
+    fn export_formats(&self) -> Vec<ExportFormat> {
+        let mut f = Vec::new();
+        if self.export_ply {
+            f.push(ExportFormat::Ply);
+        }
+        if self.export_spz {
+            f.push(ExportFormat::Spz);
+        }
+        f
+    }
 }
 
 /// Runs the main job.
@@ -82,6 +108,9 @@ pub fn run(args: &RunArgs) -> Result<()> {
     if args.in_process {
         if args.view.view {
             bail!("--view needs the server as a process: leave out --in-process");
+        }
+        if !args.export_formats().is_empty() {
+            bail!("--export-ply and --export-spz read the recording: leave out --in-process");
         }
         in_process(args)
     } else {
@@ -180,6 +209,35 @@ fn explain(out: &Path, report: &Explanation) -> Result<()> {
     eprint!("{table}");
     std::fs::write(out.join("explain.txt"), &table)
         .with_context(|| format!("writing {}", out.join("explain.txt").display()))
+}
+
+/// Writes the frames `--export-ply`/`--export-spz` ask for from the recording into
+/// `OUT/export` (nothing when neither is given). A recording cut by a dead recorder is read up
+/// to the cut.
+fn export(args: &RunArgs, mcap: &Path) -> Result<()> {
+    let formats = args.export_formats();
+    if formats.is_empty() {
+        return Ok(());
+    }
+    let dir = args.out.join("export");
+    let opts = ExportOptions {
+        every: args.export_every,
+        steps: None,
+        formats,
+    };
+    let pb = ProgressBar::new_spinner();
+    let report = export_frames(Recording::open(mcap, true)?, mcap, &dir, &opts, |r| {
+        pb.set_message(format!("exporting frame {}", r.frames));
+        pb.tick();
+    })?;
+    pb.finish_and_clear();
+    eprintln!(
+        "splatphys run: exported {} frames ({} files) to {}",
+        report.frames,
+        report.files.len(),
+        dir.display()
+    );
+    Ok(())
 }
 
 /// A sibling executable of this one (cargo puts every workspace binary in one folder): the
@@ -508,6 +566,7 @@ fn multi_process(args: &RunArgs) -> Result<()> {
             .context("running splatphys-render mcap")?;
         rerendered = status.success();
     }
+    let exported = export(args, &mcap);
     let last_step = report.last_step;
     let mut summary = RunSummary::from_server(&plan.name, &plan.prefix, report, wall_s);
     // Counted from what the file holds, not from the server's view.
@@ -552,6 +611,9 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     }
     if let Err(e) = &csv_rows {
         bail!("objects.csv could not be written from the recording: {e:#}");
+    }
+    if let Err(e) = exported {
+        bail!("exporting frames from {}: {e:#}", mcap.display());
     }
     if summary.frames_lost_by_recorder > 0 {
         bail!(

@@ -179,7 +179,7 @@ pub enum FileFormat {
 }
 
 /// Choices a reader cannot take from the file alone.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub struct ReadOptions {
     /// Level of a streamed SOG to read, 0 the finest (the default).
     pub lod: Option<usize>,

@@ -44,7 +44,7 @@ pub const MAX_POINTS: usize = 1 << 31;
 const COLOR_SCALE: f64 = 0.15;
 
 /// Which frame an SPZ's values are in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum SpzFrame {
     /// RUB, the format's convention: turned into PLY's RDF on reading (a half turn about x).
     #[default]

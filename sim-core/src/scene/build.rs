@@ -10,9 +10,10 @@ use glam::Vec3;
 use super::SceneError;
 use super::context::Ctx;
 use super::model::*;
-use super::schema::{MaterialToml, ObjectToml, PlaneChoice, SceneFile, SelectToml};
+use super::schema::{MaterialToml, ObjectToml, PlaneChoice, SceneFile, SelectToml, SpzFrameToml};
 use super::transform::{apply_similarity, concat, euler_xyz_deg, subset, voxel_subsample};
-use crate::formats::read_gaussians;
+use crate::formats::spz::SpzFrame;
+use crate::formats::{ReadOptions, read_gaussians_with};
 use crate::gaussians::GaussianCloud;
 use crate::procedural::shape_gaussians;
 use crate::selection::auto::{AutoParams, detect_objects};
@@ -153,7 +154,7 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
 }
 
 fn place_sources(ctx: &Ctx, base: &Path, f: &SceneFile) -> Result<Vec<Placed>, SceneError> {
-    let mut cache: HashMap<PathBuf, GaussianCloud> = HashMap::new();
+    let mut cache: HashMap<(PathBuf, ReadOptions), GaussianCloud> = HashMap::new();
     let mut out: Vec<Placed> = Vec::new();
     for (i, s) in f.source.iter().enumerate() {
         let key = format!("source[{i}]");
@@ -180,15 +181,25 @@ fn place_sources(ctx: &Ctx, base: &Path, f: &SceneFile) -> Result<Vec<Placed>, S
             "must be in [0, 1]",
         )?;
         let path = base.join(&s.path);
-        let raw = match cache.get(&path) {
+        let options = ReadOptions {
+            lod: s.lod,
+            spz_frame: match s.spz_frame {
+                Some(SpzFrameToml::AsStored) => SpzFrame::AsStored,
+                Some(SpzFrameToml::Rub) | None => SpzFrame::Rub,
+            },
+        };
+        let cache_key = (path.clone(), options);
+        let raw = match cache.get(&cache_key) {
             Some(c) => c.clone(),
             None => {
-                let c = read_gaussians(&path).map_err(|source| SceneError::Source {
-                    file: ctx.file.to_path_buf(),
-                    key_path: format!("{key}.path"),
-                    source: Box::new(source),
+                let (c, _) = read_gaussians_with(&path, &options).map_err(|source| {
+                    SceneError::Source {
+                        file: ctx.file.to_path_buf(),
+                        key_path: format!("{key}.path"),
+                        source: Box::new(source),
+                    }
                 })?;
-                cache.insert(path.clone(), c.clone());
+                cache.insert(cache_key, c.clone());
                 c
             }
         };

@@ -160,6 +160,21 @@ pub struct SourceToml {
     pub min_opacity: f32,
     /// Keep at most one Gaussian (the most opaque) per cube of this side, m (world units).
     pub voxel_m: Option<f32>,
+    /// Streamed SOG (`lod-meta.json`): the level to read, 0 the finest (the default).
+    pub lod: Option<usize>,
+    /// SPZ: the frame its values are stored in, `"rub"` (the format's convention, the default)
+    /// or `"as_stored"` (files written without the turn, as splat-transform writes them).
+    pub spz_frame: Option<SpzFrameToml>,
+}
+
+/// `spz_frame` of a source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpzFrameToml {
+    /// RUB (x right, y up, z back): turned into PLY's frame on reading.
+    Rub,
+    /// Values used as stored.
+    AsStored,
 }
 
 /// `select = {...}`: which Gaussians form an object; present keys are intersected.
