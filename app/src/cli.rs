@@ -17,6 +17,7 @@ use clap::{Parser, Subcommand};
   splatphys run scenes/donut_drop.toml --out out/donut    # a captured donut on a table
   splatphys serve scenes/donut_drop.toml                  # the server alone
   splatphys select scenes/donut_drop.toml --out out/selection  # objects as PLY + masks
+  splatphys align capture.ply --out aligned.ply              # level a capture: z up
   splatphys inspect ../shared/data/v3dg_donut.ply
   splatphys uplift --ply scene.ply --cameras transforms.json --features feats/ --out scene_feat.ply
   splatphys bench mpm --particles-per-axis 40 --grid 64 --steps 200 --threads 2
@@ -40,6 +41,8 @@ pub enum Command {
     /// Write which Gaussians form which object (PLY with object ids, a mask per object), without
     /// simulating.
     Select(crate::select::SelectArgs),
+    /// Find the rotation that puts a capture's ground down (the scene keys that level it).
+    Align(crate::align::AlignArgs),
     /// Describe a 3DGS file.
     Inspect(crate::inspect::InspectArgs),
     /// Stage 1: lift 2-D feature maps of the training views into per-Gaussian features.

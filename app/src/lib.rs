@@ -1,6 +1,6 @@
 //! splatphys: the application around the simulation core. The `splatphys` command (run, serve,
-//! select, inspect, uplift, bench) is [`cli`], each subcommand a module ([`run`], [`serve`],
-//! [`select`], [`inspect`], [`uplift`]); `src/main.rs` only dispatches. What the subcommands share:
+//! select, align, inspect, uplift, bench) is [`cli`], each subcommand a module ([`run`],
+//! [`serve`], [`select`], [`align`], [`inspect`], [`uplift`]); `src/main.rs` only dispatches. What the subcommands share:
 //!
 //! - [`world_sim`]: the adapter that makes a sim-core [`World`](splatphys_core::world::World) a
 //!   server-ready [`Simulation`](splatphys_ipc::Simulation);
@@ -13,6 +13,7 @@
 //! - [`calibration`] and [`trace`]: the timed in-process runs behind `--budget-fps` (the
 //!   benchmarks of `splatphys-bench` use them too).
 
+pub mod align;
 pub mod calibration;
 pub mod child_args;
 pub mod cli;

@@ -3,7 +3,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use splatphys::cli::{Cli, Command};
-use splatphys::{inspect, run, select, serve, uplift};
+use splatphys::{align, inspect, run, select, serve, uplift};
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
@@ -11,6 +11,7 @@ fn main() -> Result<()> {
         Command::Run(args) => run::run(&args),
         Command::Serve(args) => serve::run(&args),
         Command::Select(args) => select::run(&args),
+        Command::Align(args) => align::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Bench { args } => bench(&args),
         Command::Uplift(args) => uplift::run(&args),

@@ -111,6 +111,12 @@ pub fn run(args: &SelectArgs) -> Result<()> {
 /// An object name as a file name: letters, digits, `-` and `_` kept, anything else `_`.
 fn file_safe(name: &str) -> String {
     name.chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect()
 }

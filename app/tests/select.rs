@@ -8,15 +8,27 @@ use splatphys_core::formats::read_gaussians;
 #[test]
 fn selection_ply_masks_and_json_agree() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/validation_two_spheres.toml");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/validation_two_spheres.toml"
+    );
     let out = Command::new(env!("CARGO_BIN_EXE_splatphys"))
         .args(["select", scene, "--out"])
         .arg(dir.path())
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let cloud = read_gaussians(dir.path().join("selection.ply")).unwrap();
-    let ids = &cloud.extra.iter().find(|(n, _)| n == "object_id").unwrap().1;
+    let ids = &cloud
+        .extra
+        .iter()
+        .find(|(n, _)| n == "object_id")
+        .unwrap()
+        .1;
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("objects.json")).unwrap()).unwrap();
     assert_eq!(json["gaussians"].as_u64().unwrap() as usize, cloud.len());
@@ -38,7 +50,10 @@ fn selection_ply_masks_and_json_agree() {
             // Each sphere (radius 5 cm at x = ∓0.15 m) holds exactly its own Gaussians.
             if *m {
                 let centre = [-0.15f32, 0.15][k];
-                assert!((cloud.positions[i][0] - centre).abs() < 0.06, "Gaussian {i}");
+                assert!(
+                    (cloud.positions[i][0] - centre).abs() < 0.06,
+                    "Gaussian {i}"
+                );
             }
         }
         assert!(count > 100);

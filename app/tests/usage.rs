@@ -22,7 +22,9 @@ fn help_shows_an_example_of_every_subcommand() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(help.contains("Examples:"), "{help}");
-    for sub in ["run", "serve", "select", "inspect", "uplift", "bench"] {
+    for sub in [
+        "run", "serve", "select", "align", "inspect", "uplift", "bench",
+    ] {
         let example = |l: &str| l.split_whitespace().take(2).eq(["splatphys", sub]);
         assert!(
             help.lines().any(example),

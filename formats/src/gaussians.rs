@@ -195,7 +195,8 @@ mod tests {
     fn widening_keeps_each_channel_block() {
         let mut c = GaussianCloud::with_capacity(1, 9);
         c.positions.push([0.0; 3]);
-        c.sh_rest.extend_from_slice(&[1., 2., 3., 4., 5., 6., 7., 8., 9.]);
+        c.sh_rest
+            .extend_from_slice(&[1., 2., 3., 4., 5., 6., 7., 8., 9.]);
         c.widen_sh(24);
         assert_eq!(c.sh_rest[0..3], [1., 2., 3.]);
         assert_eq!(c.sh_rest[3..8], [0.; 5]);

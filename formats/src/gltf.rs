@@ -71,7 +71,10 @@ pub fn parse_gltf(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, FormatErro
     };
     let mut cloud: Option<GaussianCloud> = None;
     for (mesh, matrix) in gltf.mesh_instances()? {
-        let prims = gltf.doc["meshes"][mesh]["primitives"].as_array().cloned().unwrap_or_default();
+        let prims = gltf.doc["meshes"][mesh]["primitives"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default();
         for (p, prim) in prims.iter().enumerate() {
             let Some(ext) = prim["extensions"].get(EXT) else {
                 continue;
@@ -89,7 +92,11 @@ pub fn parse_gltf(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, FormatErro
         }
     }
     let mut cloud = cloud.ok_or_else(|| {
-        bad(path, "meshes", format!("no primitive with {EXT} in the scene"))
+        bad(
+            path,
+            "meshes",
+            format!("no primitive with {EXT} in the scene"),
+        )
     })?;
     // glTF (x left, y up, z forward) → PLY (x right, y down, z forward): a half turn about z.
     transform(&mut cloud, DMat4::from_rotation_z(std::f64::consts::PI));
@@ -98,7 +105,8 @@ pub fn parse_gltf(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, FormatErro
 
 fn split_glb<'a>(path: &Path, b: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>), FormatError> {
     let u32_at = |o: usize| -> Option<usize> {
-        b.get(o..o + 4).map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]) as usize)
+        b.get(o..o + 4)
+            .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]) as usize)
     };
     let mut at = 12;
     let (mut json, mut bin) = (None, None);
@@ -123,12 +131,19 @@ fn load_buffers(path: &Path, doc: &Value, bin: Option<&[u8]>) -> Result<Vec<Vec<
     for (i, buffer) in doc["buffers"].as_array().into_iter().flatten().enumerate() {
         let data = match buffer["uri"].as_str() {
             None => bin
-                .ok_or_else(|| bad(path, format!("buffers[{i}]"), "no uri and no GLB binary chunk"))?
+                .ok_or_else(|| {
+                    bad(
+                        path,
+                        format!("buffers[{i}]"),
+                        "no uri and no GLB binary chunk",
+                    )
+                })?
                 .to_vec(),
             Some(uri) if uri.starts_with("data:") => {
-                let b64 = uri.split_once(";base64,").map(|(_, d)| d).ok_or_else(|| {
-                    bad(path, format!("buffers[{i}]"), "data URI is not base64")
-                })?;
+                let b64 = uri
+                    .split_once(";base64,")
+                    .map(|(_, d)| d)
+                    .ok_or_else(|| bad(path, format!("buffers[{i}]"), "data URI is not base64"))?;
                 base64::engine::general_purpose::STANDARD
                     .decode(b64)
                     .map_err(|e| bad(path, format!("buffers[{i}]"), format!("bad base64: {e}")))?
@@ -172,22 +187,21 @@ impl Gltf {
     /// Every (mesh index, global matrix) of the default scene (or all root nodes).
     fn mesh_instances(&self) -> Result<Vec<(usize, DMat4)>, FormatError> {
         let nodes = self.doc["nodes"].as_array().cloned().unwrap_or_default();
-        let roots: Vec<usize> = match self.doc["scenes"]
-            .get(self.doc["scene"].as_u64().unwrap_or(0) as usize)
-        {
-            Some(scene) => ids(&scene["nodes"]),
-            None => {
-                let mut child = vec![false; nodes.len()];
-                for n in &nodes {
-                    for c in ids(&n["children"]) {
-                        if let Some(f) = child.get_mut(c) {
-                            *f = true;
+        let roots: Vec<usize> =
+            match self.doc["scenes"].get(self.doc["scene"].as_u64().unwrap_or(0) as usize) {
+                Some(scene) => ids(&scene["nodes"]),
+                None => {
+                    let mut child = vec![false; nodes.len()];
+                    for n in &nodes {
+                        for c in ids(&n["children"]) {
+                            if let Some(f) = child.get_mut(c) {
+                                *f = true;
+                            }
                         }
                     }
+                    (0..nodes.len()).filter(|&i| !child[i]).collect()
                 }
-                (0..nodes.len()).filter(|&i| !child[i]).collect()
-            }
-        };
+            };
         let mut out = Vec::new();
         let mut stack: Vec<(usize, DMat4, usize)> =
             roots.into_iter().map(|r| (r, DMat4::IDENTITY, 0)).collect();
@@ -196,7 +210,11 @@ impl Gltf {
                 .get(n)
                 .ok_or_else(|| bad(&self.path, "nodes", format!("node {n} does not exist")))?;
             if depth > 64 {
-                return Err(bad(&self.path, format!("nodes[{n}]"), "node hierarchy deeper than 64 (a cycle?)"));
+                return Err(bad(
+                    &self.path,
+                    format!("nodes[{n}]"),
+                    "node hierarchy deeper than 64 (a cycle?)",
+                ));
             }
             let global = parent * local_matrix(node);
             if let Some(mesh) = node["mesh"].as_u64() {
@@ -221,7 +239,9 @@ impl Gltf {
         if acc.get("sparse").is_some() {
             return Err(err("sparse accessors are not supported".into()));
         }
-        let count = acc["count"].as_u64().ok_or_else(|| err("no count".into()))? as usize;
+        let count = acc["count"]
+            .as_u64()
+            .ok_or_else(|| err("no count".into()))? as usize;
         let ctype = acc["componentType"].as_u64().unwrap_or(0);
         let normalized = acc["normalized"].as_bool().unwrap_or(false);
         let size = match ctype {
@@ -231,7 +251,9 @@ impl Gltf {
             t => return Err(err(format!("component type {t} unknown"))),
         };
         let Some(view_id) = acc["bufferView"].as_u64() else {
-            return Err(err("no bufferView (accessors without data are not supported)".into()));
+            return Err(err(
+                "no bufferView (accessors without data are not supported)".into(),
+            ));
         };
         let view = &self.doc["bufferViews"][view_id as usize];
         let buffer = self
@@ -240,7 +262,9 @@ impl Gltf {
             .ok_or_else(|| err(format!("bufferView {view_id} names no buffer")))?;
         let start = view["byteOffset"].as_u64().unwrap_or(0) as usize
             + acc["byteOffset"].as_u64().unwrap_or(0) as usize;
-        let stride = view["byteStride"].as_u64().map_or(size * components, |s| s as usize);
+        let stride = view["byteStride"]
+            .as_u64()
+            .map_or(size * components, |s| s as usize);
         let needed = match count {
             0 => Some(0),
             _ => (count - 1)
@@ -250,7 +274,13 @@ impl Gltf {
         .ok_or_else(|| err(format!("{count} elements overflow the address space")))?;
         let data = buffer
             .get(start..start.saturating_add(needed))
-            .ok_or_else(|| err(format!("needs bytes {start}..{} of a {}-byte buffer", start.saturating_add(needed), buffer.len())))?;
+            .ok_or_else(|| {
+                err(format!(
+                    "needs bytes {start}..{} of a {}-byte buffer",
+                    start.saturating_add(needed),
+                    buffer.len()
+                ))
+            })?;
         let mut out = Vec::with_capacity(count * components);
         for e in 0..count {
             for c in 0..components {
@@ -260,8 +290,18 @@ impl Gltf {
                     5126 => f64::from(f32::from_le_bytes([raw[0], raw[1], raw[2], raw[3]])),
                     5120 => norm(f64::from(raw[0] as i8), 127.0, normalized, true),
                     5121 => norm(f64::from(raw[0]), 255.0, normalized, false),
-                    5122 => norm(f64::from(i16::from_le_bytes([raw[0], raw[1]])), 32767.0, normalized, true),
-                    5123 => norm(f64::from(u16::from_le_bytes([raw[0], raw[1]])), 65535.0, normalized, false),
+                    5122 => norm(
+                        f64::from(i16::from_le_bytes([raw[0], raw[1]])),
+                        32767.0,
+                        normalized,
+                        true,
+                    ),
+                    5123 => norm(
+                        f64::from(u16::from_le_bytes([raw[0], raw[1]])),
+                        65535.0,
+                        normalized,
+                        false,
+                    ),
                     _ => f64::from(u32::from_le_bytes([raw[0], raw[1], raw[2], raw[3]])),
                 };
                 if !v.is_finite() {
@@ -279,10 +319,22 @@ impl Gltf {
         Ok(out)
     }
 
-    fn attribute(&self, at: &str, prim: &Value, name: &str, components: usize) -> Result<Option<Vec<f64>>, FormatError> {
+    fn attribute(
+        &self,
+        at: &str,
+        prim: &Value,
+        name: &str,
+        components: usize,
+    ) -> Result<Option<Vec<f64>>, FormatError> {
         match prim["attributes"][name].as_u64() {
             None => Ok(None),
-            Some(a) => self.accessor(&format!("{at}.attributes[\"{name}\"]"), a as usize, components).map(Some),
+            Some(a) => self
+                .accessor(
+                    &format!("{at}.attributes[\"{name}\"]"),
+                    a as usize,
+                    components,
+                )
+                .map(Some),
         }
     }
 
@@ -301,29 +353,51 @@ impl Gltf {
         'degrees: for l in 1..=3usize {
             let mut coeffs = Vec::new();
             for m in 0..=2 * l {
-                match self.attribute(at, prim, &format!("KHR_gaussian_splatting:SH_DEGREE_{l}_COEF_{m}"), 3)? {
+                match self.attribute(
+                    at,
+                    prim,
+                    &format!("KHR_gaussian_splatting:SH_DEGREE_{l}_COEF_{m}"),
+                    3,
+                )? {
                     Some(c) => coeffs.push(c),
                     None if m == 0 => break 'degrees,
                     None => {
-                        return Err(bad(&self.path, at, format!("SH degree {l} has coefficients 0..{m} only")));
+                        return Err(bad(
+                            &self.path,
+                            at,
+                            format!("SH degree {l} has coefficients 0..{m} only"),
+                        ));
                     }
                 }
             }
             bands.extend(coeffs);
         }
-        for (name, len, per) in [("ROTATION", rot.len(), 4), ("SCALE", scale.len(), 3), ("OPACITY", opacity.len(), 1), ("SH_DEGREE_0_COEF_0", dc.len(), 3)]
-            .into_iter()
-            .chain(bands.iter().map(|b| ("SH", b.len(), 3)))
+        for (name, len, per) in [
+            ("ROTATION", rot.len(), 4),
+            ("SCALE", scale.len(), 3),
+            ("OPACITY", opacity.len(), 1),
+            ("SH_DEGREE_0_COEF_0", dc.len(), 3),
+        ]
+        .into_iter()
+        .chain(bands.iter().map(|b| ("SH", b.len(), 3)))
         {
             if len != per * n {
-                return Err(bad(&self.path, at, format!("{name} has {} elements, POSITION {n}", len / per)));
+                return Err(bad(
+                    &self.path,
+                    at,
+                    format!("{name} has {} elements, POSITION {n}", len / per),
+                ));
             }
         }
         let k = bands.len();
         let mut cloud = GaussianCloud::with_capacity(n, 3 * k);
         for i in 0..n {
-            cloud.positions.push([0, 1, 2].map(|c| pos[3 * i + c] as f32));
-            cloud.rotations_wxyz.push([rot[4 * i + 3], rot[4 * i], rot[4 * i + 1], rot[4 * i + 2]].map(|v| v as f32));
+            cloud
+                .positions
+                .push([0, 1, 2].map(|c| pos[3 * i + c] as f32));
+            cloud.rotations_wxyz.push(
+                [rot[4 * i + 3], rot[4 * i], rot[4 * i + 1], rot[4 * i + 2]].map(|v| v as f32),
+            );
             cloud.log_scales.push([0, 1, 2].map(|c| {
                 let s = scale[3 * i + c].max(crate::posed::MIN_SCALE_M);
                 s.ln() as f32
@@ -347,12 +421,24 @@ impl Gltf {
         let buffer = self
             .buffers
             .get(view["buffer"].as_u64().unwrap_or(u64::MAX) as usize)
-            .ok_or_else(|| bad(&self.path, at, format!("bufferView {view_id} names no buffer")))?;
+            .ok_or_else(|| {
+                bad(
+                    &self.path,
+                    at,
+                    format!("bufferView {view_id} names no buffer"),
+                )
+            })?;
         let start = view["byteOffset"].as_u64().unwrap_or(0) as usize;
         let len = view["byteLength"].as_u64().unwrap_or(0) as usize;
         let bytes = buffer
             .get(start..start.saturating_add(len))
-            .ok_or_else(|| bad(&self.path, at, format!("bufferView {view_id} runs past its buffer")))?;
+            .ok_or_else(|| {
+                bad(
+                    &self.path,
+                    at,
+                    format!("bufferView {view_id} runs past its buffer"),
+                )
+            })?;
         crate::spz::parse_spz(&self.path, bytes, crate::spz::SpzFrame::AsStored)
     }
 }
@@ -374,7 +460,13 @@ fn norm(v: f64, max: f64, normalized: bool, signed: bool) -> f64 {
 }
 
 fn local_matrix(node: &Value) -> DMat4 {
-    let nums = |v: &Value| -> Vec<f64> { v.as_array().into_iter().flatten().filter_map(Value::as_f64).collect() };
+    let nums = |v: &Value| -> Vec<f64> {
+        v.as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(Value::as_f64)
+            .collect()
+    };
     let m = nums(&node["matrix"]);
     if m.len() == 16 {
         return DMat4::from_cols_slice(&m);
@@ -382,9 +474,21 @@ fn local_matrix(node: &Value) -> DMat4 {
     let t = nums(&node["translation"]);
     let r = nums(&node["rotation"]);
     let s = nums(&node["scale"]);
-    let t = if t.len() == 3 { DVec3::new(t[0], t[1], t[2]) } else { DVec3::ZERO };
-    let r = if r.len() == 4 { DQuat::from_xyzw(r[0], r[1], r[2], r[3]).normalize() } else { DQuat::IDENTITY };
-    let s = if s.len() == 3 { DVec3::new(s[0], s[1], s[2]) } else { DVec3::ONE };
+    let t = if t.len() == 3 {
+        DVec3::new(t[0], t[1], t[2])
+    } else {
+        DVec3::ZERO
+    };
+    let r = if r.len() == 4 {
+        DQuat::from_xyzw(r[0], r[1], r[2], r[3]).normalize()
+    } else {
+        DQuat::IDENTITY
+    };
+    let s = if s.len() == 3 {
+        DVec3::new(s[0], s[1], s[2])
+    } else {
+        DVec3::ONE
+    };
     DMat4::from_scale_rotation_translation(s, r, t)
 }
 
@@ -397,7 +501,10 @@ fn transform(cloud: &mut GaussianCloud, m: DMat4) {
     let a = DMat3::from_mat4(m);
     let rotation = polar_rotation(a);
     for p in &mut cloud.positions {
-        *p = m.transform_point3(DVec3::from(p.map(f64::from))).as_vec3().to_array();
+        *p = m
+            .transform_point3(DVec3::from(p.map(f64::from)))
+            .as_vec3()
+            .to_array();
     }
     let rigid = (a.transpose() * a - DMat3::IDENTITY)
         .to_cols_array()
@@ -415,7 +522,10 @@ fn transform(cloud: &mut GaussianCloud, m: DMat4) {
     for i in (0..cloud.len()).filter(|_| !rigid) {
         let s = cloud.covariance(i).as_dmat3();
         let t = a * s * a.transpose();
-        let upper = [t.x_axis.x, t.y_axis.x, t.z_axis.x, t.y_axis.y, t.z_axis.y, t.z_axis.z].map(|v| v as f32);
+        let upper = [
+            t.x_axis.x, t.y_axis.x, t.z_axis.x, t.y_axis.y, t.z_axis.y, t.z_axis.z,
+        ]
+        .map(|v| v as f32);
         let (log_scales, q) = crate::posed::scales_and_rotation(&upper);
         cloud.log_scales[i] = log_scales;
         cloud.rotations_wxyz[i] = q;

@@ -21,8 +21,8 @@ pub mod npy;
 pub mod ply;
 pub mod posed;
 pub mod sog;
-pub mod spz;
 pub mod splat;
+pub mod spz;
 
 use std::path::{Path, PathBuf};
 
@@ -217,7 +217,9 @@ pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, FormatError> {
 /// `meta.json` and one with `"filenames"` and `"tree"` a streamed SOG; a file named `.splat`,
 /// and anything else, `.splat` (which has no magic number).
 pub fn detect_format(path: &Path, bytes: &[u8]) -> FileFormat {
-    let named_splat = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("splat"));
+    let named_splat = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("splat"));
     if bytes.starts_with(b"ply") {
         let head = &bytes[..bytes.len().min(64 * 1024)];
         let text = String::from_utf8_lossy(head);

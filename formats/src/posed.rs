@@ -73,7 +73,9 @@ pub fn cloud_from_posed(
         cloud.positions.push(g.position_m);
         cloud.sh_dc.push(e.sh_dc);
         cloud.sh_rest.extend_from_slice(&e.sh_rest[..rest_len]);
-        cloud.opacity_logit.push(alpha_to_logit(f64::from(g.opacity)));
+        cloud
+            .opacity_logit
+            .push(alpha_to_logit(f64::from(g.opacity)));
         cloud.log_scales.push(e.log_scales);
         cloud.rotations_wxyz.push(e.rotation_wxyz);
     }
@@ -107,7 +109,8 @@ fn export_one(g: &PosedGaussian, sh: &[f32; 48], rest_per_channel: usize) -> Exp
     let used = &mut sh_rest[..3 * rest_per_channel];
     let [w, x, y, z] = g.rotation_wxyz;
     let r = Quat::from_xyzw(x, y, z, w);
-    let turned = r.is_finite() && r.length() > 1e-6 && !r.normalize().abs_diff_eq(Quat::IDENTITY, 1e-7);
+    let turned =
+        r.is_finite() && r.length() > 1e-6 && !r.normalize().abs_diff_eq(Quat::IDENTITY, 1e-7);
     if turned && used.iter().any(|&v| v != 0.0) {
         ShRotation::from_quat(r).rotate_gaussian(used);
     }
@@ -138,7 +141,8 @@ pub fn scales_and_rotation(covariance_m2: &[f32; 6]) -> ([f32; 3], [f32; 4]) {
     cols[1] = (cols[1] - cols[0] * cols[0].dot(cols[1])).normalize();
     cols[2] = cols[0].cross(cols[1]);
     let rotation = DQuat::from_mat3(&DMat3::from_cols(cols[0], cols[1], cols[2])).normalize();
-    let log_scale = |k: usize| (0.5 * eigen.eigenvalues[k].max(MIN_SCALE_M * MIN_SCALE_M).ln()) as f32;
+    let log_scale =
+        |k: usize| (0.5 * eigen.eigenvalues[k].max(MIN_SCALE_M * MIN_SCALE_M).ln()) as f32;
     if !rotation.is_finite() {
         return ([floor; 3], [1.0, 0.0, 0.0, 0.0]);
     }
@@ -195,7 +199,11 @@ mod tests {
     #[test]
     fn degenerate_covariance_gets_the_floor_not_nan() {
         let (s, q) = scales_and_rotation(&[0.0; 6]);
-        assert!(s.iter().all(|v| (*v - MIN_SCALE_M.ln() as f32).abs() < 1e-5), "{s:?}");
+        assert!(
+            s.iter()
+                .all(|v| (*v - MIN_SCALE_M.ln() as f32).abs() < 1e-5),
+            "{s:?}"
+        );
         assert!(q.iter().all(|v| v.is_finite()));
         let (s, _) = scales_and_rotation(&[f32::NAN, 0.0, 0.0, 1.0, 0.0, 1.0]);
         assert!(s.iter().all(|v| v.is_finite()));

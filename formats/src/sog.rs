@@ -51,11 +51,14 @@ impl Files {
         match self {
             Self::Folder(dir) => read_bytes(&dir.join(name)),
             Self::Zip { path, entries } => {
-                entries.get(name).cloned().ok_or_else(|| FormatError::Layout {
-                    path: path.clone(),
-                    element: name.to_string(),
-                    problem: "named in meta.json but not in the bundle".into(),
-                })
+                entries
+                    .get(name)
+                    .cloned()
+                    .ok_or_else(|| FormatError::Layout {
+                        path: path.clone(),
+                        element: name.to_string(),
+                        problem: "named in meta.json but not in the bundle".into(),
+                    })
             }
         }
     }
@@ -172,7 +175,11 @@ pub fn parse_bundle(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, FormatEr
         if entry.is_dir() {
             continue;
         }
-        let name = entry.name().map_err(|e| layout(format!("entry {i}: {e}")))?.trim_start_matches("./").to_string();
+        let name = entry
+            .name()
+            .map_err(|e| layout(format!("entry {i}: {e}")))?
+            .trim_start_matches("./")
+            .to_string();
         let mut data = Vec::with_capacity(usize::try_from(entry.size()).unwrap_or(0).min(1 << 30));
         entry
             .read_to_end(&mut data)
@@ -209,7 +216,12 @@ struct Image {
 impl Image {
     fn texel(&self, i: usize) -> [u8; 4] {
         let o = 4 * i;
-        [self.rgba[o], self.rgba[o + 1], self.rgba[o + 2], self.rgba[o + 3]]
+        [
+            self.rgba[o],
+            self.rgba[o + 1],
+            self.rgba[o + 2],
+            self.rgba[o + 3],
+        ]
     }
 
     fn texels(&self) -> usize {
@@ -219,13 +231,14 @@ impl Image {
 
 fn load_image(files: &Files, name: &str) -> Result<Image, FormatError> {
     let bytes = files.read(name)?;
-    let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::WebP).map_err(|e| {
-        FormatError::Layout {
-            path: files.describe(name),
-            element: name.into(),
-            problem: format!("not a readable WebP image: {e}"),
-        }
-    })?;
+    let img =
+        image::load_from_memory_with_format(&bytes, image::ImageFormat::WebP).map_err(|e| {
+            FormatError::Layout {
+                path: files.describe(name),
+                element: name.into(),
+                problem: format!("not a readable WebP image: {e}"),
+            }
+        })?;
     let rgba = img.to_rgba8();
     Ok(Image {
         width: rgba.width() as usize,
@@ -286,12 +299,25 @@ fn dequantisers(
         problem: format!("{what}.{key} missing or too short"),
     };
     if v2 {
-        let raw = attr.codebook.as_deref().ok_or_else(|| missing("codebook"))?;
+        let raw = attr
+            .codebook
+            .as_deref()
+            .ok_or_else(|| missing("codebook"))?;
         let cb = Box::new(codebook(path, what, raw)?);
-        Ok((0..channels).map(|_| Dequant::Codebook(cb.clone())).collect())
+        Ok((0..channels)
+            .map(|_| Dequant::Codebook(cb.clone()))
+            .collect())
     } else {
-        let mins = attr.mins.as_deref().filter(|m| m.len() >= channels).ok_or_else(|| missing("mins"))?;
-        let maxs = attr.maxs.as_deref().filter(|m| m.len() >= channels).ok_or_else(|| missing("maxs"))?;
+        let mins = attr
+            .mins
+            .as_deref()
+            .filter(|m| m.len() >= channels)
+            .ok_or_else(|| missing("mins"))?;
+        let maxs = attr
+            .maxs
+            .as_deref()
+            .filter(|m| m.len() >= channels)
+            .ok_or_else(|| missing("maxs"))?;
         Ok((0..channels)
             .map(|c| Dequant::Lerp {
                 min: mins[c],
@@ -301,12 +327,24 @@ fn dequantisers(
     }
 }
 
-fn file<'a>(path: &Path, what: &str, files: &'a [String], k: usize) -> Result<&'a str, FormatError> {
-    files.get(k).map(String::as_str).ok_or_else(|| FormatError::Layout {
-        path: path.to_path_buf(),
-        element: META_JSON.into(),
-        problem: format!("{what}.files has {} names, expected at least {}", files.len(), k + 1),
-    })
+fn file<'a>(
+    path: &Path,
+    what: &str,
+    files: &'a [String],
+    k: usize,
+) -> Result<&'a str, FormatError> {
+    files
+        .get(k)
+        .map(String::as_str)
+        .ok_or_else(|| FormatError::Layout {
+            path: path.to_path_buf(),
+            element: META_JSON.into(),
+            problem: format!(
+                "{what}.files has {} names, expected at least {}",
+                files.len(),
+                k + 1
+            ),
+        })
 }
 
 fn decode(files: &Files, path: &Path, meta: &Meta) -> Result<GaussianCloud, FormatError> {
@@ -319,7 +357,12 @@ fn decode(files: &Files, path: &Path, meta: &Meta) -> Result<GaussianCloud, Form
     let v2 = match meta.version {
         None | Some(1) => false,
         Some(2) => true,
-        Some(v) => return Err(layout(META_JSON, format!("SOG version {v} not supported (1 or 2)"))),
+        Some(v) => {
+            return Err(layout(
+                META_JSON,
+                format!("SOG version {v} not supported (1 or 2)"),
+            ));
+        }
     };
     let count = meta
         .count
@@ -370,7 +413,12 @@ fn decode(files: &Files, path: &Path, meta: &Meta) -> Result<GaussianCloud, Form
                 element: "means".into(),
                 property: "x y z".into(),
                 row: i,
-                value: f64::from(p.iter().copied().find(|v| !v.is_finite()).unwrap_or(f32::NAN)),
+                value: f64::from(
+                    p.iter()
+                        .copied()
+                        .find(|v| !v.is_finite())
+                        .unwrap_or(f32::NAN),
+                ),
             });
         }
         cloud.positions.push(p);
@@ -380,7 +428,9 @@ fn decode(files: &Files, path: &Path, meta: &Meta) -> Result<GaussianCloud, Form
             .log_scales
             .push([0, 1, 2].map(|c| scale_q[c].value(s[c]) as f32));
         let t = sh0.texel(i);
-        cloud.sh_dc.push([0, 1, 2].map(|c| sh0_q[c].value(t[c]) as f32));
+        cloud
+            .sh_dc
+            .push([0, 1, 2].map(|c| sh0_q[c].value(t[c]) as f32));
         cloud.opacity_logit.push(if v2 {
             alpha_to_logit(f64::from(t[3]) / 255.0)
         } else {
@@ -436,7 +486,11 @@ impl HigherSh {
                 192 => 1,
                 512 => 2,
                 960 => 3,
-                w => return Err(bad(format!("centroid image {w} px wide: not 64 × 3, 8 or 15"))),
+                w => {
+                    return Err(bad(format!(
+                        "centroid image {w} px wide: not 64 × 3, 8 or 15"
+                    )));
+                }
             },
         };
         let coeffs = match bands {
@@ -452,13 +506,20 @@ impl HigherSh {
             )));
         }
         let dequant = if v2 {
-            let raw = sh_n.codebook.as_deref().ok_or_else(|| bad("no codebook".into()))?;
+            let raw = sh_n
+                .codebook
+                .as_deref()
+                .ok_or_else(|| bad("no codebook".into()))?;
             Dequant::Codebook(Box::new(codebook(meta_path, "shN", raw)?))
         } else {
             let scalar = |v: &Option<serde_json::Value>, key: &str| {
                 let v = v.as_ref().ok_or_else(|| bad(format!("no {key}")))?;
                 v.as_f64()
-                    .or_else(|| v.as_array().and_then(|a| a.first()).and_then(|x| x.as_f64()))
+                    .or_else(|| {
+                        v.as_array()
+                            .and_then(|a| a.first())
+                            .and_then(|x| x.as_f64())
+                    })
                     .ok_or_else(|| bad(format!("{key} is not a number")))
             };
             Dequant::Lerp {
@@ -533,13 +594,14 @@ fn read_lod(index_path: &Path, lod: Option<usize>) -> Result<GaussianCloud, Form
     let index: LodIndex = serde_json::from_slice(&bytes)
         .map_err(|e| bad(format!("not a streamed SOG index: {e}")))?;
     let level = lod.unwrap_or(0);
-    let levels = index
-        .lod_levels
-        .or(index.counts.as_ref().map(Vec::len));
+    let levels = index.lod_levels.or(index.counts.as_ref().map(Vec::len));
     if let Some(n) = levels
         && level >= n
     {
-        return Err(bad(format!("level {level} asked for; the file has levels 0 to {}", n - 1)));
+        return Err(bad(format!(
+            "level {level} asked for; the file has levels 0 to {}",
+            n - 1
+        )));
     }
     let key = level.to_string();
     let mut chunks = Vec::new();
@@ -558,10 +620,12 @@ fn read_lod(index_path: &Path, lod: Option<usize>) -> Result<GaussianCloud, Form
     let dir = index_path.parent().unwrap_or(Path::new("."));
     let mut cloud: Option<GaussianCloud> = None;
     for f in chunks {
-        let name = index
-            .filenames
-            .get(f)
-            .ok_or_else(|| bad(format!("a leaf names file {f}; filenames has {}", index.filenames.len())))?;
+        let name = index.filenames.get(f).ok_or_else(|| {
+            bad(format!(
+                "a leaf names file {f}; filenames has {}",
+                index.filenames.len()
+            ))
+        })?;
         let chunk_meta = dir.join(name);
         let chunk = read_plain(&chunk_meta)?;
         match &mut cloud {

@@ -86,7 +86,11 @@ fn u32_at(b: &[u8], o: usize) -> u32 {
 
 fn parse_header(path: &Path, b: &[u8]) -> Result<Header, FormatError> {
     if b.len() < 16 || u32_at(b, 0) != SPZ_MAGIC {
-        return Err(layout(path, "header", "no NGSP magic: not an SPZ file".into()));
+        return Err(layout(
+            path,
+            "header",
+            "no NGSP magic: not an SPZ file".into(),
+        ));
     }
     let h = Header {
         version: u32_at(b, 4),
@@ -95,16 +99,28 @@ fn parse_header(path: &Path, b: &[u8]) -> Result<Header, FormatError> {
         fractional_bits: b[13],
     };
     if !(1..=4).contains(&h.version) {
-        return Err(layout(path, "header", format!("version {} not supported (1 to 4)", h.version)));
+        return Err(layout(
+            path,
+            "header",
+            format!("version {} not supported (1 to 4)", h.version),
+        ));
     }
     if h.sh_degree > 4 {
-        return Err(layout(path, "header", format!("SH degree {} (0 to 4)", h.sh_degree)));
+        return Err(layout(
+            path,
+            "header",
+            format!("SH degree {} (0 to 4)", h.sh_degree),
+        ));
     }
     if h.count == 0 || h.count > MAX_POINTS {
         return Err(layout(path, "header", format!("{} Gaussians", h.count)));
     }
     if h.fractional_bits > 24 {
-        return Err(layout(path, "header", format!("{} fractional bits", h.fractional_bits)));
+        return Err(layout(
+            path,
+            "header",
+            format!("{} fractional bits", h.fractional_bits),
+        ));
     }
     Ok(h)
 }
@@ -126,17 +142,24 @@ const fn sh_dim(degree: u8) -> usize {
 pub fn parse_spz(path: &Path, bytes: &[u8], frame: SpzFrame) -> Result<GaussianCloud, FormatError> {
     let (header, streams) = if bytes.starts_with(&GZIP_MAGIC) {
         // Header first, then no more than the header's sizes: a gzip bomb cannot run away.
-        let gz_err = |e: std::io::Error| layout(path, "gzip", format!("not a readable gzip stream: {e}"));
+        let gz_err =
+            |e: std::io::Error| layout(path, "gzip", format!("not a readable gzip stream: {e}"));
         let mut gz = flate2::read::GzDecoder::new(bytes);
         let mut head = [0u8; 16];
         gz.read_exact(&mut head).map_err(gz_err)?;
         let header = parse_header(path, &head)?;
         if header.version == 4 {
-            return Err(layout(path, "header", "version 4 inside gzip (version 4 is not gzipped)".into()));
+            return Err(layout(
+                path,
+                "header",
+                "version 4 inside gzip (version 4 is not gzipped)".into(),
+            ));
         }
         let need: usize = sizes(&header).iter().sum();
         let mut body = Vec::new();
-        gz.take(need as u64).read_to_end(&mut body).map_err(gz_err)?;
+        gz.take(need as u64)
+            .read_to_end(&mut body)
+            .map_err(gz_err)?;
         (header, split_legacy(path, &header, &body)?)
     } else {
         let header = parse_header(path, bytes)?;
@@ -144,7 +167,10 @@ pub fn parse_spz(path: &Path, bytes: &[u8], frame: SpzFrame) -> Result<GaussianC
             return Err(layout(
                 path,
                 "header",
-                format!("version {} without gzip (only version 4 is stored plain)", header.version),
+                format!(
+                    "version {} without gzip (only version 4 is stored plain)",
+                    header.version
+                ),
             ));
         }
         (header, split_v4(path, &header, bytes)?)
@@ -165,7 +191,14 @@ fn sizes(h: &Header) -> [usize; 6] {
     let n = h.count;
     let position = if h.version == 1 { 6 } else { 9 };
     let rotation = if h.version >= 3 { 4 } else { 3 };
-    [position * n, n, 3 * n, 3 * n, rotation * n, 3 * sh_dim(h.sh_degree) * n]
+    [
+        position * n,
+        n,
+        3 * n,
+        3 * n,
+        rotation * n,
+        3 * sh_dim(h.sh_degree) * n,
+    ]
 }
 
 fn split_legacy(path: &Path, h: &Header, body: &[u8]) -> Result<Streams, FormatError> {
@@ -190,19 +223,33 @@ fn split_legacy(path: &Path, h: &Header, body: &[u8]) -> Result<Streams, FormatE
 
 fn split_v4(path: &Path, h: &Header, bytes: &[u8]) -> Result<Streams, FormatError> {
     if bytes.len() < 32 {
-        return Err(layout(path, "header", "shorter than the 32-byte version 4 header".into()));
+        return Err(layout(
+            path,
+            "header",
+            "shorter than the 32-byte version 4 header".into(),
+        ));
     }
     let streams = usize::from(bytes[15]);
     let toc = u32_at(bytes, 16) as usize;
     let expected = sizes(h);
     let present: Vec<usize> = (0..6).filter(|&k| expected[k] > 0).collect();
     if streams != present.len() {
-        return Err(layout(path, "header", format!("{streams} streams, expected {}", present.len())));
+        return Err(layout(
+            path,
+            "header",
+            format!("{streams} streams, expected {}", present.len()),
+        ));
     }
     let toc_end = toc
         .checked_add(16 * streams)
         .filter(|&e| toc >= 32 && e <= bytes.len())
-        .ok_or_else(|| layout(path, "toc", format!("table of contents at byte {toc} lies outside the file")))?;
+        .ok_or_else(|| {
+            layout(
+                path,
+                "toc",
+                format!("table of contents at byte {toc} lies outside the file"),
+            )
+        })?;
     let mut at = toc_end;
     let mut arrays: [Vec<u8>; 6] = Default::default();
     for (s, &k) in present.iter().enumerate() {
@@ -213,18 +260,33 @@ fn split_v4(path: &Path, h: &Header, bytes: &[u8]) -> Result<Streams, FormatErro
             return Err(layout(
                 path,
                 STREAM_NAMES[k],
-                format!("{uncompressed} bytes uncompressed, expected {}", expected[k]),
+                format!(
+                    "{uncompressed} bytes uncompressed, expected {}",
+                    expected[k]
+                ),
             ));
         }
         let end = usize::try_from(compressed)
             .ok()
             .and_then(|c| at.checked_add(c))
             .filter(|&e| e <= bytes.len())
-            .ok_or_else(|| layout(path, STREAM_NAMES[k], format!("{compressed} compressed bytes run past the end")))?;
+            .ok_or_else(|| {
+                layout(
+                    path,
+                    STREAM_NAMES[k],
+                    format!("{compressed} compressed bytes run past the end"),
+                )
+            })?;
         let mut out = Vec::new();
         zstd::stream::read::Decoder::new(&bytes[at..end])
             .and_then(|d| d.take(expected[k] as u64 + 1).read_to_end(&mut out))
-            .map_err(|e| layout(path, STREAM_NAMES[k], format!("not a readable zstd frame: {e}")))?;
+            .map_err(|e| {
+                layout(
+                    path,
+                    STREAM_NAMES[k],
+                    format!("not a readable zstd frame: {e}"),
+                )
+            })?;
         if out.len() != expected[k] {
             return Err(layout(
                 path,
@@ -262,16 +324,25 @@ fn decode(h: &Header, s: &Streams) -> GaussianCloud {
             })
         };
         // f16 can hold infinities; a reader must not pass them on.
-        cloud.positions.push(p.map(|v| if v.is_finite() { v } else { 0.0 }));
-        cloud.opacity_logit.push(alpha_to_logit(f64::from(alpha[i]) / 255.0));
-        cloud.sh_dc.push([0, 1, 2].map(|c| {
-            ((f64::from(color[3 * i + c]) / 255.0 - 0.5) / COLOR_SCALE) as f32
-        }));
+        cloud
+            .positions
+            .push(p.map(|v| if v.is_finite() { v } else { 0.0 }));
+        cloud
+            .opacity_logit
+            .push(alpha_to_logit(f64::from(alpha[i]) / 255.0));
+        cloud.sh_dc.push(
+            [0, 1, 2].map(|c| ((f64::from(color[3 * i + c]) / 255.0 - 0.5) / COLOR_SCALE) as f32),
+        );
         cloud
             .log_scales
             .push([0, 1, 2].map(|c| f32::from(scale[3 * i + c]) / 16.0 - 10.0));
         let xyzw = if h.version >= 3 {
-            smallest_three(u32::from_le_bytes([rot[4 * i], rot[4 * i + 1], rot[4 * i + 2], rot[4 * i + 3]]))
+            smallest_three(u32::from_le_bytes([
+                rot[4 * i],
+                rot[4 * i + 1],
+                rot[4 * i + 2],
+                rot[4 * i + 3],
+            ]))
         } else {
             let [x, y, z] = [0, 1, 2].map(|c| f64::from(rot[3 * i + c]) / 127.5 - 1.0);
             [x, y, z, (1.0 - x * x - y * y - z * z).max(0.0).sqrt()]
@@ -334,7 +405,10 @@ fn pack_smallest_three(q: [f64; 4]) -> u32 {
 /// Turns a cloud by a half turn about x, (x, y, z) → (x, −y, −z): RUB ↔ RDF. Rotations and SH
 /// coefficients turn with it.
 fn half_turn_about_x(cloud: &mut GaussianCloud) {
-    rotate_cloud(cloud, DMat3::from_diagonal(glam::DVec3::new(1.0, -1.0, -1.0)));
+    rotate_cloud(
+        cloud,
+        DMat3::from_diagonal(glam::DVec3::new(1.0, -1.0, -1.0)),
+    );
 }
 
 /// Rotates every Gaussian of `cloud` (centres, orientations, SH) by the proper rotation `r`.
@@ -385,7 +459,11 @@ pub fn to_spz_bytes(path: &Path, cloud: &GaussianCloud) -> Result<Vec<u8>, Forma
     crate::ply::check_cloud(path, cloud)?;
     let n = cloud.len();
     if n == 0 || n > u32::MAX as usize {
-        return Err(layout(path, "body", format!("{n} Gaussians: SPZ holds 1 to 2^32 − 1")));
+        return Err(layout(
+            path,
+            "body",
+            format!("{n} Gaussians: SPZ holds 1 to 2^32 − 1"),
+        ));
     }
     let mut c = cloud.clone();
     // World z up → RUB y up: (x, y, z) → (x, z, −y), a quarter turn about x.
@@ -404,7 +482,9 @@ pub fn to_spz_bytes(path: &Path, cloud: &GaussianCloud) -> Result<Vec<u8>, Forma
         .flatten()
         .fold(0.0f64, |m, v| m.max(f64::from(v.abs())));
     let mut fractional_bits = 12u8;
-    while fractional_bits > 0 && extent * f64::from(1u32 << fractional_bits) >= f64::from(1 << 23) - 1.0 {
+    while fractional_bits > 0
+        && extent * f64::from(1u32 << fractional_bits) >= f64::from(1 << 23) - 1.0
+    {
         fractional_bits -= 1;
     }
     let degree = c.sh_degree.min(3);
@@ -445,7 +525,11 @@ pub fn to_spz_bytes(path: &Path, cloud: &GaussianCloud) -> Result<Vec<u8>, Forma
         let rest = &c.sh_rest[i * c.sh_rest_len..(i + 1) * c.sh_rest_len];
         for k in 0..dim {
             for ch in 0..3 {
-                let v = if k < rest_k { f64::from(rest[ch * rest_k + k]) } else { 0.0 };
+                let v = if k < rest_k {
+                    f64::from(rest[ch * rest_k + k])
+                } else {
+                    0.0
+                };
                 body.push(to_u8(v * 128.0 + 128.0));
             }
         }

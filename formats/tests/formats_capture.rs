@@ -8,10 +8,14 @@ use std::path::{Path, PathBuf};
 use glam::{Quat, Vec3};
 use splatphys_formats::gaussians::GaussianCloud;
 use splatphys_formats::spz::{SpzFrame, parse_spz, to_spz_bytes};
-use splatphys_formats::{FileFormat, FormatError, ReadOptions, read_gaussians, read_gaussians_with};
+use splatphys_formats::{
+    FileFormat, FormatError, ReadOptions, read_gaussians, read_gaussians_with,
+};
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/formats").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/formats")
+        .join(name)
 }
 
 fn source() -> GaussianCloud {
@@ -36,10 +40,16 @@ fn diff(a: &GaussianCloud, b: &GaussianCloud) -> Diff {
     let mut d = Diff::default();
     let max = |m: &mut f32, v: f32| *m = m.max(v);
     for i in 0..a.len() {
-        max(&mut d.position, (a.position(i) - b.position(i)).abs().max_element());
+        max(
+            &mut d.position,
+            (a.position(i) - b.position(i)).abs().max_element(),
+        );
         let (ca, cb) = (a.covariance(i), b.covariance(i));
         let scale = ca.to_cols_array().iter().fold(0f32, |m, v| m.max(v.abs()));
-        let worst = (ca - cb).to_cols_array().iter().fold(0f32, |m, v| m.max(v.abs()));
+        let worst = (ca - cb)
+            .to_cols_array()
+            .iter()
+            .fold(0f32, |m, v| m.max(v.abs()));
         max(&mut d.covariance_rel, worst / scale);
         max(&mut d.opacity, (a.opacity(i) - b.opacity(i)).abs());
         for c in 0..3 {
@@ -68,7 +78,11 @@ fn sog_folder_meta_and_bundle_decode_as_splat_transform_does() {
         // reference PLY differs. splat-transform clamps alpha to [1e-6, 1 - 1e-6].
         assert!(d.position < 1e-5, "{}: {d:?}", path.display());
         assert!(d.covariance_rel < 1e-5, "{}: {d:?}", path.display());
-        assert!(d.opacity < 1e-5 && d.dc < 1e-6 && d.rest < 1e-6, "{}: {d:?}", path.display());
+        assert!(
+            d.opacity < 1e-5 && d.dc < 1e-6 && d.rest < 1e-6,
+            "{}: {d:?}",
+            path.display()
+        );
     }
 }
 
@@ -88,9 +102,15 @@ fn sog_is_the_source_within_its_quantisation() {
             .unwrap();
         // 16 bits over ln(1 + |x|) in [−1.5, 1.5]: a step of 5e-5 in the log.
         worst_rel = worst_rel.max((p - q).abs().max_element() / (1.0 + q.abs().max_element()));
-        assert!((cloud.opacity(i) - src.opacity(j)).abs() < 1.0 / 255.0 + 1e-6, "splat {i}");
+        assert!(
+            (cloud.opacity(i) - src.opacity(j)).abs() < 1.0 / 255.0 + 1e-6,
+            "splat {i}"
+        );
     }
-    assert!(worst_rel < 1e-4, "position error relative to 1 + |x|: {worst_rel}");
+    assert!(
+        worst_rel < 1e-4,
+        "position error relative to 1 + |x|: {worst_rel}"
+    );
 }
 
 #[test]
@@ -109,7 +129,10 @@ fn streamed_sog_reads_the_level_asked_for() {
     assert_eq!(format, FileFormat::SogLod);
     let reference = read_gaussians(fixture("lod1_reference.ply")).unwrap();
     let d = diff(&coarse, &reference);
-    assert!(d.position < 1e-5 && d.covariance_rel < 1e-5 && d.rest < 1e-6, "{d:?}");
+    assert!(
+        d.position < 1e-5 && d.covariance_rel < 1e-5 && d.rest < 1e-6,
+        "{d:?}"
+    );
     let err = splatphys_formats::sog::read_sog(&lod, Some(2)).unwrap_err();
     assert!(err.to_string().contains("levels 0 to 1"), "{err}");
 }
@@ -129,7 +152,10 @@ fn assert_within_spz_quantisation(cloud: &GaussianCloud, src: &GaussianCloud, wh
             assert!(e <= 1.0 / 32.0 + 1e-5, "{what} splat {i} scale: {e}");
         }
         let angle = cloud.rotation(i).angle_between(src.rotation(i));
-        assert!(angle < 0.01, "{what} splat {i}: rotation off by {angle} rad");
+        assert!(
+            angle < 0.01,
+            "{what} splat {i}: rotation off by {angle} rad"
+        );
     }
 }
 
@@ -145,9 +171,13 @@ fn spz_versions_3_and_4_hold_the_source_within_their_quantisation() {
         assert_within_spz_quantisation(&cloud, &src, name);
         versions.push(cloud);
     }
-    assert_eq!(versions[0], versions[1], "v3 and v4 carry the same quantised values");
+    assert_eq!(
+        versions[0], versions[1],
+        "v3 and v4 carry the same quantised values"
+    );
     // The default reads the convention, RUB: a half turn about x.
-    let (rub, format) = read_gaussians_with(fixture("source_v4.spz"), &ReadOptions::default()).unwrap();
+    let (rub, format) =
+        read_gaussians_with(fixture("source_v4.spz"), &ReadOptions::default()).unwrap();
     assert_eq!(format, FileFormat::Spz);
     let turn = Quat::from_rotation_x(std::f32::consts::PI);
     for i in 0..rub.len() {
@@ -161,7 +191,8 @@ fn spz_versions_3_and_4_hold_the_source_within_their_quantisation() {
 
 #[test]
 fn glb_from_splat_transform_is_the_source_back_in_the_ply_frame() {
-    let (cloud, format) = read_gaussians_with(fixture("source.glb"), &ReadOptions::default()).unwrap();
+    let (cloud, format) =
+        read_gaussians_with(fixture("source.glb"), &ReadOptions::default()).unwrap();
     assert_eq!(format, FileFormat::Gltf);
     let d = diff(&cloud, &source());
     // splat-transform turned the PLY into glTF's frame; reading turns it back. Float data:
@@ -191,16 +222,26 @@ fn spz_written_here_reads_back_turned_to_y_up() {
 #[test]
 fn damaged_captures_give_errors_that_name_the_part() {
     let v3 = std::fs::read(fixture("source_v3.spz")).unwrap();
-    let cut = splatphys_formats::parse_gaussians(Path::new("cut.spz"), &v3[..v3.len() / 2]).unwrap_err();
-    assert!(matches!(cut, FormatError::Layout { .. } | FormatError::Truncated { .. }), "{cut}");
+    let cut =
+        splatphys_formats::parse_gaussians(Path::new("cut.spz"), &v3[..v3.len() / 2]).unwrap_err();
+    assert!(
+        matches!(
+            cut,
+            FormatError::Layout { .. } | FormatError::Truncated { .. }
+        ),
+        "{cut}"
+    );
     let v4 = std::fs::read(fixture("source_v4.spz")).unwrap();
-    let cut = splatphys_formats::parse_gaussians(Path::new("cut.spz"), &v4[..v4.len() - 10]).unwrap_err();
+    let cut =
+        splatphys_formats::parse_gaussians(Path::new("cut.spz"), &v4[..v4.len() - 10]).unwrap_err();
     assert!(cut.to_string().contains("cut.spz"), "{cut}");
     let glb = std::fs::read(fixture("source.glb")).unwrap();
-    let cut = splatphys_formats::parse_gaussians(Path::new("cut.glb"), &glb[..glb.len() / 2]).unwrap_err();
+    let cut = splatphys_formats::parse_gaussians(Path::new("cut.glb"), &glb[..glb.len() / 2])
+        .unwrap_err();
     assert!(cut.to_string().contains("cut.glb"), "{cut}");
     let sog = std::fs::read(fixture("source.sog")).unwrap();
-    let cut = splatphys_formats::parse_gaussians(Path::new("cut.sog"), &sog[..sog.len() / 2]).unwrap_err();
+    let cut = splatphys_formats::parse_gaussians(Path::new("cut.sog"), &sog[..sog.len() / 2])
+        .unwrap_err();
     assert!(cut.to_string().contains("cut.sog"), "{cut}");
     // Every prefix of every fixture is an error or a cloud, never a panic.
     for bytes in [&v3, &v4, &glb, &sog] {

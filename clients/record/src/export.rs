@@ -99,7 +99,9 @@ pub fn parse_steps(text: &str) -> Result<Range<u64>, String> {
             let start = number(a, 0)?;
             let end = number(b, u64::MAX)?;
             if end <= start {
-                return Err(format!("{text:?}: the range is empty (A..B keeps A to B−1)"));
+                return Err(format!(
+                    "{text:?}: the range is empty (A..B keeps A to B−1)"
+                ));
             }
             Ok(start..end)
         }
@@ -176,8 +178,12 @@ pub fn export_frames(
                 })
                 .collect();
             for &format in &opts.formats {
-                let cloud =
-                    cloud_from_posed(&posed, &scene.sh, scene.sh_degree, format == ExportFormat::Ply);
+                let cloud = cloud_from_posed(
+                    &posed,
+                    &scene.sh,
+                    scene.sh_degree,
+                    format == ExportFormat::Ply,
+                );
                 let file = out_dir.join(format!(
                     "frame_{:06}.{}",
                     header.frame_index,

@@ -45,10 +45,13 @@ fn write_recording(path: &Path) -> Vec<Vec<FrameGaussian>> {
     for k in 0..4u64 {
         let t = k as f32 * 0.1;
         let r = Quat::from_rotation_z(t * 3.0);
-        let f = Mat3::from_quat(r) * Mat3::from_cols(Vec3::new(1.0, 0.0, 0.0), Vec3::new(t, 1.0, 0.0), Vec3::Z);
+        let f = Mat3::from_quat(r)
+            * Mat3::from_cols(Vec3::new(1.0, 0.0, 0.0), Vec3::new(t, 1.0, 0.0), Vec3::Z);
         let sigma0 = Mat3::from_diagonal(Vec3::new(4e-4, 1e-4, 2.5e-5));
         let s = f * sigma0 * f.transpose();
-        let upper = [s.x_axis.x, s.y_axis.x, s.z_axis.x, s.y_axis.y, s.z_axis.y, s.z_axis.z];
+        let upper = [
+            s.x_axis.x, s.y_axis.x, s.z_axis.x, s.y_axis.y, s.z_axis.y, s.z_axis.z,
+        ];
         let payload = vec![
             FrameGaussian {
                 position_m: [t, 0.0, 0.5 - t],
@@ -87,7 +90,11 @@ fn export(args: &[&str]) -> std::process::Output {
 fn band1(cloud: &GaussianCloud, i: usize, d: glam::DVec3) -> [f64; 3] {
     let b = sh_basis(d);
     let k = cloud.sh_rest_len / 3;
-    [0, 1, 2].map(|c| (0..3).map(|j| f64::from(cloud.sh_rest[i * cloud.sh_rest_len + c * k + j]) * b[j]).sum())
+    [0, 1, 2].map(|c| {
+        (0..3)
+            .map(|j| f64::from(cloud.sh_rest[i * cloud.sh_rest_len + c * k + j]) * b[j])
+            .sum()
+    })
 }
 
 #[test]
@@ -113,34 +120,57 @@ fn exported_frames_render_as_the_simulated_ones() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, ["frame_000000.ply", "frame_000000.spz", "frame_000002.ply", "frame_000002.spz"]);
+    assert_eq!(
+        names,
+        [
+            "frame_000000.ply",
+            "frame_000000.spz",
+            "frame_000002.ply",
+            "frame_000002.spz"
+        ]
+    );
 
     let cloud = splatphys_formats::read_gaussians(out.join("frame_000002.ply")).unwrap();
     let frame = &frames[2];
     assert_eq!(cloud.len(), 2);
     assert_eq!(cloud.sh_degree, 1);
-    let ids = &cloud.extra.iter().find(|(n, _)| n == "object_id").unwrap().1;
+    let ids = &cloud
+        .extra
+        .iter()
+        .find(|(n, _)| n == "object_id")
+        .unwrap()
+        .1;
     assert_eq!(ids, &vec![0.0, -1.0]);
     for (i, g) in frame.iter().enumerate() {
         assert_eq!(cloud.positions[i], g.position_m);
         let c = cloud.covariance(i);
         let want = g.covariance_m2;
-        let got = [c.x_axis.x, c.y_axis.x, c.z_axis.x, c.y_axis.y, c.z_axis.y, c.z_axis.z];
+        let got = [
+            c.x_axis.x, c.y_axis.x, c.z_axis.x, c.y_axis.y, c.z_axis.y, c.z_axis.z,
+        ];
         for (a, b) in got.iter().zip(want) {
             assert!((a - b).abs() < 1e-9, "Gaussian {i}: {got:?} vs {want:?}");
         }
     }
     assert!((cloud.opacity(0) - 0.8).abs() < 1e-6);
     // Colour towards R d now equals the scene's colour towards d.
-    let r = Quat::from_xyzw(frame[0].rotation_wxyz[1], frame[0].rotation_wxyz[2], frame[0].rotation_wxyz[3], frame[0].rotation_wxyz[0])
-        .as_dquat();
+    let r = Quat::from_xyzw(
+        frame[0].rotation_wxyz[1],
+        frame[0].rotation_wxyz[2],
+        frame[0].rotation_wxyz[3],
+        frame[0].rotation_wxyz[0],
+    )
+    .as_dquat();
     let scene_rest = [0.3, 0.0, 0.0, 0.0, -0.2, 0.0, 0.0, 0.0, 0.0];
     for d in [glam::DVec3::X, glam::DVec3::new(0.2, 0.9, -0.3).normalize()] {
         let b = sh_basis(d);
         let then = [0, 1, 2].map(|c| (0..3).map(|j| scene_rest[c * 3 + j] * b[j]).sum::<f64>());
         let now = band1(&cloud, 0, r * d);
         for c in 0..3 {
-            assert!((now[c] - then[c]).abs() < 1e-5, "channel {c}: {now:?} vs {then:?}");
+            assert!(
+                (now[c] - then[c]).abs() < 1e-5,
+                "channel {c}: {now:?} vs {then:?}"
+            );
         }
     }
     // The SPZ of the same frame: y up, within its quantisation.
@@ -154,13 +184,31 @@ fn steps_outside_the_recording_export_nothing_and_say_so() {
     let mcap = dir.path().join("run.mcap");
     write_recording(&mcap);
     let out = dir.path().join("none");
-    let o = export(&[mcap.to_str().unwrap(), "--out", out.to_str().unwrap(), "--steps", "1000.."]);
+    let o = export(&[
+        mcap.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--steps",
+        "1000..",
+    ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(err.contains("no frame") && err.contains("--steps"), "{err}");
-    let o = export(&[mcap.to_str().unwrap(), "--out", out.to_str().unwrap(), "--steps", "20"]);
+    let o = export(&[
+        mcap.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--steps",
+        "20",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.join("frame_000002.ply").is_file());
-    let o = export(&[mcap.to_str().unwrap(), "--out", out.to_str().unwrap(), "--steps", "9..3"]);
+    let o = export(&[
+        mcap.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--steps",
+        "9..3",
+    ]);
     assert_eq!(o.status.code(), Some(2), "a bad range is a usage error");
 }

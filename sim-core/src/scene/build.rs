@@ -192,13 +192,12 @@ fn place_sources(ctx: &Ctx, base: &Path, f: &SceneFile) -> Result<Vec<Placed>, S
         let raw = match cache.get(&cache_key) {
             Some(c) => c.clone(),
             None => {
-                let (c, _) = read_gaussians_with(&path, &options).map_err(|source| {
-                    SceneError::Source {
+                let (c, _) =
+                    read_gaussians_with(&path, &options).map_err(|source| SceneError::Source {
                         file: ctx.file.to_path_buf(),
                         key_path: format!("{key}.path"),
                         source: Box::new(source),
-                    }
-                })?;
+                    })?;
                 cache.insert(cache_key, c.clone());
                 c
             }

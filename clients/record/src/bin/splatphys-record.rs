@@ -110,7 +110,10 @@ fn main() -> Result<()> {
             );
             let mut msgs = Recording::open(&file, recover)?;
             let report = export_frames(&mut msgs, &file, &out, &opts, |r| {
-                spinner.set_message(format!("{} frames exported of {} read", r.frames, r.frames_seen));
+                spinner.set_message(format!(
+                    "{} frames exported of {} read",
+                    r.frames, r.frames_seen
+                ));
                 spinner.tick();
             })
             .with_context(|| format!("exporting {}", file.display()))?;
