@@ -10,7 +10,8 @@ use clap::Args;
 #[derive(Args, Debug)]
 #[command(after_help = "Example:\n  splatphys inspect ../shared/data/v3dg_donut.ply")]
 pub struct InspectArgs {
-    /// A 3DGS file: INRIA PLY, SuperSplat compressed PLY or antimatter15 .splat.
+    /// A 3DGS file: INRIA PLY, SuperSplat compressed PLY, antimatter15 .splat, SPZ, glTF/GLB
+    /// (KHR_gaussian_splatting), a SOG folder, meta.json or .sog bundle, or a streamed SOG.
     pub file: PathBuf,
 }
 

@@ -11,7 +11,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::{FileFormat, FormatError, parse_gaussians, read_bytes};
+use super::{FileFormat, FormatError, ReadOptions, read_gaussians_with};
 use crate::gaussians::GaussianCloud;
 
 /// Percentiles of one quantity.
@@ -98,10 +98,24 @@ pub struct InspectReport {
 pub fn inspect(path: impl AsRef<Path>) -> Result<InspectReport, FormatError> {
     let path = path.as_ref();
     let start = Instant::now();
-    let bytes = read_bytes(path)?;
-    let (cloud, format) = parse_gaussians(path, &bytes)?;
+    let (cloud, format) = read_gaussians_with(path, &ReadOptions::default())?;
     let load_s = start.elapsed().as_secs_f64();
-    Ok(report(path, format, bytes.len() as u64, load_s, &cloud))
+    Ok(report(path, format, size_on_disk(path), load_s, &cloud))
+}
+
+/// Bytes of a file, or of every file under a folder (a SOG, a streamed SOG).
+fn size_on_disk(path: &Path) -> u64 {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => std::fs::read_dir(path)
+            .map(|d| {
+                d.filter_map(Result::ok)
+                    .map(|e| size_on_disk(&e.path()))
+                    .sum()
+            })
+            .unwrap_or(0),
+        Ok(m) => m.len(),
+        Err(_) => 0,
+    }
 }
 
 /// Summarises an already-loaded cloud.

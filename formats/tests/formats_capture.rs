@@ -250,3 +250,78 @@ fn damaged_captures_give_errors_that_name_the_part() {
         }
     }
 }
+
+/// Lossless WebP of `w × h` RGBA texels.
+fn webp(dir: &Path, name: &str, w: u32, h: u32, rgba: &[u8]) {
+    let mut bytes = Vec::new();
+    image::codecs::webp::WebPEncoder::new_lossless(&mut bytes)
+        .encode(rgba, w, h, image::ExtendedColorType::Rgba8)
+        .unwrap();
+    std::fs::write(dir.join(name), bytes).unwrap();
+}
+
+#[test]
+fn sog_version_1_lerps_its_ranges_and_stores_opacity_as_a_logit() {
+    // Version 1 (the first SuperSplat exporter and PlayCanvas's Python tool): no codebooks,
+    // per-channel mins/maxs, opacity a lerped logit, SH bands from the centroid width.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Two splats in a 2 × 1 image: bytes chosen, expected values from the format's formulas.
+    webp(d, "means_l.webp", 2, 1, &[0, 0, 0, 255, 255, 255, 255, 255]);
+    webp(d, "means_u.webp", 2, 1, &[0, 0, 0, 255, 255, 255, 255, 255]);
+    // Splat 0: w largest (tag 252) and a = b = c = 0 (byte 127.5 is not a byte: use 128).
+    // Splat 1: z largest (tag 255), x = (200/255 − 0.5)√2.
+    webp(
+        d,
+        "quats.webp",
+        2,
+        1,
+        &[128, 128, 128, 252, 200, 128, 128, 255],
+    );
+    webp(d, "scales.webp", 2, 1, &[0, 255, 51, 255, 255, 0, 102, 255]);
+    webp(d, "sh0.webp", 2, 1, &[0, 255, 0, 0, 255, 0, 255, 255]);
+    // One band: 64 entries × 3 texels a row; splat 0 uses entry 0, splat 1 entry 1.
+    let mut centroids = vec![0u8; 192 * 4];
+    for (k, px) in centroids.chunks_exact_mut(4).enumerate() {
+        px.copy_from_slice(&[k as u8, 255 - k as u8, 0, 255]);
+    }
+    webp(d, "shN_centroids.webp", 192, 1, &centroids);
+    webp(d, "shN_labels.webp", 2, 1, &[0, 0, 0, 255, 1, 0, 0, 255]);
+    let meta = serde_json::json!({
+        "means": {"shape": [2, 3], "dtype": "float32", "mins": [-1.0, 0.0, 2.0], "maxs": [1.0, 0.5, 3.0],
+                  "files": ["means_l.webp", "means_u.webp"]},
+        "scales": {"shape": [2, 3], "dtype": "float32", "mins": [-6.0, -6.0, -6.0], "maxs": [-1.0, -1.0, -1.0],
+                   "files": ["scales.webp"]},
+        "quats": {"shape": [2, 4], "dtype": "uint8", "encoding": "quaternion_packed", "files": ["quats.webp"]},
+        "sh0": {"shape": [2, 1, 4], "dtype": "float32", "mins": [-2.0, -2.0, -2.0, -5.0], "maxs": [2.0, 2.0, 2.0, 5.0],
+                "files": ["sh0.webp"]},
+        "shN": {"shape": [2, 9], "dtype": "float32", "mins": -1.0, "maxs": 1.0, "quantization": 8,
+                "files": ["shN_centroids.webp", "shN_labels.webp"]}
+    });
+    std::fs::write(d.join("meta.json"), meta.to_string()).unwrap();
+    let (cloud, format) = read_gaussians_with(d, &ReadOptions::default()).unwrap();
+    assert_eq!(format, FileFormat::Sog);
+    assert_eq!((cloud.len(), cloud.sh_degree, cloud.sh_rest_len), (2, 1, 9));
+    let unlog = |n: f64| (n.signum() * (n.abs().exp() - 1.0)) as f32;
+    assert_eq!(cloud.positions[0], [unlog(-1.0), unlog(0.0), unlog(2.0)]);
+    assert_eq!(cloud.positions[1], [unlog(1.0), unlog(0.5), unlog(3.0)]);
+    assert_eq!(cloud.log_scales[0], [-6.0, -1.0, -5.0]);
+    assert_eq!(cloud.log_scales[1], [-1.0, -6.0, -4.0]);
+    assert_eq!(cloud.sh_dc[0], [-2.0, 2.0, -2.0]);
+    assert_eq!(cloud.opacity_logit, [-5.0, 5.0]);
+    let q1 = cloud.rotations_wxyz[1];
+    let x = ((200.0 / 255.0 - 0.5) * std::f64::consts::SQRT_2) as f32;
+    assert!(
+        (q1[0] - x).abs() < 1e-6 && (q1[3] - (1.0 - x * x).sqrt()).abs() < 2e-2,
+        "{q1:?}"
+    );
+    assert!((cloud.rotations_wxyz[0][0] - 1.0).abs() < 1e-3);
+    // Entry 1's texels are 3, 4, 5 (R) and 252, 251, 250 (G): channel-major f_rest.
+    let lerp = |b: f32| -1.0 + 2.0 * b / 255.0;
+    assert_eq!(cloud.sh_rest[9..12], [lerp(3.0), lerp(4.0), lerp(5.0)]);
+    assert_eq!(
+        cloud.sh_rest[12..15],
+        [lerp(252.0), lerp(251.0), lerp(250.0)]
+    );
+    assert_eq!(cloud.sh_rest[15..18], [lerp(0.0); 3]);
+}

@@ -56,6 +56,13 @@ fn seeds() -> Vec<Vec<u8>> {
     out.push(b);
     // A .splat of 4 records.
     out.push((0..128u8).map(|i| i.wrapping_mul(37)).collect());
+    // The capture formats: an SPZ written here (gzip, version 3), and splat-transform's SPZ
+    // version 4 (plain header, a table of zstd streams), GLB and bundled SOG fixtures.
+    out.push(formats::spz::to_spz_bytes(Path::new("seed.spz"), &cloud).unwrap());
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("../formats/tests/fixtures/formats");
+    for name in ["source_v4.spz", "source.glb", "source.sog"] {
+        out.push(std::fs::read(fixtures.join(name)).unwrap());
+    }
     out
 }
 
