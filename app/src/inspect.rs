@@ -1,5 +1,5 @@
 //! `splatphys inspect FILE`: what a 3DGS file holds (count, SH degree, bounds, scales, opacity,
-//! extra properties, a guess of the up axis).
+//! extra properties, a guess of the up axis, and the ground that `up = "auto"` would level).
 
 use std::path::PathBuf;
 
@@ -15,10 +15,15 @@ pub struct InspectArgs {
     pub file: PathBuf,
 }
 
-/// Prints the report.
+/// Prints the report, and the ground `up = "auto"` would level (or why there is none).
 pub fn run(args: &InspectArgs) -> Result<()> {
     let report = splatphys_core::formats::inspect::inspect(&args.file)
         .with_context(|| format!("inspecting {}", args.file.display()))?;
     println!("{report}");
+    let cloud = splatphys_core::formats::read_gaussians(&args.file)?;
+    match crate::align::leveling(&cloud, 0.5, None, 1.0) {
+        Ok(l) => print!("{}", crate::align::describe(&l)),
+        Err(e) => println!("ground       none found: {e}"),
+    }
     Ok(())
 }

@@ -24,6 +24,7 @@ pub mod level_of_detail;
 pub mod model;
 pub mod schema;
 pub mod transform;
+pub mod up;
 
 use std::path::{Path, PathBuf};
 

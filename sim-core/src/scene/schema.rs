@@ -162,9 +162,22 @@ pub struct SourceToml {
     pub voxel_m: Option<f32>,
     /// Streamed SOG (`lod-meta.json`): the level to read, 0 the finest (the default).
     pub lod: Option<usize>,
+    /// Which way is up in the file: `"auto"` (find the ground and level it at z = 0) or a
+    /// direction `[x, y, z]` of the file's frame turned onto +z. Replaces `rotation_deg`.
+    pub up: Option<UpToml>,
     /// SPZ: the frame its values are stored in, `"rub"` (the format's convention, the default)
     /// or `"as_stored"` (files written without the turn, as splat-transform writes them).
     pub spz_frame: Option<SpzFrameToml>,
+}
+
+/// `up` of a source: `"auto"` or a direction.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum UpToml {
+    /// A word (only `"auto"` is known).
+    Word(String),
+    /// The file's up direction.
+    Direction([f32; 3]),
 }
 
 /// `spz_frame` of a source.
