@@ -325,3 +325,138 @@ fn sog_version_1_lerps_its_ranges_and_stores_opacity_as_a_logit() {
     );
     assert_eq!(cloud.sh_rest[15..18], [lerp(0.0); 3]);
 }
+
+/// An SPZ body of versions 1–3 (before gzip) by hand from nianticlabs/spz's description: two
+/// Gaussians, SH degree 1.
+fn spz_legacy(version: u32) -> Vec<u8> {
+    let mut b = Vec::new();
+    b.extend_from_slice(&0x5053_474e_u32.to_le_bytes());
+    b.extend_from_slice(&version.to_le_bytes());
+    b.extend_from_slice(&2u32.to_le_bytes());
+    b.extend_from_slice(&[1, 12, 0, 0]);
+    let centres = [[1.0f32, -2.0, 0.5], [-0.25, 0.0, 3.0]];
+    for c in centres.iter().flatten() {
+        if version == 1 {
+            b.extend_from_slice(&half::f16::from_f32(*c).to_le_bytes());
+        } else {
+            let fixed = (c * 4096.0).round() as i32;
+            b.extend_from_slice(&fixed.to_le_bytes()[..3]);
+        }
+    }
+    b.extend_from_slice(&[255, 0]); // alpha
+    b.extend_from_slice(&[128, 166, 90, 0, 255, 128]); // colour
+    b.extend_from_slice(&[80, 96, 112, 160, 0, 255]); // scales
+    if version >= 3 {
+        b.extend_from_slice(&0xC000_0000_u32.to_le_bytes()); // identity
+        // x largest (index 0), the others 0 with their sign bits clear.
+        b.extend_from_slice(&0x0000_0000_u32.to_le_bytes());
+    } else {
+        b.extend_from_slice(&[128, 128, 128]); // ≈ identity
+        b.extend_from_slice(&[255, 128, 128]); // x = 1
+    }
+    for i in 0..2u8 {
+        for k in 0..3u8 {
+            for c in 0..3u8 {
+                b.push(64 + 32 * c + 8 * k + i); // distinct per Gaussian, coefficient, channel
+            }
+        }
+    }
+    b
+}
+
+fn gzip(bytes: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    gz.write_all(bytes).unwrap();
+    gz.finish().unwrap()
+}
+
+#[test]
+fn spz_versions_1_and_2_by_hand_decode_as_specified() {
+    for version in [1, 2, 3] {
+        let bytes = gzip(&spz_legacy(version));
+        let c = parse_spz(Path::new("hand.spz"), &bytes, SpzFrame::AsStored).unwrap();
+        let what = format!("version {version}");
+        assert_eq!(c.len(), 2, "{what}");
+        assert_eq!(c.positions[0], [1.0, -2.0, 0.5], "{what}");
+        assert_eq!(c.positions[1], [-0.25, 0.0, 3.0], "{what}");
+        assert_eq!(
+            (c.opacity_logit[0], c.opacity_logit[1]),
+            (40.0, -40.0),
+            "{what}"
+        );
+        let dc = |b: f64| ((b / 255.0 - 0.5) / 0.15) as f32;
+        assert_eq!(c.sh_dc[0], [dc(128.0), dc(166.0), dc(90.0)], "{what}");
+        assert_eq!(c.log_scales[1], [0.0, -10.0, 255.0 / 16.0 - 10.0], "{what}");
+        assert!(c.rotation(0).dot(Quat::IDENTITY).abs() > 0.9999, "{what}");
+        assert!(
+            c.rotation(1).dot(Quat::from_xyzw(1.0, 0.0, 0.0, 0.0)).abs() > 0.9999,
+            "{what}"
+        );
+        // SPZ's SH are coefficient-major with RGB inner; f_rest is channel-major.
+        for i in 0..2 {
+            for k in 0..3 {
+                for ch in 0..3 {
+                    let b = f32::from(64 + 32 * ch as u8 + 8 * k as u8 + i as u8);
+                    assert_eq!(c.sh_rest[i * 9 + ch * 3 + k], (b - 128.0) / 128.0, "{what}");
+                }
+            }
+        }
+    }
+    // A body one byte short is refused, naming the shortfall.
+    let mut short = spz_legacy(2);
+    short.pop();
+    let err = parse_spz(Path::new("short.spz"), &gzip(&short), SpzFrame::AsStored).unwrap_err();
+    assert!(matches!(err, FormatError::Truncated { .. }), "{err}");
+}
+
+#[test]
+fn spz_compressed_gltf_by_hand_reads_as_its_spz_turned_into_the_ply_frame() {
+    // KHR_gaussian_splatting_compression_spz_2 (draft): the SPZ in buffer view 0, stored in
+    // glTF's frame; placeholder accessors without buffer views.
+    let spz = std::fs::read(fixture("source_v3.spz")).unwrap();
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_gaussian_splatting", "KHR_gaussian_splatting_compression_spz_2"],
+        "extensionsRequired": ["KHR_gaussian_splatting_compression_spz_2"],
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"mode": 0,
+            "attributes": {"POSITION": 0},
+            "extensions": {"KHR_gaussian_splatting": {"kernel": "ellipse", "colorSpace": "srgb_rec709_display",
+                "extensions": {"KHR_gaussian_splatting_compression_spz_2": {"bufferView": 0}}}}}]}],
+        "accessors": [{"componentType": 5126, "type": "VEC3", "count": 400}],
+        "buffers": [{"byteLength": spz.len()}],
+        "bufferViews": [{"buffer": 0, "byteLength": spz.len()}]
+    });
+    let mut text = json.to_string().into_bytes();
+    while !text.len().is_multiple_of(4) {
+        text.push(b' ');
+    }
+    let mut bin = spz.clone();
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let mut glb = Vec::new();
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&(total as u32).to_le_bytes());
+    glb.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    glb.extend_from_slice(&0x4E4F_534A_u32.to_le_bytes());
+    glb.extend_from_slice(&text);
+    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    glb.extend_from_slice(&0x004E_4942_u32.to_le_bytes());
+    glb.extend_from_slice(&bin);
+    let (cloud, format) = splatphys_formats::parse_gaussians(Path::new("spz.glb"), &glb).unwrap();
+    assert_eq!(format, FileFormat::Gltf);
+    let stored = parse_spz(Path::new("s.spz"), &spz, SpzFrame::AsStored).unwrap();
+    let turn = Quat::from_rotation_z(std::f32::consts::PI);
+    for i in 0..cloud.len() {
+        let want = turn * stored.position(i);
+        assert!(
+            (cloud.position(i) - want).abs().max_element() < 1e-6,
+            "Gaussian {i}"
+        );
+        assert!(cloud.rotation(i).dot(turn * stored.rotation(i)).abs() > 1.0 - 1e-6);
+    }
+}

@@ -55,12 +55,18 @@ fn compare(got: &GaussianCloud, src: &GaussianCloud, map: &[usize]) -> Worst {
         ..Worst::default()
     };
     for (i, &j) in map.iter().enumerate() {
-        w.position = w.position.max((got.position(i) - src.position(j)).abs().max_element());
+        w.position = w
+            .position
+            .max((got.position(i) - src.position(j)).abs().max_element());
         for c in 0..3 {
-            w.log_scale = w.log_scale.max((got.log_scales[i][c] - src.log_scales[j][c]).abs());
+            w.log_scale = w
+                .log_scale
+                .max((got.log_scales[i][c] - src.log_scales[j][c]).abs());
             w.dc = w.dc.max((got.sh_dc[i][c] - src.sh_dc[j][c]).abs());
         }
-        w.rotation_dot = w.rotation_dot.min(got.rotation(i).dot(src.rotation(j)).abs());
+        w.rotation_dot = w
+            .rotation_dot
+            .min(got.rotation(i).dot(src.rotation(j)).abs());
         w.opacity = w.opacity.max((got.opacity(i) - src.opacity(j)).abs());
     }
     w
@@ -110,14 +116,22 @@ fn splat_transform_outputs_read_back_as_the_source() {
     let cloud = read_gaussians(d.join("donut.glb")).unwrap();
     let w = compare(&cloud, &src, &identity);
     eprintln!("GLB: {w:?}");
-    assert!(w.position < 1e-6 && w.log_scale < 1e-5 && w.dc < 1e-6, "{w:?}");
+    assert!(
+        w.position < 1e-6 && w.log_scale < 1e-5 && w.dc < 1e-6,
+        "{w:?}"
+    );
     assert!(w.opacity < 1e-6 && w.rotation_dot > 1.0 - 1e-6, "{w:?}");
 
     // SOG v2 (bundled): Morton order, matched by position. Centres: 16 bits of
     // sign(x) ln(1 + |x|) over the capture's range; opacity 1/255 (truncated); rotations 8 bits.
     // Scales and DC go through 256-entry codebooks fitted by k-means, which serve outliers
     // poorly (no bound to state): those are checked against splat-transform's own decode.
-    convert(&bin, &capture, &d.join("donut.sog"), &["-g", "cpu", "-i", "3"]);
+    convert(
+        &bin,
+        &capture,
+        &d.join("donut.sog"),
+        &["-g", "cpu", "-i", "3"],
+    );
     let (cloud, _) = read_gaussians_with(d.join("donut.sog"), &Default::default()).unwrap();
     assert_eq!(cloud.len(), src.len());
     let tree: ImmutableKdTree<f32, u32, 3, 32> = ImmutableKdTree::new_from_slice(&src.positions);
@@ -136,7 +150,10 @@ fn splat_transform_outputs_read_back_as_the_source() {
     let texel_order: Vec<usize> = (0..decoded.len()).collect();
     let w = compare(&cloud, &decoded, &texel_order);
     eprintln!("SOG against splat-transform's decode: {w:?}");
-    assert!(w.position < 1e-6 && w.log_scale < 1e-6 && w.dc < 1e-6, "{w:?}");
+    assert!(
+        w.position < 1e-6 && w.log_scale < 1e-6 && w.dc < 1e-6,
+        "{w:?}"
+    );
     assert!(w.opacity < 1e-5 && w.rotation_dot > 1.0 - 1e-6, "{w:?}");
 
     // Khronos's validator (2.0.0-dev.3.10, which predates the extension): its only errors are
@@ -149,11 +166,17 @@ fn splat_transform_outputs_read_back_as_the_source() {
         .output()
         .expect("node");
     let report = String::from_utf8_lossy(&out.stdout);
-    assert!(!report.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        !report.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let errors: Vec<&str> = report.lines().filter(|l| l.starts_with("error ")).collect();
     assert!(
-        errors.iter().all(|e| e.contains("MESH_PRIMITIVE_INVALID_ATTRIBUTE")
-            && e.contains("/attributes/KHR_gaussian_splatting:")),
+        errors
+            .iter()
+            .all(|e| e.contains("MESH_PRIMITIVE_INVALID_ATTRIBUTE")
+                && e.contains("/attributes/KHR_gaussian_splatting:")),
         "{report}"
     );
 }
