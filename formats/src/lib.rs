@@ -273,6 +273,18 @@ pub fn read_gaussians_with(
     path: impl AsRef<Path>,
     options: &ReadOptions,
 ) -> Result<(GaussianCloud, FileFormat), FormatError> {
+    read_gaussians_noted(path, options).map(|(cloud, format, _)| (cloud, format))
+}
+
+/// [`read_gaussians_with`], also returning what was read but not kept, for people (an SPZ's SH
+/// degree 4 cut to 3, ...).
+///
+/// # Errors
+/// As [`read_gaussians`].
+pub fn read_gaussians_noted(
+    path: impl AsRef<Path>,
+    options: &ReadOptions,
+) -> Result<(GaussianCloud, FileFormat, Vec<String>), FormatError> {
     let path = path.as_ref();
     if path.is_dir() {
         let format = if path.join(sog::LOD_META_JSON).is_file() {
@@ -280,19 +292,29 @@ pub fn read_gaussians_with(
         } else {
             FileFormat::Sog
         };
-        return Ok((sog::read_sog(path, options.lod)?, format));
+        return Ok((sog::read_sog(path, options.lod)?, format, Vec::new()));
     }
     let bytes = read_bytes(path)?;
     let format = detect_format(path, &bytes);
+    let mut notes = Vec::new();
     let cloud = match format {
         FileFormat::Sog | FileFormat::SogBundle | FileFormat::SogLod => {
             sog::read_sog(path, options.lod)?
         }
-        FileFormat::Spz => spz::parse_spz(path, &bytes, options.spz_frame)?,
+        FileFormat::Spz => {
+            let (cloud, degree) = spz::parse_spz_degree(path, &bytes, options.spz_frame)?;
+            if degree > 3 {
+                notes.push(format!(
+                    "{}: SH degree {degree} cut to 3 (splatphys evaluates degrees 0 to 3)",
+                    path.display()
+                ));
+            }
+            cloud
+        }
         FileFormat::Gltf => gltf::parse_gltf(path, &bytes)?,
         _ => parse_gaussians(path, &bytes)?.0,
     };
-    Ok((cloud, format))
+    Ok((cloud, format, notes))
 }
 
 /// Parses `bytes` (reported as `path` in errors) in any format held in one file without

@@ -140,6 +140,18 @@ const fn sh_dim(degree: u8) -> usize {
 /// # Errors
 /// As [`read_spz`].
 pub fn parse_spz(path: &Path, bytes: &[u8], frame: SpzFrame) -> Result<GaussianCloud, FormatError> {
+    parse_spz_degree(path, bytes, frame).map(|(cloud, _)| cloud)
+}
+
+/// [`parse_spz`], also returning the SH degree the file stores (4 is read and cut to 3).
+///
+/// # Errors
+/// As [`read_spz`].
+pub fn parse_spz_degree(
+    path: &Path,
+    bytes: &[u8],
+    frame: SpzFrame,
+) -> Result<(GaussianCloud, u8), FormatError> {
     let (header, streams) = if bytes.starts_with(&GZIP_MAGIC) {
         // Header first, then no more than the header's sizes: a gzip bomb cannot run away.
         let gz_err =
@@ -179,7 +191,7 @@ pub fn parse_spz(path: &Path, bytes: &[u8], frame: SpzFrame) -> Result<GaussianC
     if frame == SpzFrame::Rub {
         half_turn_about_x(&mut cloud);
     }
-    Ok(cloud)
+    Ok((cloud, header.sh_degree))
 }
 
 /// The six attribute arrays of a file (positions, alphas, colours, scales, rotations, SH).

@@ -460,3 +460,39 @@ fn spz_compressed_gltf_by_hand_reads_as_its_spz_turned_into_the_ply_frame() {
         assert!(cloud.rotation(i).dot(turn * stored.rotation(i)).abs() > 1.0 - 1e-6);
     }
 }
+
+#[test]
+fn spz_sh_degree_4_is_cut_to_3_with_a_note() {
+    // One Gaussian, version 2, degree 4: 24 coefficients a channel, byte = coefficient index.
+    let mut b = Vec::new();
+    b.extend_from_slice(&0x5053_474e_u32.to_le_bytes());
+    b.extend_from_slice(&2u32.to_le_bytes());
+    b.extend_from_slice(&1u32.to_le_bytes());
+    b.extend_from_slice(&[4, 12, 0, 0]);
+    b.extend_from_slice(&[0; 9]); // centre
+    b.push(200); // alpha
+    b.extend_from_slice(&[128; 3]); // colour
+    b.extend_from_slice(&[100; 3]); // scales
+    b.extend_from_slice(&[128; 3]); // rotation
+    for k in 0..24u8 {
+        b.extend_from_slice(&[k, k, k]);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("degree4.spz");
+    std::fs::write(&file, gzip(&b)).unwrap();
+    let options = ReadOptions {
+        spz_frame: SpzFrame::AsStored,
+        ..ReadOptions::default()
+    };
+    let (cloud, _, notes) = splatphys_formats::read_gaussians_noted(&file, &options).unwrap();
+    assert_eq!((cloud.sh_degree, cloud.sh_rest_len), (3, 45));
+    for k in 0..15 {
+        assert_eq!(
+            cloud.sh_rest[k],
+            (k as f32 - 128.0) / 128.0,
+            "coefficient {k}"
+        );
+    }
+    assert_eq!(notes.len(), 1);
+    assert!(notes[0].contains("SH degree 4 cut to 3"), "{notes:?}");
+}

@@ -15,7 +15,7 @@ use super::schema::{
 };
 use super::transform::{apply_similarity, concat, euler_xyz_deg, subset, voxel_subsample};
 use crate::formats::spz::SpzFrame;
-use crate::formats::{ReadOptions, read_gaussians_with};
+use crate::formats::{ReadOptions, read_gaussians_noted};
 use crate::gaussians::GaussianCloud;
 use crate::procedural::shape_gaussians;
 use crate::selection::auto::{AutoParams, detect_objects};
@@ -206,7 +206,12 @@ fn placement(
     }
 }
 
-fn place_sources(ctx: &Ctx, base: &Path, f: &SceneFile) -> Result<Vec<Placed>, SceneError> {
+fn place_sources(
+    ctx: &Ctx,
+    base: &Path,
+    f: &SceneFile,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Placed>, SceneError> {
     let mut cache: HashMap<(PathBuf, ReadOptions), GaussianCloud> = HashMap::new();
     let mut out: Vec<Placed> = Vec::new();
     for (i, s) in f.source.iter().enumerate() {
@@ -245,12 +250,13 @@ fn place_sources(ctx: &Ctx, base: &Path, f: &SceneFile) -> Result<Vec<Placed>, S
         let raw = match cache.get(&cache_key) {
             Some(c) => c.clone(),
             None => {
-                let (c, _) =
-                    read_gaussians_with(&path, &options).map_err(|source| SceneError::Source {
+                let (c, _, notes) =
+                    read_gaussians_noted(&path, &options).map_err(|source| SceneError::Source {
                         file: ctx.file.to_path_buf(),
                         key_path: format!("{key}.path"),
                         source: Box::new(source),
                     })?;
+                warnings.extend(notes.into_iter().map(|n| format!("{key}: {n}")));
                 cache.insert(cache_key, c.clone());
                 c
             }
@@ -743,7 +749,8 @@ fn colliders(
 pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene, SceneError> {
     let ctx = Ctx { file };
     let simulation = settings(&ctx, f)?;
-    let mut sources = place_sources(&ctx, base_dir, f)?;
+    let mut warnings = Vec::new();
+    let mut sources = place_sources(&ctx, base_dir, f, &mut warnings)?;
     let mut objects: Vec<SceneObject> = Vec::new();
     for (i, o) in f.object.iter().enumerate() {
         ctx.check(
@@ -780,7 +787,6 @@ pub fn build_scene(file: &Path, base_dir: &Path, f: &SceneFile) -> Result<Scene,
         background = concat(&background, &subset(&p.cloud, &rest));
     }
     let colliders = colliders(&ctx, f, &sources, simulation.seed)?;
-    let mut warnings = Vec::new();
     let events = super::events::events(&ctx, f, &objects, &mut warnings)?;
     for (i, c) in f.camera.iter().enumerate() {
         let key = format!("camera[{i}]");
