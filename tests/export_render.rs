@@ -49,7 +49,10 @@ fn an_exported_frame_renders_as_the_frame() {
     );
     assert_eq!(cloud.sh_degree, 2);
     let n = cloud.len();
-    eprintln!("{n} Gaussians of the playbot, SH degree {}", cloud.sh_degree);
+    eprintln!(
+        "{n} Gaussians of the playbot, SH degree {}",
+        cloud.sh_degree
+    );
     let k = sh_coeffs_per_channel(cloud.sh_degree);
 
     // The scene: SH coefficient-major, as the server publishes it.

@@ -89,6 +89,9 @@ pub struct InspectReport {
     pub extra_properties: Vec<String>,
     /// The up-axis guess.
     pub up: UpAxisGuess,
+    /// The format's version as the file states it (`version 4` for an SPZ 4, `version 2.0` for
+    /// glTF), when it has one.
+    pub version: Option<String>,
 }
 
 /// Reads `path` and summarises it.
@@ -100,7 +103,77 @@ pub fn inspect(path: impl AsRef<Path>) -> Result<InspectReport, FormatError> {
     let start = Instant::now();
     let (cloud, format) = read_gaussians_with(path, &ReadOptions::default())?;
     let load_s = start.elapsed().as_secs_f64();
-    Ok(report(path, format, size_on_disk(path), load_s, &cloud))
+    let mut r = report(path, format, size_on_disk(path), load_s, &cloud);
+    r.version = format_version(path, format);
+    Ok(r)
+}
+
+/// The version a file states: an SPZ header's, a SOG `meta.json`'s or streamed index's
+/// (`version` absent: 1), a glTF asset's; `None` for formats without one or when it cannot be
+/// read again.
+pub fn format_version(path: &Path, format: FileFormat) -> Option<String> {
+    use std::io::Read;
+    let json_version = |bytes: &[u8], key: &str| -> Option<String> {
+        let v: serde_json::Value = serde_json::from_slice(bytes).ok()?;
+        let found = match key {
+            "asset" => v["asset"]["version"].as_str().map(str::to_string),
+            _ => v["version"].as_u64().map(|n| n.to_string()),
+        };
+        Some(found.unwrap_or_else(|| "1".into()))
+    };
+    match format {
+        FileFormat::Spz => {
+            let bytes = std::fs::read(path).ok()?;
+            let mut head = [0u8; 8];
+            if bytes.starts_with(b"NGSP") {
+                head.copy_from_slice(bytes.get(..8)?);
+            } else {
+                flate2::read::GzDecoder::new(&bytes[..])
+                    .read_exact(&mut head)
+                    .ok()?;
+            }
+            Some(format!(
+                "version {}",
+                u32::from_le_bytes([head[4], head[5], head[6], head[7]])
+            ))
+        }
+        FileFormat::Sog => {
+            let meta = if path.is_dir() {
+                path.join(crate::sog::META_JSON)
+            } else {
+                path.to_path_buf()
+            };
+            json_version(&std::fs::read(meta).ok()?, "version").map(|v| format!("version {v}"))
+        }
+        FileFormat::SogBundle => {
+            let mut zip = zip::ZipArchive::new(std::fs::File::open(path).ok()?).ok()?;
+            let mut text = Vec::new();
+            zip.by_name(crate::sog::META_JSON)
+                .ok()?
+                .read_to_end(&mut text)
+                .ok()?;
+            json_version(&text, "version").map(|v| format!("version {v}"))
+        }
+        FileFormat::SogLod => {
+            let index = if path.is_dir() {
+                path.join(crate::sog::LOD_META_JSON)
+            } else {
+                path.to_path_buf()
+            };
+            json_version(&std::fs::read(index).ok()?, "version").map(|v| format!("version {v}"))
+        }
+        FileFormat::Gltf => {
+            let bytes = std::fs::read(path).ok()?;
+            let json = if bytes.starts_with(crate::gltf::GLB_MAGIC) {
+                let len = u32::from_le_bytes(bytes.get(12..16)?.try_into().ok()?) as usize;
+                bytes.get(20..20 + len)?.to_vec()
+            } else {
+                bytes
+            };
+            json_version(&json, "asset").map(|v| format!("version {v}"))
+        }
+        _ => None,
+    }
 }
 
 /// Bytes of a file, or of every file under a folder (a SOG, a streamed SOG).
@@ -157,6 +230,7 @@ pub fn report(
         unnormalised_rotations,
         extra_properties: cloud.extra.iter().map(|(n, _)| n.clone()).collect(),
         up: guess_up_axis(cloud, &bounds),
+        version: None,
     }
 }
 
@@ -268,8 +342,13 @@ impl fmt::Display for InspectReport {
         writeln!(f, "file        {}", self.path.display())?;
         writeln!(
             f,
-            "format      {} ({} bytes, read in {:.3} s)",
-            self.format, self.file_bytes, self.load_s
+            "format      {}{} ({} bytes, read in {:.3} s)",
+            self.format,
+            self.version
+                .as_ref()
+                .map_or(String::new(), |v| format!(", {v}")),
+            self.file_bytes,
+            self.load_s
         )?;
         writeln!(f, "gaussians   {}", self.count)?;
         writeln!(

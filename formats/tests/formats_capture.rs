@@ -496,3 +496,25 @@ fn spz_sh_degree_4_is_cut_to_3_with_a_note() {
     assert_eq!(notes.len(), 1);
     assert!(notes[0].contains("SH degree 4 cut to 3"), "{notes:?}");
 }
+
+#[test]
+fn inspect_reports_each_format_with_its_version() {
+    for (name, format, version) in [
+        ("sog", FileFormat::Sog, Some("version 2")),
+        ("source.sog", FileFormat::SogBundle, Some("version 2")),
+        ("lod", FileFormat::SogLod, Some("version 1")),
+        ("source_v3.spz", FileFormat::Spz, Some("version 3")),
+        ("source_v4.spz", FileFormat::Spz, Some("version 4")),
+        ("source.glb", FileFormat::Gltf, Some("version 2.0")),
+        ("source.ply", FileFormat::InriaPly, None),
+    ] {
+        let r = splatphys_formats::inspect::inspect(fixture(name)).unwrap();
+        assert_eq!(
+            (r.format, r.version.as_deref()),
+            (format, version),
+            "{name}"
+        );
+        assert_eq!((r.count, r.sh_degree), (400, 3), "{name}");
+        assert!(r.file_bytes > 10_000, "{name}: {} bytes", r.file_bytes);
+    }
+}
