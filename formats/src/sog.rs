@@ -138,7 +138,7 @@ pub fn read_sog(path: impl AsRef<Path>, lod: Option<usize>) -> Result<GaussianCl
 /// A SOG that is not a streamed layout: its folder, its `meta.json` or a `.sog` bundle.
 fn read_plain(path: &Path) -> Result<GaussianCloud, FormatError> {
     if path.is_dir() {
-        return read_one(&Files::Folder(path.to_path_buf()), path);
+        return read_one(&Files::Folder(path.to_path_buf()));
     }
     let bytes = read_bytes(path)?;
     if bytes.starts_with(b"PK") {
@@ -146,7 +146,7 @@ fn read_plain(path: &Path) -> Result<GaussianCloud, FormatError> {
     }
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let meta = parse_meta(path, &bytes)?;
-    decode(&Files::Folder(dir), path, &meta)
+    decode(&Files::Folder(dir), &meta)
 }
 
 fn looks_like_lod_index(bytes: &[u8]) -> bool {
@@ -190,13 +190,13 @@ pub fn parse_bundle(path: &Path, bytes: &[u8]) -> Result<GaussianCloud, FormatEr
         path: path.to_path_buf(),
         entries,
     };
-    read_one(&files, path)
+    read_one(&files)
 }
 
-fn read_one(files: &Files, path: &Path) -> Result<GaussianCloud, FormatError> {
+fn read_one(files: &Files) -> Result<GaussianCloud, FormatError> {
     let meta_bytes = files.read(META_JSON)?;
     let meta = parse_meta(&files.describe(META_JSON), &meta_bytes)?;
-    decode(files, path, &meta)
+    decode(files, &meta)
 }
 
 fn parse_meta(path: &Path, bytes: &[u8]) -> Result<Meta, FormatError> {
@@ -347,7 +347,7 @@ fn file<'a>(
         })
 }
 
-fn decode(files: &Files, path: &Path, meta: &Meta) -> Result<GaussianCloud, FormatError> {
+fn decode(files: &Files, meta: &Meta) -> Result<GaussianCloud, FormatError> {
     let meta_path = files.describe(META_JSON);
     let layout = |element: &str, problem: String| FormatError::Layout {
         path: meta_path.clone(),
@@ -440,7 +440,6 @@ fn decode(files: &Files, path: &Path, meta: &Meta) -> Result<GaussianCloud, Form
             h.push(i, &mut cloud.sh_rest);
         }
     }
-    let _ = path;
     Ok(cloud)
 }
 

@@ -187,7 +187,7 @@ pub fn parse_spz_degree(
         }
         (header, split_v4(path, &header, bytes)?)
     };
-    let mut cloud = decode(&header, &streams);
+    let mut cloud = decode(path, &header, &streams)?;
     if frame == SpzFrame::Rub {
         half_turn_about_x(&mut cloud);
     }
@@ -314,7 +314,7 @@ fn split_v4(path: &Path, h: &Header, bytes: &[u8]) -> Result<Streams, FormatErro
 
 const STREAM_NAMES: [&str; 6] = ["positions", "alphas", "colors", "scales", "rotations", "sh"];
 
-fn decode(h: &Header, s: &Streams) -> GaussianCloud {
+fn decode(path: &Path, h: &Header, s: &Streams) -> Result<GaussianCloud, FormatError> {
     let n = h.count;
     let dim = sh_dim(h.sh_degree);
     let keep = dim.min(15);
@@ -335,10 +335,17 @@ fn decode(h: &Header, s: &Streams) -> GaussianCloud {
                 (f64::from(v) * unit) as f32
             })
         };
-        // f16 can hold infinities; a reader must not pass them on.
-        cloud
-            .positions
-            .push(p.map(|v| if v.is_finite() { v } else { 0.0 }));
+        // f16 can hold infinities and NaN; a reader must not pass them on.
+        if let Some(bad) = p.iter().find(|v| !v.is_finite()) {
+            return Err(FormatError::NonFinite {
+                path: path.to_path_buf(),
+                element: "positions".into(),
+                property: "x y z".into(),
+                row: i,
+                value: f64::from(*bad),
+            });
+        }
+        cloud.positions.push(p);
         cloud
             .opacity_logit
             .push(alpha_to_logit(f64::from(alpha[i]) / 255.0));
@@ -369,7 +376,7 @@ fn decode(h: &Header, s: &Streams) -> GaussianCloud {
             }
         }
     }
-    cloud
+    Ok(cloud)
 }
 
 /// Unpacks a "smallest three" rotation into (x, y, z, w).
