@@ -126,6 +126,13 @@ fn c_and_cpp_examples_read_frames_and_push_an_object() {
         );
         assert!(run.out.contains(push_line), "{}", run.out);
         assert!(run.out.contains("objects 2"), "{}", run.out);
+        let statuses = if exe == &c_exe { 3 } else { 1 };
+        assert_eq!(
+            run.out.matches("status step").count(),
+            statuses,
+            "{}",
+            run.out
+        );
     }
     let stopped = stop_server(server);
     assert!(stopped.contains("stopped"), "{stopped}");

@@ -239,15 +239,18 @@ enum splatphys_Result splatphys_objects(struct splatphys_Client *client,
                                         splatphys_FrameHeader *header);
 
 /**
- * Copies the newest status into `*out`.
+ * Copies the newest status into `*out`, waiting up to `timeout_s` for the first one (the
+ * server sends about ten a second).
  *
- * Returns `SPLATPHYS_OK`, `SPLATPHYS_TIMEOUT` (none has arrived yet), or the errors of
+ * Returns `SPLATPHYS_OK`, `SPLATPHYS_TIMEOUT` (none arrived in time), or the errors of
  * [`splatphys_wait_frame`].
  *
  * # Safety
  * `client` is live; `out` is writable.
  */
-enum splatphys_Result splatphys_status(struct splatphys_Client *client, splatphys_Status *out);
+enum splatphys_Result splatphys_status(struct splatphys_Client *client,
+                                       double timeout_s,
+                                       splatphys_Status *out);
 
 /**
  * The id of the object named `name` (as the scene file names it), waiting up to `timeout_s`

@@ -116,6 +116,14 @@ class Client {
         return out;
     }
 
+    /// The newest status, waiting up to timeout_s for the first one.
+    splatphys_Status status(double timeout_s = 1.0) {
+        splatphys_Status s{};
+        splatphys_Result r = splatphys_status(raw_, timeout_s, &s);
+        if (r != SPLATPHYS_OK) throw Error("status", r);
+        return s;
+    }
+
     /// The underlying C handle.
     splatphys_Client *raw() const noexcept { return raw_; }
 

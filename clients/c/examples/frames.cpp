@@ -30,6 +30,7 @@ int main(int argc, char **argv) {
         splatphys_ReplyMsg reply = client.send(push);
         std::printf("c++ push %s\n", reply.accepted ? "accepted" : "rejected");
         std::printf("c++ objects %zu\n", client.objects().size());
+        std::printf("c++ status step %llu\n", (unsigned long long)client.status(2.0).step);
     } catch (const splatphys::Error &e) {
         std::fprintf(stderr, "%s (%d)\n", e.what(), (int)e.code());
         return 1;

@@ -71,6 +71,11 @@ int main(int argc, char **argv) {
     splatphys_ObjectState objects[64];
     r = splatphys_objects(client, objects, 64, &n, NULL);
     if (r == SPLATPHYS_OK) printf("objects %zu\n", n);
+    splatphys_Status status;
+    for (int i = 0; i < 3; i++) { /* status twice in a row: it must not block */
+        r = splatphys_status(client, 2.0, &status);
+        if (r == SPLATPHYS_OK) printf("status step %llu\n", (unsigned long long)status.step);
+    }
 
     splatphys_disconnect(client);
     return 0;

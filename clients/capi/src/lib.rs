@@ -169,7 +169,8 @@ impl splatphys_Client {
         while let Some(scene) = self.conn.recv_scene()? {
             self.scene = Some(*scene.user_header());
         }
-        while let Some(s) = self.conn.poll_status()? {
+        // Drains the service and checks the heartbeat; the newest status (or the last one).
+        if let Some(s) = self.conn.poll_status()? {
             self.status = Some(s);
         }
         while let Some(o) = self.conn.recv_objects()? {
@@ -384,9 +385,10 @@ pub unsafe extern "C" fn splatphys_objects(
     })
 }
 
-/// Copies the newest status into `*out`.
+/// Copies the newest status into `*out`, waiting up to `timeout_s` for the first one (the
+/// server sends about ten a second).
 ///
-/// Returns `SPLATPHYS_OK`, `SPLATPHYS_TIMEOUT` (none has arrived yet), or the errors of
+/// Returns `SPLATPHYS_OK`, `SPLATPHYS_TIMEOUT` (none arrived in time), or the errors of
 /// [`splatphys_wait_frame`].
 ///
 /// # Safety
@@ -394,24 +396,35 @@ pub unsafe extern "C" fn splatphys_objects(
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn splatphys_status(
     client: *mut splatphys_Client,
+    timeout_s: f64,
     out: *mut Status,
 ) -> splatphys_Result {
     guard(|| {
         if client.is_null() || out.is_null() {
             return fail(R::SPLATPHYS_ERR_INVALID_ARGUMENT, "null argument");
         }
+        let Some(wait) = timeout(timeout_s) else {
+            return fail(
+                R::SPLATPHYS_ERR_INVALID_ARGUMENT,
+                "timeout_s must be a number >= 0",
+            );
+        };
         // SAFETY: checked non-null; one thread.
         let c = unsafe { &mut *client };
-        if let Err(e) = c.refresh() {
-            return ipc_error(&e);
-        }
-        match c.status {
-            // SAFETY: checked non-null.
-            Some(s) => unsafe {
-                *out = s;
-                R::SPLATPHYS_OK
-            },
-            None => R::SPLATPHYS_TIMEOUT,
+        let start = std::time::Instant::now();
+        loop {
+            if let Err(e) = c.refresh() {
+                return ipc_error(&e);
+            }
+            if let Some(s) = c.status {
+                // SAFETY: checked non-null.
+                unsafe { *out = s };
+                return R::SPLATPHYS_OK;
+            }
+            if start.elapsed() >= wait {
+                return R::SPLATPHYS_TIMEOUT;
+            }
+            std::thread::sleep(Duration::from_millis(5));
         }
     })
 }
