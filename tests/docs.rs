@@ -19,7 +19,7 @@ use clap::{CommandFactory, Parser};
 use pulldown_cmark::{CodeBlockKind, Event, Tag, TagEnd};
 
 /// The project's binaries, as a command in the docs names them.
-const BINARIES: [&str; 7] = [
+const BINARIES: [&str; 8] = [
     "splatphys",
     "splatphys-bench",
     "splatphys-record",
@@ -27,6 +27,7 @@ const BINARIES: [&str; 7] = [
     "splatphys-control",
     "splatphys-web",
     "splatphys-probe",
+    "splatphys-zenoh",
 ];
 
 fn root() -> PathBuf {
@@ -175,6 +176,7 @@ fn parse(argv: &[String]) -> Result<(), String> {
         "splatphys-control" => check::<splatphys_control::cli::Cli>(argv).map(drop),
         "splatphys-web" => check::<splatphys_web::cli::Cli>(argv).map(drop),
         "splatphys-probe" => check::<splatphys_probe::Cli>(argv).map(drop),
+        "splatphys-zenoh" => check::<splatphys_zenoh::cli::Cli>(argv).map(drop),
         other => Err(format!("{other} is not a project binary")),
     }
 }
@@ -404,6 +406,7 @@ fn clis() -> Vec<(&'static str, clap::Command)> {
         ("splatphys-control", splatphys_control::cli::Cli::command()),
         ("splatphys-web", splatphys_web::cli::Cli::command()),
         ("splatphys-probe", splatphys_probe::Cli::command()),
+        ("splatphys-zenoh", splatphys_zenoh::cli::Cli::command()),
     ]
 }
 
