@@ -1,4 +1,5 @@
-//! The C library against a live server: the C example (`clients/c/examples/frames_and_push.c`)
+//! The C library against a live server: a frame it lends lies in the server's shared memory (not
+//! a copy); the C example (`clients/c/examples/frames_and_push.c`)
 //! and the C++ one (`frames.cpp`, through the RAII wrapper) are compiled with the system
 //! compiler against `libsplatphys_client.a` and run against `splatphys serve --fake`: they print
 //! each frame's step and Gaussian count, push an object and get the server's acceptance. Skipped,
@@ -70,8 +71,13 @@ fn compile(
     Ok(())
 }
 
+/// The tests of this binary run one at a time: one sets the process environment, which another
+/// thread spawning children must not read meanwhile.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn c_and_cpp_examples_read_frames_and_push_an_object() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let lib = match static_library() {
         Ok(lib) => lib,
         Err(why) => {
@@ -137,4 +143,58 @@ fn c_and_cpp_examples_read_frames_and_push_an_object() {
     let stopped = stop_server(server);
     assert!(stopped.contains("stopped"), "{stopped}");
     assert!(leftovers(&iox).is_empty(), "{:?}", leftovers(&iox));
+}
+
+#[test]
+fn a_borrowed_frame_is_not_a_copy() {
+    use splatphys_client::{
+        splatphys_Result, splatphys_connect, splatphys_disconnect, splatphys_release_frame,
+        splatphys_wait_frame,
+    };
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let iox = iox_prefix("capi_zero_copy");
+    let prefix = service_prefix("capi_zero_copy");
+    let server = stepping_server(&iox, &prefix, 100, &[]);
+    // SAFETY: iceoryx2 reads the prefix when a node is created; this is the only test of this
+    // binary that creates one in-process, and no other test runs meanwhile (ONE_AT_A_TIME).
+    unsafe { std::env::set_var(IOX_PREFIX_ENV, &iox) };
+    let c_prefix = std::ffi::CString::new(prefix).unwrap();
+    let mut client = std::ptr::null_mut();
+    // SAFETY: a valid string and out pointer.
+    let r = unsafe { splatphys_connect(c_prefix.as_ptr(), 10.0, &mut client) };
+    assert_eq!(r, splatphys_Result::SPLATPHYS_OK);
+    let (mut header, mut gaussians, mut count) = (std::ptr::null(), std::ptr::null(), 0usize);
+    let t0 = std::time::Instant::now();
+    loop {
+        // SAFETY: a live client and writable out pointers.
+        let r =
+            unsafe { splatphys_wait_frame(client, 1.0, &mut header, &mut gaussians, &mut count) };
+        if r == splatphys_Result::SPLATPHYS_OK {
+            break;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(20), "no frame: {r:?}");
+    }
+    assert_eq!(count, 200);
+    // The payload's address lies in a mapping of a POSIX shared-memory file (/dev/shm/...):
+    // the server's segment, not a copy on our heap.
+    let address = gaussians as usize;
+    let maps = std::fs::read_to_string("/proc/self/maps").unwrap();
+    let mapping = maps
+        .lines()
+        .find(|l| {
+            let range = l.split_whitespace().next().unwrap_or("");
+            let mut ends = range
+                .split('-')
+                .map(|h| usize::from_str_radix(h, 16).unwrap_or(0));
+            let (lo, hi) = (ends.next().unwrap_or(0), ends.next().unwrap_or(0));
+            (lo..hi).contains(&address)
+        })
+        .expect("the frame's address is mapped");
+    assert!(mapping.contains("/dev/shm/"), "{mapping}");
+    // SAFETY: the client is live until disconnected here, once.
+    unsafe {
+        splatphys_release_frame(client);
+        splatphys_disconnect(client);
+    }
+    stop_server(server);
 }
