@@ -130,6 +130,33 @@ impl GaussianCloud {
         out
     }
 
+    /// Turns every Gaussian by the proper rotation `rotation` (about the origin): centres,
+    /// orientations (q' = R ⊗ q) and the SH coefficients of degrees 1 to 3 ([`sh_rotation`]),
+    /// so each Gaussian shows towards R d the colour it showed towards d. Scales, opacity and DC
+    /// are unchanged; normals turn too.
+    pub fn rotate(&mut self, rotation: glam::DMat3) {
+        let r = rotation.as_mat3();
+        let q = Quat::from_mat3(&r).normalize();
+        for p in &mut self.positions {
+            *p = (r * Vec3::from(*p)).to_array();
+        }
+        if let Some(normals) = &mut self.normals {
+            for n in normals {
+                *n = (r * Vec3::from(*n)).to_array();
+            }
+        }
+        for w in &mut self.rotations_wxyz {
+            let turned = q * Quat::from_xyzw(w[1], w[2], w[3], w[0]);
+            *w = [turned.w, turned.x, turned.y, turned.z];
+        }
+        if self.sh_rest_len >= 9 {
+            let m = sh_rotation::ShRotation::from_mat3(rotation);
+            for rest in self.sh_rest.chunks_exact_mut(self.sh_rest_len) {
+                m.rotate_gaussian(rest);
+            }
+        }
+    }
+
     /// Appends the Gaussians of `more`. SH degrees may differ: the lower one's missing higher
     /// coefficients become zeros. Extra properties are kept when both clouds carry the same
     /// names in the same order, and dropped otherwise; normals likewise.

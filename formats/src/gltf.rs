@@ -19,7 +19,7 @@
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
-use glam::{DMat3, DMat4, DQuat, DVec3, Quat};
+use glam::{DMat3, DMat4, DQuat, DVec3};
 use serde_json::Value;
 
 use super::{FormatError, read_bytes};
@@ -492,49 +492,47 @@ fn local_matrix(node: &Value) -> DMat4 {
     DMat4::from_scale_rotation_translation(s, r, t)
 }
 
-/// Applies the affine map `m` to every Gaussian: centres m·p, covariances A Σ Aᵀ (A the linear
-/// part), SH turned by the rotation of A's polar decomposition.
+/// Applies the affine map `m` to every Gaussian: centres m·p; for a proper rotation the
+/// orientations and SH turn ([`GaussianCloud::rotate`]) and scales stay exactly as stored;
+/// otherwise covariances become A Σ Aᵀ (A the linear part, decomposed back into scales and a
+/// rotation) and SH turn by the rotation of A's polar decomposition.
 fn transform(cloud: &mut GaussianCloud, m: DMat4) {
     if m == DMat4::IDENTITY {
         return;
     }
     let a = DMat3::from_mat4(m);
-    let rotation = polar_rotation(a);
-    for p in &mut cloud.positions {
-        *p = m
-            .transform_point3(DVec3::from(p.map(f64::from)))
-            .as_vec3()
-            .to_array();
-    }
     let rigid = (a.transpose() * a - DMat3::IDENTITY)
         .to_cols_array()
         .iter()
         .all(|d| d.abs() < 1e-12)
         && a.determinant() > 0.0;
     if rigid {
-        // A proper rotation: orientations turn, scales stay exactly as stored.
-        let q = Quat::from_mat3(&a.as_mat3()).normalize();
-        for w in &mut cloud.rotations_wxyz {
-            let turned = q * Quat::from_xyzw(w[1], w[2], w[3], w[0]);
-            *w = [turned.w, turned.x, turned.y, turned.z];
+        cloud.rotate(a);
+    } else {
+        for p in &mut cloud.positions {
+            *p = (a * DVec3::from(p.map(f64::from))).as_vec3().to_array();
+        }
+        for i in 0..cloud.len() {
+            let s = cloud.covariance(i).as_dmat3();
+            let t = a * s * a.transpose();
+            let upper = [
+                t.x_axis.x, t.y_axis.x, t.z_axis.x, t.y_axis.y, t.z_axis.y, t.z_axis.z,
+            ]
+            .map(|v| v as f32);
+            let (log_scales, q) = crate::posed::scales_and_rotation(&upper);
+            cloud.log_scales[i] = log_scales;
+            cloud.rotations_wxyz[i] = q;
+        }
+        if cloud.sh_rest_len >= 9 {
+            let sh = ShRotation::from_mat3(polar_rotation(a));
+            for rest in cloud.sh_rest.chunks_exact_mut(cloud.sh_rest_len) {
+                sh.rotate_gaussian(rest);
+            }
         }
     }
-    for i in (0..cloud.len()).filter(|_| !rigid) {
-        let s = cloud.covariance(i).as_dmat3();
-        let t = a * s * a.transpose();
-        let upper = [
-            t.x_axis.x, t.y_axis.x, t.z_axis.x, t.y_axis.y, t.z_axis.y, t.z_axis.z,
-        ]
-        .map(|v| v as f32);
-        let (log_scales, q) = crate::posed::scales_and_rotation(&upper);
-        cloud.log_scales[i] = log_scales;
-        cloud.rotations_wxyz[i] = q;
-    }
-    if cloud.sh_rest_len >= 9 {
-        let sh = ShRotation::from_quat(Quat::from_mat3(&rotation.as_mat3()));
-        for rest in cloud.sh_rest.chunks_exact_mut(cloud.sh_rest_len) {
-            sh.rotate_gaussian(rest);
-        }
+    let t = m.w_axis.truncate();
+    for p in &mut cloud.positions {
+        *p = (DVec3::from(p.map(f64::from)) + t).as_vec3().to_array();
     }
 }
 

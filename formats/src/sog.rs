@@ -129,7 +129,8 @@ pub fn read_sog(path: impl AsRef<Path>, lod: Option<usize>) -> Result<GaussianCl
     if index.file_name().is_some_and(|n| n == LOD_META_JSON) && index.is_file() {
         return read_lod(&index, lod);
     }
-    if !path.is_dir() && looks_like_lod_index(&read_bytes(path)?) {
+    if !path.is_dir() && super::detect_format(path, &read_bytes(path)?) == super::FileFormat::SogLod
+    {
         return read_lod(path, lod);
     }
     read_plain(path)
@@ -147,11 +148,6 @@ fn read_plain(path: &Path) -> Result<GaussianCloud, FormatError> {
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let meta = parse_meta(path, &bytes)?;
     decode(&Files::Folder(dir), &meta)
-}
-
-fn looks_like_lod_index(bytes: &[u8]) -> bool {
-    let head = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]);
-    head.contains("\"filenames\"") && head.contains("\"tree\"")
 }
 
 /// Parses a `.sog` bundle's bytes: a ZIP with `meta.json` and the images at its root (stored or

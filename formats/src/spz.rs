@@ -25,11 +25,10 @@
 use std::io::{Read, Write};
 use std::path::Path;
 
-use glam::{DMat3, Quat};
+use glam::DMat3;
 
 use super::{FormatError, read_bytes};
 use crate::gaussians::GaussianCloud;
-use crate::gaussians::sh_rotation::ShRotation;
 use crate::splat::alpha_to_logit;
 
 /// `NGSP`, the magic number of every SPZ header (little-endian u32).
@@ -424,29 +423,7 @@ fn pack_smallest_three(q: [f64; 4]) -> u32 {
 /// Turns a cloud by a half turn about x, (x, y, z) → (x, −y, −z): RUB ↔ RDF. Rotations and SH
 /// coefficients turn with it.
 fn half_turn_about_x(cloud: &mut GaussianCloud) {
-    rotate_cloud(
-        cloud,
-        DMat3::from_diagonal(glam::DVec3::new(1.0, -1.0, -1.0)),
-    );
-}
-
-/// Rotates every Gaussian of `cloud` (centres, orientations, SH) by the proper rotation `r`.
-fn rotate_cloud(cloud: &mut GaussianCloud, r: DMat3) {
-    let rf = r.as_mat3();
-    let q = Quat::from_mat3(&rf).normalize();
-    for p in &mut cloud.positions {
-        *p = (rf * glam::Vec3::from(*p)).to_array();
-    }
-    for w in &mut cloud.rotations_wxyz {
-        let turned = q * Quat::from_xyzw(w[1], w[2], w[3], w[0]);
-        *w = [turned.w, turned.x, turned.y, turned.z];
-    }
-    if cloud.sh_rest_len >= 9 {
-        let m = ShRotation::from_mat3(r);
-        for rest in cloud.sh_rest.chunks_exact_mut(cloud.sh_rest_len) {
-            m.rotate_gaussian(rest);
-        }
-    }
+    cloud.rotate(DMat3::from_diagonal(glam::DVec3::new(1.0, -1.0, -1.0)));
 }
 
 fn to_u8(x: f64) -> u8 {
@@ -486,14 +463,11 @@ pub fn to_spz_bytes(path: &Path, cloud: &GaussianCloud) -> Result<Vec<u8>, Forma
     }
     let mut c = cloud.clone();
     // World z up → RUB y up: (x, y, z) → (x, z, −y), a quarter turn about x.
-    rotate_cloud(
-        &mut c,
-        DMat3::from_cols(
-            glam::DVec3::new(1.0, 0.0, 0.0),
-            glam::DVec3::new(0.0, 0.0, -1.0),
-            glam::DVec3::new(0.0, 1.0, 0.0),
-        ),
-    );
+    c.rotate(DMat3::from_cols(
+        glam::DVec3::new(1.0, 0.0, 0.0),
+        glam::DVec3::new(0.0, 0.0, -1.0),
+        glam::DVec3::new(0.0, 1.0, 0.0),
+    ));
     // 12 fractional bits (0.24 mm) unless a coordinate needs the range.
     let extent = c
         .positions

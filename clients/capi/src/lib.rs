@@ -145,8 +145,16 @@ fn guard(f: impl FnOnce() -> R) -> R {
     })
 }
 
-fn timeout(seconds: f64) -> Option<Duration> {
-    (seconds.is_finite() && seconds >= 0.0).then(|| Duration::from_secs_f64(seconds.min(1e6)))
+/// A C caller's timeout in seconds, or the invalid-argument code (with its message set).
+fn timeout(seconds: f64) -> Result<Duration, R> {
+    if seconds.is_finite() && seconds >= 0.0 {
+        Ok(Duration::from_secs_f64(seconds.min(1e6)))
+    } else {
+        Err(fail(
+            R::SPLATPHYS_ERR_INVALID_ARGUMENT,
+            "timeout_s must be a number >= 0",
+        ))
+    }
 }
 
 /// One connection to a server (opaque to C).
@@ -207,11 +215,9 @@ pub unsafe extern "C" fn splatphys_connect(
         let Ok(prefix) = unsafe { CStr::from_ptr(prefix) }.to_str() else {
             return fail(R::SPLATPHYS_ERR_INVALID_ARGUMENT, "prefix is not UTF-8");
         };
-        let Some(wait) = timeout(timeout_s) else {
-            return fail(
-                R::SPLATPHYS_ERR_INVALID_ARGUMENT,
-                "timeout_s must be a number >= 0",
-            );
+        let wait = match timeout(timeout_s) {
+            Ok(wait) => wait,
+            Err(code) => return code,
         };
         let mut opts = ClientOptions::new(prefix);
         opts.node_name = "splatphys-capi".into();
@@ -278,11 +284,9 @@ pub unsafe extern "C" fn splatphys_wait_frame(
         if client.is_null() || header.is_null() || gaussians.is_null() || count.is_null() {
             return fail(R::SPLATPHYS_ERR_INVALID_ARGUMENT, "null argument");
         }
-        let Some(wait) = timeout(timeout_s) else {
-            return fail(
-                R::SPLATPHYS_ERR_INVALID_ARGUMENT,
-                "timeout_s must be a number >= 0",
-            );
+        let wait = match timeout(timeout_s) {
+            Ok(wait) => wait,
+            Err(code) => return code,
         };
         // SAFETY: checked non-null; the caller promises a live client used by one thread.
         let c = unsafe { &mut *client };
@@ -403,11 +407,9 @@ pub unsafe extern "C" fn splatphys_status(
         if client.is_null() || out.is_null() {
             return fail(R::SPLATPHYS_ERR_INVALID_ARGUMENT, "null argument");
         }
-        let Some(wait) = timeout(timeout_s) else {
-            return fail(
-                R::SPLATPHYS_ERR_INVALID_ARGUMENT,
-                "timeout_s must be a number >= 0",
-            );
+        let wait = match timeout(timeout_s) {
+            Ok(wait) => wait,
+            Err(code) => return code,
         };
         // SAFETY: checked non-null; one thread.
         let c = unsafe { &mut *client };
@@ -448,11 +450,9 @@ pub unsafe extern "C" fn splatphys_object_id(
         if client.is_null() || name.is_null() || id.is_null() {
             return fail(R::SPLATPHYS_ERR_INVALID_ARGUMENT, "null argument");
         }
-        let Some(wait) = timeout(timeout_s) else {
-            return fail(
-                R::SPLATPHYS_ERR_INVALID_ARGUMENT,
-                "timeout_s must be a number >= 0",
-            );
+        let wait = match timeout(timeout_s) {
+            Ok(wait) => wait,
+            Err(code) => return code,
         };
         // SAFETY: the caller promises a NUL-terminated string.
         let Ok(name) = unsafe { CStr::from_ptr(name) }.to_str() else {
@@ -511,11 +511,9 @@ pub unsafe extern "C" fn splatphys_send_command(
         if client.is_null() || command.is_null() {
             return fail(R::SPLATPHYS_ERR_INVALID_ARGUMENT, "null argument");
         }
-        let Some(wait) = timeout(timeout_s) else {
-            return fail(
-                R::SPLATPHYS_ERR_INVALID_ARGUMENT,
-                "timeout_s must be a number >= 0",
-            );
+        let wait = match timeout(timeout_s) {
+            Ok(wait) => wait,
+            Err(code) => return code,
         };
         // SAFETY: checked non-null; the caller promises a readable CommandMsg.
         let mut msg = unsafe { *command };

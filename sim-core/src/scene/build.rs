@@ -5,14 +5,12 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use glam::{Quat, Vec3};
+use glam::Vec3;
 
 use super::SceneError;
 use super::context::Ctx;
 use super::model::*;
-use super::schema::{
-    MaterialToml, ObjectToml, PlaneChoice, SceneFile, SelectToml, SpzFrameToml, UpToml,
-};
+use super::schema::{MaterialToml, ObjectToml, PlaneChoice, SceneFile, SelectToml, SpzFrameToml};
 use super::transform::{apply_similarity, concat, euler_xyz_deg, subset, voxel_subsample};
 use crate::formats::spz::SpzFrame;
 use crate::formats::{ReadOptions, read_gaussians_noted};
@@ -155,57 +153,6 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
     })
 }
 
-/// The rotation and translation of a source: `rotation_deg` and `translation_m`, or with `up`
-/// the rotation that levels it (and with `"auto"` the translation that puts its ground at
-/// z = 0, to which `translation_m` is added).
-fn placement(
-    ctx: &Ctx,
-    key: &str,
-    s: &super::schema::SourceToml,
-    cloud: &GaussianCloud,
-) -> Result<(Quat, Vec3), SceneError> {
-    let Some(up) = &s.up else {
-        return Ok((euler_xyz_deg(s.rotation_deg), Vec3::from(s.translation_m)));
-    };
-    ctx.check(
-        s.rotation_deg == [0.0; 3],
-        format!("{key}.up"),
-        "give either up or rotation_deg, not both",
-    )?;
-    match up {
-        UpToml::Direction(d) => {
-            let v = Vec3::from(*d);
-            ctx.check(
-                v.is_finite() && v.length() > 0.0,
-                format!("{key}.up"),
-                "must be \"auto\" or a non-zero direction [x, y, z]",
-            )?;
-            Ok((
-                Quat::from_rotation_arc(v.normalize(), Vec3::Z),
-                Vec3::from(s.translation_m),
-            ))
-        }
-        UpToml::Word(w) => {
-            ctx.check(
-                w == "auto",
-                format!("{key}.up"),
-                format!("{w:?}: must be \"auto\" or a direction [x, y, z]"),
-            )?;
-            let leveling = super::up::planes_of(&cloud.positions, |i| cloud.opacity(i), 0.5)
-                .and_then(|(planes, _)| super::up::choose_up(&planes, None, s.scale))
-                .map_err(|e| SceneError::Invalid {
-                    file: ctx.file.to_path_buf(),
-                    key_path: format!("{key}.up"),
-                    message: e.to_string(),
-                })?;
-            Ok((
-                euler_xyz_deg(leveling.rotation_deg),
-                Vec3::from(leveling.translation_m) + Vec3::from(s.translation_m),
-            ))
-        }
-    }
-}
-
 fn place_sources(
     ctx: &Ctx,
     base: &Path,
@@ -272,7 +219,7 @@ fn place_sources(
         } else {
             subset(&raw, &kept)
         };
-        let (rotation, translation) = placement(ctx, &key, s, &cloud)?;
+        let (rotation, translation) = super::up::placement(ctx, &key, s, &cloud)?;
         apply_similarity(&mut cloud, s.scale, rotation, translation);
         if let Some(v) = s.voxel_m {
             ctx.check(

@@ -9,6 +9,11 @@
 
 use glam::{EulerRot, Quat, Vec3};
 
+use super::SceneError;
+use super::context::Ctx;
+use super::schema::{SourceToml, UpToml};
+use super::transform::euler_xyz_deg;
+use crate::gaussians::GaussianCloud;
 use crate::selection::auto::ransac_plane;
 
 /// The smallest share of the (sampled) centres a plane must hold to be taken as ground.
@@ -200,13 +205,64 @@ fn level(plane: Plane, runners_up: [Option<Plane>; 3], scale: f32) -> Leveling {
     let arc = Quat::from_rotation_arc(plane.normal, Vec3::Z);
     let (z, y, x) = arc.to_euler(EulerRot::ZYX);
     let rotation_deg = [x, y, z].map(f32::to_degrees);
-    let rotation = super::transform::euler_xyz_deg(rotation_deg);
+    let rotation = euler_xyz_deg(rotation_deg);
     let c = rotation * plane.centroid * scale;
     Leveling {
         plane,
         runners_up,
         rotation_deg,
         translation_m: [-c.x, -c.y, -c.z],
+    }
+}
+
+/// The rotation and translation of a source: `rotation_deg` and `translation_m`, or with `up`
+/// the rotation that levels it (and with `"auto"` the translation that puts its ground at
+/// z = 0, to which `translation_m` is added).
+pub(super) fn placement(
+    ctx: &Ctx,
+    key: &str,
+    s: &SourceToml,
+    cloud: &GaussianCloud,
+) -> Result<(Quat, Vec3), SceneError> {
+    let Some(up) = &s.up else {
+        return Ok((euler_xyz_deg(s.rotation_deg), Vec3::from(s.translation_m)));
+    };
+    ctx.check(
+        s.rotation_deg == [0.0; 3],
+        format!("{key}.up"),
+        "give either up or rotation_deg, not both",
+    )?;
+    match up {
+        UpToml::Direction(d) => {
+            let v = Vec3::from(*d);
+            ctx.check(
+                v.is_finite() && v.length() > 0.0,
+                format!("{key}.up"),
+                "must be \"auto\" or a non-zero direction [x, y, z]",
+            )?;
+            Ok((
+                Quat::from_rotation_arc(v.normalize(), Vec3::Z),
+                Vec3::from(s.translation_m),
+            ))
+        }
+        UpToml::Word(w) => {
+            ctx.check(
+                w == "auto",
+                format!("{key}.up"),
+                format!("{w:?}: must be \"auto\" or a direction [x, y, z]"),
+            )?;
+            let leveling = planes_of(&cloud.positions, |i| cloud.opacity(i), 0.5)
+                .and_then(|(planes, _)| choose_up(&planes, None, s.scale))
+                .map_err(|e| SceneError::Invalid {
+                    file: ctx.file.to_path_buf(),
+                    key_path: format!("{key}.up"),
+                    message: e.to_string(),
+                })?;
+            Ok((
+                euler_xyz_deg(leveling.rotation_deg),
+                Vec3::from(leveling.translation_m) + Vec3::from(s.translation_m),
+            ))
+        }
     }
 }
 
