@@ -14,6 +14,12 @@ is within the tolerance.
 
 With `--lockstep` (server started with `--paused`) the loop advances the server one step at a
 time itself, so the result does not depend on how fast either side runs.
+
+With `--transport zenoh` the same loop runs through `splatphys-zenoh` (started with
+`--allow-commands` beside the server), from this machine or another one:
+
+    splatphys-zenoh --prefix splatphys/donut_push_finger --allow-commands &
+    python3 clients/python/examples/push_to_target.py --transport zenoh --connect tcp/127.0.0.1:7447
 """
 
 import argparse
@@ -23,7 +29,6 @@ import sys
 import time
 from pathlib import Path
 
-import iceoryx2 as iox2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -54,6 +59,10 @@ def args_from(argv):
     p.add_argument("--timeout-s", type=float, default=40.0, help="give up after this much simulated time, s")
     p.add_argument("--lockstep", action="store_true", help="advance the (paused) server one step per loop")
     p.add_argument("--deformable", action="store_true", help="make the pushed object deformable first")
+    p.add_argument("--transport", choices=["shm", "zenoh"], default="shm",
+                   help="shared memory on this machine (default) or Zenoh through splatphys-zenoh")
+    p.add_argument("--connect", action="append", default=None,
+                   help="Zenoh endpoint of the bridge (repeatable; default tcp/127.0.0.1:7447)")
     p.add_argument("--verbose", action="store_true", help="print every loop")
     return p.parse_args(argv)
 
@@ -108,7 +117,7 @@ def newest_objects(client, after_step, timeout_s=5.0):
             raise RuntimeError("the server is shutting down")
         if time.monotonic() > deadline:
             raise TimeoutError(f"no objects sample after step {after_step} within {timeout_s} s")
-        client.node.wait(iox2.Duration.from_micros(200))
+        client.wait(0.0002)
 
 
 def accepted(client, cmd):
@@ -170,7 +179,11 @@ class Controller:
 
 def main(argv=None):
     a = args_from(argv)
-    client = sc.Client(a.prefix, connect_timeout_s=10.0)
+    if a.transport == "zenoh":
+        client = sc.ZenohClient(a.prefix, connect=a.connect or [sc.zenoh_client.DEFAULT_ENDPOINT],
+                                connect_timeout_s=10.0)
+    else:
+        client = sc.Client(a.prefix, connect_timeout_s=10.0)
     ids = gaussian_objects(client)
     info = client.scene_info()
     donut_id, finger_id = client.object_id(a.object), client.object_id(a.finger)
@@ -208,6 +221,7 @@ def main(argv=None):
     ok = err <= a.tolerance_m
     print(f"final error {err * 1000:.1f} mm ({'within' if ok else 'outside'} {a.tolerance_m * 1000:.0f} mm) "
           f"after {(step - t0) * dt:.2f} s simulated, {len(latencies)} commands, {ctl.repositions} repositionings")
+    print(f"final position {donut[0]:.6f},{donut[1]:.6f},{donut[2]:.6f} m at step {step}")
     print(f"loop latency (objects published -> pose accepted): p50 {np.percentile(lat, 50):.2f} ms, "
           f"p99 {np.percentile(lat, 99):.2f} ms")
     client.close()

@@ -2,7 +2,8 @@
 
 Frames, the scene and objects arrive as numpy structured arrays that view the iceoryx2 shared
 memory without copying; commands go out with replies; a dead server is noticed through the
-status heartbeat (1 s). See docs/reference/protocol.md for the wire contract.
+status heartbeat (1 s). `ZenohClient` offers the same API through `splatphys-zenoh`, for a server
+on another machine. See docs/reference/protocol.md for the wire contract.
 
     from splatphys_client import Client, Impulse
     with Client("splatphys/vase") as c:
@@ -51,6 +52,7 @@ from .client import (
     Shutdown,
     Step,
 )
+from .zenoh_client import BytesView, CommandRefused, ZenohClient
 
 __all__ = [
     "COMMAND_DTYPE",
@@ -61,7 +63,9 @@ __all__ = [
     "OBJECT_STATE_DTYPE",
     "SCENE_GAUSSIAN_DTYPE",
     "STATUS_DTYPE",
+    "BytesView",
     "Client",
+    "CommandRefused",
     "Command",
     "CommandLogEntry",
     "CommandMsg",
@@ -89,4 +93,5 @@ __all__ = [
     "Shutdown",
     "Status",
     "Step",
+    "ZenohClient",
 ]

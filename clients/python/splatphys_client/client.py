@@ -377,6 +377,10 @@ class Client:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def wait(self, timeout_s: float) -> None:
+        """Waits up to `timeout_s` (iceoryx2's node wait; a signal ends it early)."""
+        self.node.wait(iox2.Duration.from_micros(max(0, int(timeout_s * 1e6))))
+
     # Status and heartbeat.
     def poll_status(self) -> Optional[Status]:
         """Drains `status`; raises ServerGone after `heartbeat_timeout_s` of silence."""

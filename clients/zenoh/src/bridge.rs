@@ -72,7 +72,7 @@ fn zerr(what: &str) -> impl FnOnce(zenoh::Error) -> BridgeError + '_ {
 }
 
 /// The Zenoh configuration of `opts`: the file first, then the endpoints; without a file,
-/// loopback only, multicast scouting off and a 3 s link lease.
+/// loopback only, multicast scouting off and a 2 s link lease.
 ///
 /// # Errors
 /// [`BridgeError::Zenoh`] for an unreadable file or a bad endpoint.
@@ -83,9 +83,9 @@ pub fn zenoh_config(opts: &BridgeOptions) -> Result<zenoh::Config, BridgeError> 
             let mut c = zenoh::Config::default();
             c.insert_json5("scouting/multicast/enabled", "false")
                 .map_err(zerr("scouting"))?;
-            // A link silent for 3 s is dropped (and the bridge's tokens with it), so remote
+            // A link silent for 2 s is dropped (and the bridge's tokens with it), so remote
             // clients learn within 3 s that the bridge is gone even without a clean close.
-            c.insert_json5("transport/link/tx/lease", "3000")
+            c.insert_json5("transport/link/tx/lease", "2000")
                 .map_err(zerr("lease"))?;
             c
         }
