@@ -44,6 +44,8 @@ pub enum PeerRole {
     Socket,
     /// Controller sending a command flood.
     Flood,
+    /// Zenoh subscriber measuring latency and throughput ([`crate::ipc_zenoh`]).
+    Zenoh,
 }
 
 /// Arguments of `bench ipc-peer`.
@@ -76,6 +78,12 @@ pub struct PeerArgs {
     /// Object the flood's impulses push (flood).
     #[arg(long, default_value_t = 0)]
     pub object: u32,
+    /// Zenoh endpoint of the publisher (zenoh).
+    #[arg(long)]
+    pub connect: Option<String>,
+    /// Samples received back to back after the measured ones (zenoh).
+    #[arg(long, default_value_t = 0)]
+    pub stream: u64,
 }
 
 /// Seconds since `epoch` on the wall clock (shared by all processes of the host).
@@ -96,6 +104,7 @@ pub fn run(a: &PeerArgs) -> Result<()> {
         PeerRole::Iox => iox(a),
         PeerRole::Socket => socket(a),
         PeerRole::Flood => flood(a),
+        PeerRole::Zenoh => crate::ipc_zenoh::peer(a),
     }
 }
 

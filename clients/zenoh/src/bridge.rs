@@ -17,6 +17,7 @@ use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
 
 use crate::keys::Keys;
+use crate::ros2::{Ros2, Ros2Options};
 
 /// How the bridge runs.
 #[derive(Debug, Clone)]
@@ -37,6 +38,10 @@ pub struct BridgeOptions {
     pub connect_timeout: Duration,
     /// How long a forwarded command may wait for the server's reply.
     pub command_timeout: Duration,
+    /// Also speak ROS 2 (rmw_zenoh's conventions); without `listen`, `connect` and `config`,
+    /// the bridge then joins the `rmw_zenohd` router at `tcp/localhost:7447` instead of
+    /// listening there.
+    pub ros2: Option<Ros2Options>,
 }
 
 /// Why the bridge stopped without an error.
@@ -72,7 +77,8 @@ fn zerr(what: &str) -> impl FnOnce(zenoh::Error) -> BridgeError + '_ {
 }
 
 /// The Zenoh configuration of `opts`: the file first, then the endpoints; without a file,
-/// loopback only, multicast scouting off and a 2 s link lease.
+/// loopback only, multicast scouting off and a 2 s link lease; with ROS 2 and no endpoints, the
+/// `rmw_zenohd` router at `tcp/localhost:7447`.
 ///
 /// # Errors
 /// [`BridgeError::Zenoh`] for an unreadable file or a bad endpoint.
@@ -90,10 +96,12 @@ pub fn zenoh_config(opts: &BridgeOptions) -> Result<zenoh::Config, BridgeError> 
             c
         }
     };
-    let listen = if opts.listen.is_empty() && opts.config.is_none() {
-        vec!["tcp/127.0.0.1:7447".to_string()]
-    } else {
-        opts.listen.clone()
+    let bare = opts.listen.is_empty() && opts.connect.is_empty() && opts.config.is_none();
+    let (listen, connect) = match (bare, opts.ros2.is_some()) {
+        // The ROS 2 router listens on 7447; the bridge joins it as ROS nodes do.
+        (true, true) => (vec![], vec!["tcp/localhost:7447".to_string()]),
+        (true, false) => (vec!["tcp/127.0.0.1:7447".to_string()], vec![]),
+        (false, _) => (opts.listen.clone(), opts.connect.clone()),
     };
     let json = |v: &[String]| {
         format!(
@@ -109,9 +117,9 @@ pub fn zenoh_config(opts: &BridgeOptions) -> Result<zenoh::Config, BridgeError> 
             .insert_json5("listen/endpoints", &json(&listen))
             .map_err(zerr("listen endpoints"))?;
     }
-    if !opts.connect.is_empty() {
+    if !connect.is_empty() {
         config
-            .insert_json5("connect/endpoints", &json(&opts.connect))
+            .insert_json5("connect/endpoints", &json(&connect))
             .map_err(zerr("connect endpoints"))?;
     }
     Ok(config)
@@ -171,6 +179,10 @@ pub fn run(opts: &BridgeOptions) -> Result<BridgeEnd, BridgeError> {
             .wait()
             .map_err(zerr("declaring a queryable"))
     };
+    let mut ros = match &opts.ros2 {
+        Some(o) => Some(Ros2::new(&session, o.clone(), opts.allow_commands)?),
+        None => None,
+    };
     let scene_q = queryable(keys.scene())?;
     let names_q = queryable(keys.object_names())?;
     let command_q = queryable(keys.command())?;
@@ -186,22 +198,38 @@ pub fn run(opts: &BridgeOptions) -> Result<BridgeEnd, BridgeError> {
                 let bytes = bytes_of::<SceneHeader, _>(s.user_header(), s.payload());
                 scene = Some((bytes.clone(), s.user_header().scene_generation));
                 put(&scene_pub, bytes)?;
+                if let Some(r) = &mut ros {
+                    r.on_scene(s.payload());
+                }
             }
             while let Some(n) = conn.recv_object_names()? {
                 let bytes = bytes_of::<FrameHeader, _>(n.user_header(), n.payload());
                 names = Some(bytes.clone());
                 put(&names_pub, bytes)?;
+                if let Some(r) = &mut ros {
+                    r.on_object_names(n.payload())?;
+                }
             }
             if let Some(f) = conn.latest_frame()? {
                 let bytes = bytes_of(f.user_header(), f.payload());
+                if let Some(r) = &mut ros {
+                    r.on_frame(f.user_header(), f.payload())?;
+                }
                 drop(f);
                 put(&frame_pub, bytes)?;
             }
             // Bounded: a server that steps faster than Zenoh takes the samples must not keep
             // the loop here (the bridge is a best-effort subscriber; older samples drop).
+            let mut newest = None;
             for _ in 0..MAX_OBJECTS_PER_TURN {
                 let Some(o) = conn.recv_objects()? else { break };
                 put(&objects_pub, bytes_of(o.user_header(), o.payload()))?;
+                if ros.is_some() {
+                    newest = Some((*o.user_header(), o.payload().to_vec()));
+                }
+            }
+            if let (Some(r), Some((header, objects))) = (&mut ros, newest) {
+                r.on_objects(&header, &objects)?;
             }
             // The newest status (poll_status drains the service and returns the last one, also
             // when nothing new came): published once per heartbeat.
@@ -217,6 +245,9 @@ pub fn run(opts: &BridgeOptions) -> Result<BridgeEnd, BridgeError> {
             }
             while let Ok(Some(q)) = names_q.try_recv() {
                 answer_latest(&q, names.as_ref(), "object names");
+            }
+            if let Some(r) = &mut ros {
+                r.forward_commands(&mut conn)?;
             }
             while let Ok(Some(q)) = command_q.try_recv() {
                 let generation = scene.as_ref().map_or(0, |s| s.1);

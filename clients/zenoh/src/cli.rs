@@ -14,7 +14,8 @@ use clap::Parser;
     after_help = "Examples:
   splatphys-zenoh --prefix splatphys/default                       # loopback only, tcp/127.0.0.1:7447
   splatphys-zenoh --prefix splatphys/default --listen tcp/0.0.0.0:7447 --allow-commands
-  splatphys-zenoh --prefix splatphys/default --config zenoh-tls.json5   # TLS, access control"
+  splatphys-zenoh --prefix splatphys/default --config zenoh-tls.json5   # TLS, access control
+  splatphys-zenoh --prefix splatphys/default --ros2 --allow-commands     # ROS 2 via rmw_zenohd"
 )]
 pub struct Cli {
     /// Service prefix of the server (e.g. `splatphys/<scene>`).
@@ -42,4 +43,19 @@ pub struct Cli {
     /// Seconds a forwarded command waits for the server's reply.
     #[arg(long, default_value_t = 5.0)]
     pub command_timeout_s: f64,
+    /// Also publish ROS 2 topics (rmw_zenoh, Jazzy): the Gaussians as a PointCloud2, every
+    /// object on /tf, each object's contact wrench; with --allow-commands, cmd_pose and
+    /// cmd_twist per object. Without --listen/--connect/--config, joins the rmw_zenohd router
+    /// at tcp/localhost:7447.
+    #[arg(long)]
+    pub ros2: bool,
+    /// ROS domain id.
+    #[arg(long, env = "ROS_DOMAIN_ID", default_value_t = 0)]
+    pub ros2_domain: u32,
+    /// Namespace of the ROS 2 topics.
+    #[arg(long, default_value = "/splatphys")]
+    pub ros2_namespace: String,
+    /// Frame of the ROS 2 point cloud and wrenches, parent of every object's transform.
+    #[arg(long, default_value = "world")]
+    pub ros2_frame: String,
 }
