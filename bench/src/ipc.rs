@@ -1,4 +1,5 @@
-//! `splatphys bench ipc`: what serving a frame over iceoryx2 costs, against a Unix socket.
+//! `splatphys bench ipc`: what serving a frame over iceoryx2 costs, against a Unix socket and
+//! Zenoh.
 //!
 //! For each payload size (Gaussians per frame) and in one run:
 //! - **latency**: the real `frame` service and the server's own publisher
@@ -13,7 +14,9 @@
 //!   `publish_fraction_of_step` = publish cost / one substep is an upper bound on what publishing
 //!   adds to a step;
 //! - **socket baseline**: the same bytes through a Unix-domain stream socket to another process
-//!   (`--role socket`), from the start of the write to the last byte read.
+//!   (`--role socket`), from the start of the write to the last byte read;
+//! - **Zenoh**: the same bytes through Zenoh over TCP loopback to another process (`--role
+//!   zenoh`), latency one sample at a time and back-to-back throughput ([`crate::ipc_zenoh`]).
 //!
 //! Then, with `--command-flood-hz`, the server runs for `--flood-seconds` with and without a
 //! controller process sending that many impulse commands per second, on each of
@@ -89,7 +92,7 @@ fn percentile(v: &mut [f64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
-fn latencies(v: &Value) -> Result<Vec<f64>> {
+pub(crate) fn latencies(v: &Value) -> Result<Vec<f64>> {
     let gaps = v["gaps"].as_u64().unwrap_or(0);
     ensure!(gaps == 0, "the subscriber missed {gaps} samples");
     Ok(v["latencies_us"]
@@ -270,10 +273,11 @@ pub fn run(a: &IpcBenchArgs, world: crate::WorldSimFactory) -> Result<()> {
         .context("clock before 1970")?
         .as_nanos() as u64;
     let mut rows = Vec::new();
-    let mut series: [Series; 4] = [
+    let mut series: [Series; 5] = [
         "iceoryx2 latency, median",
         "iceoryx2 latency, p99",
         "Unix socket latency, median",
+        "Zenoh (TCP loopback) latency, median",
         "publish cost (loan + write + send), median",
     ]
     .map(|name| Series {
@@ -287,6 +291,10 @@ pub fn run(a: &IpcBenchArgs, world: crate::WorldSimFactory) -> Result<()> {
         let mut iox = iox_run(a, &src, epoch_ns).with_context(|| format!("iceoryx2, {n}"))?;
         let bytes: &[u8] = bytemuck::cast_slice(&src);
         let mut sock = socket_run(a, bytes, epoch_ns).with_context(|| format!("socket, {n}"))?;
+        let mut zenoh = crate::ipc_zenoh::run(a.samples, a.warmup, bytes, epoch_ns)
+            .with_context(|| format!("Zenoh, {n}"))?;
+        let zenoh_med = percentile(&mut zenoh.latency_us, 0.5);
+        let zenoh_p99 = percentile(&mut zenoh.latency_us, 0.99);
         let iox_med = percentile(&mut iox.latency_us, 0.5);
         let iox_p99 = percentile(&mut iox.latency_us, 0.99);
         let sock_med = percentile(&mut sock, 0.5);
@@ -308,6 +316,9 @@ pub fn run(a: &IpcBenchArgs, world: crate::WorldSimFactory) -> Result<()> {
             step_us,
             step_particles as f64,
             publish / step_us,
+            zenoh_med,
+            zenoh_p99,
+            zenoh.frames_per_s,
         ];
         let json = json!({
             "bench": "ipc",
@@ -326,9 +337,15 @@ pub fn run(a: &IpcBenchArgs, world: crate::WorldSimFactory) -> Result<()> {
             "step_particles": step_particles,
             "step_threads": rayon::current_num_threads(),
             "publish_fraction_of_step": publish / step_us,
+            "zenoh_median_latency_us": zenoh_med,
+            "zenoh_p99_latency_us": zenoh_p99,
+            "zenoh_frames_per_s": zenoh.frames_per_s,
         });
         println!("{json}");
-        for (s, y) in series.iter_mut().zip([iox_med, iox_p99, sock_med, publish]) {
+        for (s, y) in series
+            .iter_mut()
+            .zip([iox_med, iox_p99, sock_med, zenoh_med, publish])
+        {
             s.points.push((n as f64, y));
         }
         rows.push(row.to_vec());
@@ -337,7 +354,7 @@ pub fn run(a: &IpcBenchArgs, world: crate::WorldSimFactory) -> Result<()> {
     write_csv(&csv, &CSV_COLUMNS, &rows)?;
     let files = line_chart(
         &a.out_dir.join("ipc"),
-        "Frame latency and publish cost: iceoryx2 vs Unix socket",
+        "Frame latency and publish cost: iceoryx2 vs Unix socket and Zenoh",
         "Gaussians per frame (52 bytes each)",
         "microseconds",
         &series,
@@ -369,7 +386,7 @@ pub fn run(a: &IpcBenchArgs, world: crate::WorldSimFactory) -> Result<()> {
 }
 
 /// Columns of `ipc.csv` (one row per size; times in microseconds).
-const CSV_COLUMNS: [&str; 13] = [
+const CSV_COLUMNS: [&str; 16] = [
     "gaussians",
     "bytes",
     "iox_median_latency_us",
@@ -383,6 +400,9 @@ const CSV_COLUMNS: [&str; 13] = [
     "step_us",
     "step_particles",
     "publish_fraction_of_step",
+    "zenoh_median_latency_us",
+    "zenoh_p99_latency_us",
+    "zenoh_frames_per_s",
 ];
 
 #[cfg(test)]

@@ -19,6 +19,7 @@ pub mod compare;
 pub mod contact;
 pub mod flood;
 pub mod ipc;
+pub mod ipc_zenoh;
 pub mod islands;
 pub mod mpm;
 pub mod peer;
