@@ -1,0 +1,54 @@
+//! Finding a GPU and opening a device on it.
+
+use crate::GpuError;
+
+/// An open wgpu device and its queue.
+#[derive(Debug)]
+pub struct GpuContext {
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// What the adapter says it is.
+    pub info: wgpu::AdapterInfo,
+}
+
+impl GpuContext {
+    /// Opens the highest-performance adapter wgpu finds (Vulkan on Linux, Metal on macOS,
+    /// DirectX 12 on Windows; `WGPU_BACKEND` and `WGPU_ADAPTER_NAME` choose another), with the
+    /// adapter's own limits.
+    ///
+    /// # Errors
+    /// [`GpuError::NoAdapter`] when there is none (tests skip then), [`GpuError::Device`] when
+    /// it refuses a device.
+    pub fn new() -> Result<Self, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            ..Default::default()
+        }))
+        .map_err(|_| GpuError::NoAdapter)?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("splatphys-gpu"),
+            required_features: wgpu::Features::empty(),
+            required_limits: adapter.limits(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device {
+            adapter: info.name.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(Self {
+            device,
+            queue,
+            info,
+        })
+    }
+
+    /// The adapter's name and backend, e.g. `"NVIDIA H100 (Vulkan)"`.
+    pub fn name(&self) -> String {
+        format!("{} ({:?})", self.info.name, self.info.backend)
+    }
+}

@@ -1,0 +1,64 @@
+//! MLS-MPM on the GPU: splatphys-core's P2G, grid update and G2P as WGSL compute shaders run
+//! through wgpu (Vulkan, Metal or DirectX 12), for a self-contained particle system
+//! ([`splatphys_core::mpm::MpmSystem`]: particles, materials, grid colliders, gravity).
+//!
+//! - [`context`]: finding an adapter and opening a device ([`GpuContext`]); no adapter is an
+//!   error the caller reports ([`GpuError::NoAdapter`]), never a panic;
+//! - [`mpm`]: [`GpuMpm`], the particles kept on the GPU between substeps, read back when asked.
+//!
+//! What runs on the GPU: the fixed-corotated ("jelly") and neo-Hookean models with their
+//! Kelvin–Voigt damping; static plane, box and domain-bound colliders with the sticky, slip and
+//! separate rules and Coulomb friction, on a dense grid over the domain bound. What does not (and
+//! is refused with [`GpuError::Unsupported`], naming it, so the caller can stay on the CPU): the
+//! plastic models (snow, sand, metal, plasticine, foam), moving colliders, the gap check that
+//! lets material leave a plane or box only where it reaches it, and a system without a domain
+//! bound.
+//!
+//! P2G adds into 64-bit fixed-point sums (two 32-bit atomics per value, the carry propagated), so
+//! every node's sum is exact whatever order the particles arrive in: a run gives the same bits
+//! on the same device every time.
+
+pub mod context;
+pub mod mpm;
+
+pub use context::GpuContext;
+pub use mpm::GpuMpm;
+
+/// What can go wrong on the GPU path.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No GPU (or software Vulkan) adapter was found.
+    #[error(
+        "no GPU adapter found (wgpu looked for Vulkan, Metal or DirectX 12; on Linux without a GPU, install Mesa's lavapipe: apt install mesa-vulkan-drivers)"
+    )]
+    NoAdapter,
+    /// The adapter refused the device.
+    #[error("opening the GPU device on {adapter}: {message}")]
+    Device {
+        /// The adapter's name.
+        adapter: String,
+        /// wgpu's message.
+        message: String,
+    },
+    /// The system uses something the GPU path does not run.
+    #[error("not on the GPU yet: {what}")]
+    Unsupported {
+        /// What, in words.
+        what: String,
+    },
+    /// A substep failed on the GPU: a particle left the grid or a value was not finite.
+    #[error(
+        "GPU substep {substep}: {count} particle or node updates failed (left the grid or not finite; first particle {first:?})"
+    )]
+    Failed {
+        /// Substep index.
+        substep: u64,
+        /// Failed updates.
+        count: u32,
+        /// The highest-numbered failed particle, if a particle failed.
+        first: Option<u32>,
+    },
+    /// Reading results back failed.
+    #[error("reading back from the GPU: {0}")]
+    Readback(String),
+}

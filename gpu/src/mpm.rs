@@ -1,0 +1,555 @@
+//! [`GpuMpm`]: an [`MpmSystem`]'s particles on the GPU, advanced substep by substep by the
+//! kernels of `mpm.wgsl` (P2G, grid update, G2P) on a dense grid over the system's domain bound.
+//! The particles stay on the GPU between substeps; [`GpuMpm::read_particles`] brings them back
+//! and [`GpuMpm::check`] reads the failure count and the largest speed (each is one wait for the
+//! GPU: call them once per frame, not per substep).
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3A, Vec3A};
+use splatphys_core::collider::{Shape, Surface};
+use splatphys_core::material::Material;
+use splatphys_core::mpm::{MpmSystem, Particles};
+use wgpu::util::DeviceExt;
+
+use crate::{GpuContext, GpuError};
+
+/// Work items per workgroup (`@workgroup_size(64)` in the shader).
+const WORKGROUP: u32 = 64;
+/// Workgroups per dispatch row (the per-dimension limit); the shader's `ROW`.
+const ROW: u32 = 65_535;
+/// Momentum's fixed-point scale is the mass scale over this: a node's momentum may reach this
+/// many m/s times the system's mass before its sum could overflow.
+const MOMENTUM_HEADROOM: f32 = 4096.0;
+
+/// The shader's `Params` (uniform).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct Params {
+    grid_dims: [i32; 3],
+    n_particles: u32,
+    grid_origin: [f32; 3],
+    dx: f32,
+    gravity: [f32; 3],
+    dt: f32,
+    inv_dx: f32,
+    n_colliders: u32,
+    scale_m: f32,
+    scale_p: f32,
+    inv_scale_m: f32,
+    inv_scale_p: f32,
+    pad: [f32; 2],
+}
+
+/// The shader's `Material`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct GpuMaterial {
+    mu: f32,
+    lambda: f32,
+    eta: f32,
+    model: u32,
+}
+
+/// The shader's `Collider`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct GpuCollider {
+    kind: u32,
+    surface: u32,
+    friction: f32,
+    pad: f32,
+    a: [f32; 4],
+    b: [f32; 4],
+}
+
+fn unsupported(what: impl Into<String>) -> GpuError {
+    GpuError::Unsupported { what: what.into() }
+}
+
+/// The GPU form of `materials` (those `used`), or what is not supported.
+fn materials(materials: &[Material], used: &[bool]) -> Result<Vec<GpuMaterial>, GpuError> {
+    materials
+        .iter()
+        .zip(used)
+        .map(|(m, &used)| {
+            let (model, p) = match m {
+                Material::Jelly(j) => (0, j.params),
+                Material::NeoHookean(n) => (1, n.params),
+                other if used => {
+                    return Err(unsupported(format!(
+                        "the {} model (jelly and neo-Hookean run on the GPU)",
+                        splatphys_core::material::ConstitutiveModel::name(other)
+                    )));
+                }
+                // Not used by any particle: a placeholder the shader never reads.
+                _ => return Ok(GpuMaterial::zeroed()),
+            };
+            Ok(GpuMaterial {
+                mu: p.mu_pa,
+                lambda: p.lambda_pa,
+                eta: p.damping_viscosity_pa_s,
+                model,
+            })
+        })
+        .collect()
+}
+
+/// The GPU form of `sys`'s colliders and the domain bound's box (the grid's extent).
+fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuError> {
+    let mut out = Vec::new();
+    let mut domain = None;
+    for c in &sys.colliders {
+        if c.active_s.is_some() {
+            return Err(unsupported("moving or timed colliders"));
+        }
+        let surface = match c.surface {
+            Surface::Sticky => 0,
+            Surface::Slip => 1,
+            Surface::Separate => 2,
+        };
+        if c.is_gated() {
+            return Err(unsupported(
+                "a plane or box collider that lets material leave (its gap check runs on the CPU); sticky ones and the domain bound run",
+            ));
+        }
+        let (kind, a, b) = match c.shape {
+            Shape::Plane(p) => (0, p.point_m, p.normal),
+            Shape::Box(b) => (1, b.min_m, b.max_m),
+            Shape::DomainBound(b) => {
+                domain = Some((b.min_m, b.max_m));
+                (2, b.min_m, b.max_m)
+            }
+        };
+        out.push(GpuCollider {
+            kind,
+            surface,
+            friction: c.friction,
+            pad: 0.0,
+            a: a.extend(0.0).to_array(),
+            b: b.extend(0.0).to_array(),
+        });
+    }
+    let domain = domain.ok_or_else(|| {
+        unsupported("a system without a domain bound (the GPU grid is dense over it)")
+    })?;
+    Ok((out, domain))
+}
+
+/// What [`GpuMpm::new`] uploads of a system the GPU path runs.
+struct Supported {
+    n: u32,
+    materials: Vec<GpuMaterial>,
+    colliders: Vec<GpuCollider>,
+    domain: (Vec3A, Vec3A),
+}
+
+fn supported(sys: &MpmSystem) -> Result<Supported, GpuError> {
+    let p = &sys.particles;
+    let n = u32::try_from(p.len()).map_err(|_| unsupported("more than 2^32 particles"))?;
+    let mut used = vec![false; sys.materials.len()];
+    for &m in &p.material {
+        *used
+            .get_mut(m as usize)
+            .ok_or_else(|| unsupported(format!("material index {m} without a material")))? = true;
+    }
+    let materials = materials(&sys.materials, &used)?;
+    let (colliders, domain) = colliders(sys)?;
+    Ok(Supported {
+        n,
+        materials,
+        colliders,
+        domain,
+    })
+}
+
+/// Whether the GPU path runs `sys` (no device needed).
+///
+/// # Errors
+/// [`GpuError::Unsupported`] naming the first model, collider or layout it does not run.
+pub fn check_supported(sys: &MpmSystem) -> Result<(), GpuError> {
+    supported(sys).map(|_| ())
+}
+
+/// The dispatch size for `n` work items: (x, y) workgroups, rows of [`ROW`].
+fn dispatch(n: u32) -> (u32, u32) {
+    let groups = n.div_ceil(WORKGROUP).max(1);
+    (groups.min(ROW), groups.div_ceil(ROW))
+}
+
+/// An [`MpmSystem`]'s particles, materials and colliders on the GPU.
+#[derive(Debug)]
+pub struct GpuMpm {
+    ctx: GpuContext,
+    params: Params,
+    n_nodes: u32,
+    params_buf: wgpu::Buffer,
+    xv: wgpu::Buffer,
+    cf: wgpu::Buffer,
+    grid_sum: wgpu::Buffer,
+    status: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    p2g: wgpu::ComputePipeline,
+    grid_update: wgpu::ComputePipeline,
+    g2p: wgpu::ComputePipeline,
+    /// Substeps run.
+    pub substeps: u64,
+    /// Simulated time (s).
+    pub time_s: f64,
+}
+
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl GpuMpm {
+    /// Uploads `sys` (its particles, materials, colliders and gravity; the time-step policy is
+    /// the caller's: [`GpuMpm::substep`] takes dt).
+    ///
+    /// # Errors
+    /// [`GpuError::Unsupported`] for a model, collider or layout the GPU path does not run.
+    pub fn new(ctx: GpuContext, sys: &MpmSystem) -> Result<Self, GpuError> {
+        let Supported {
+            n,
+            materials: mats,
+            colliders: cols,
+            domain: (lo, hi),
+        } = supported(sys)?;
+        let p = &sys.particles;
+        let dx = sys.solver.dx_m;
+        // Nodes at integer multiples of dx, as on the CPU's sparse grid, three cells beyond the
+        // bound on every side (a particle's stencil reaches 1.5 cells).
+        let first = (lo / dx).floor() - Vec3A::splat(3.0);
+        let last = (hi / dx).ceil() + Vec3A::splat(3.0);
+        let dims = (last - first + Vec3A::ONE).as_ivec3();
+        let n_nodes = dims.x as u64 * dims.y as u64 * dims.z as u64;
+        let n_nodes =
+            u32::try_from(n_nodes).map_err(|_| unsupported("a grid of more than 2^32 nodes"))?;
+        let total_mass: f64 = p.mass_kg.iter().map(|&m| f64::from(m)).sum();
+        // Every node's mass sum stays below 2^61 in fixed point (the total mass does).
+        let s_m = 61 - total_mass.max(1e-30).log2().ceil() as i32;
+        let scale_m = 2f32.powi(s_m.clamp(-100, 100));
+        let scale_p = scale_m / MOMENTUM_HEADROOM;
+        let params = Params {
+            grid_dims: dims.to_array(),
+            n_particles: n,
+            grid_origin: (first * dx).to_array(),
+            dx,
+            gravity: sys.gravity_m_s2.to_array(),
+            dt: 0.0,
+            inv_dx: 1.0 / dx,
+            n_colliders: cols.len() as u32,
+            scale_m,
+            scale_p,
+            inv_scale_m: 1.0 / scale_m,
+            inv_scale_p: 1.0 / scale_p,
+            pad: [0.0; 2],
+        };
+        let device = &ctx.device;
+        let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let rw = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let xv: Vec<[f32; 4]> = (0..p.len())
+            .flat_map(|i| {
+                [
+                    p.x[i].extend(p.mass_kg[i]).to_array(),
+                    p.v[i].extend(p.volume0_m3[i]).to_array(),
+                ]
+            })
+            .collect();
+        let cf: Vec<[f32; 4]> = (0..p.len())
+            .flat_map(|i| {
+                let (c, f) = (p.c[i], p.f[i]);
+                [
+                    c.x_axis, c.y_axis, c.z_axis, f.x_axis, f.y_axis, f.z_axis,
+                ]
+                .map(|col| col.extend(0.0).to_array())
+            })
+            .collect();
+        let pmat: Vec<u32> = p.material.iter().map(|&m| u32::from(m)).collect();
+        // Storage buffers may not be empty: one unused element where there is nothing.
+        let nonempty = |v: &[u8], size: usize| {
+            if v.is_empty() {
+                vec![0u8; size]
+            } else {
+                v.to_vec()
+            }
+        };
+        let params_buf = init(
+            "params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let xv = init("xv", &nonempty(bytemuck::cast_slice(&xv), 32), rw);
+        let cf = init("cf", &nonempty(bytemuck::cast_slice(&cf), 96), rw);
+        let pmat = init(
+            "particle_material",
+            &nonempty(bytemuck::cast_slice(&pmat), 4),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let mats = init(
+            "materials",
+            &nonempty(bytemuck::cast_slice(&mats), 16),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let cols = init(
+            "colliders",
+            &nonempty(bytemuck::cast_slice(&cols), 48),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let grid_sum = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("grid_sum"),
+            size: u64::from(n_nodes) * 32,
+            usage: rw,
+            mapped_at_creation: false,
+        });
+        let grid_v = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("grid_v"),
+            size: u64::from(n_nodes) * 16,
+            usage: rw,
+            mapped_at_creation: false,
+        });
+        let status = init("status", &[0u8; 16], rw);
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("mpm"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                storage(1, false),
+                storage(2, false),
+                storage(3, true),
+                storage(4, true),
+                storage(5, true),
+                storage(6, false),
+                storage(7, false),
+                storage(8, false),
+            ],
+        });
+        let buffers = [
+            &params_buf,
+            &xv,
+            &cf,
+            &pmat,
+            &mats,
+            &cols,
+            &grid_sum,
+            &grid_v,
+            &status,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("mpm"),
+            layout: &layout,
+            entries: &entries,
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("mpm.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("mpm.wgsl").into()),
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("mpm"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let (p2g, grid_update, g2p) = (pipeline("p2g"), pipeline("grid_update"), pipeline("g2p"));
+        Ok(Self {
+            params,
+            n_nodes,
+            params_buf,
+            xv,
+            cf,
+            grid_sum,
+            status,
+            bind_group,
+            p2g,
+            grid_update,
+            g2p,
+            substeps: 0,
+            time_s: sys.time_s,
+            ctx,
+        })
+    }
+
+    /// The device it runs on.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// Grid nodes (the dense grid over the domain bound).
+    pub fn grid_nodes(&self) -> u32 {
+        self.n_nodes
+    }
+
+    /// Queues `count` substeps of `dt_s` seconds each (P2G, grid update, G2P); returns without
+    /// waiting for the GPU. Failures are counted on the GPU and reported by [`GpuMpm::check`].
+    pub fn substeps(&mut self, count: u32, dt_s: f32) {
+        if count == 0 {
+            return;
+        }
+        self.params.dt = dt_s;
+        self.ctx
+            .queue
+            .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("mpm") });
+        let particles = dispatch(self.params.n_particles);
+        let nodes = dispatch(self.n_nodes);
+        for _ in 0..count {
+            encoder.clear_buffer(&self.grid_sum, 0, None);
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("substep"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            if self.params.n_particles > 0 {
+                pass.set_pipeline(&self.p2g);
+                pass.dispatch_workgroups(particles.0, particles.1, 1);
+            }
+            pass.set_pipeline(&self.grid_update);
+            pass.dispatch_workgroups(nodes.0, nodes.1, 1);
+            if self.params.n_particles > 0 {
+                pass.set_pipeline(&self.g2p);
+                pass.dispatch_workgroups(particles.0, particles.1, 1);
+            }
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+        self.substeps += u64::from(count);
+        self.time_s += f64::from(dt_s) * f64::from(count);
+    }
+
+    /// Queues one substep of `dt_s` seconds.
+    pub fn substep(&mut self, dt_s: f32) {
+        self.substeps(1, dt_s);
+    }
+
+    /// Waits for the GPU and copies `buffer` back.
+    fn read(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
+        let size = buffer.size();
+        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("readback"),
+            });
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.ctx.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let bytes = staging
+            .get_mapped_range(..)
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .to_vec();
+        staging.unmap();
+        Ok(bytes)
+    }
+
+    /// Waits for the queued substeps; returns the largest particle speed since the last check
+    /// (m/s), and resets it.
+    ///
+    /// # Errors
+    /// [`GpuError::Failed`] when a particle left the grid or a value went non-finite (the
+    /// failed particles were left as they were), [`GpuError::Readback`].
+    pub fn check(&mut self) -> Result<f32, GpuError> {
+        let bytes = self.read(&self.status)?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        self.ctx
+            .queue
+            .write_buffer(&self.status, 0, bytemuck::cast_slice(&[0u32; 4]));
+        if words[0] > 0 {
+            return Err(GpuError::Failed {
+                substep: self.substeps,
+                count: words[0],
+                first: words[2].checked_sub(1),
+            });
+        }
+        Ok(f32::from_bits(words[1]))
+    }
+
+    /// Copies the particles' positions, velocities, C and F back into `into` (which must be the
+    /// set uploaded: same count and order).
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`], or a count that does not match.
+    pub fn read_particles(&self, into: &mut Particles) -> Result<(), GpuError> {
+        let n = self.params.n_particles as usize;
+        if into.len() != n {
+            return Err(GpuError::Readback(format!(
+                "{} particles given, {n} on the GPU",
+                into.len()
+            )));
+        }
+        if n == 0 {
+            return Ok(());
+        }
+        let xv = self.read(&self.xv)?;
+        let cf = self.read(&self.cf)?;
+        let xv: &[[f32; 4]] = bytemuck::cast_slice(&xv);
+        let cf: &[[f32; 4]] = bytemuck::cast_slice(&cf);
+        let v3 = |a: [f32; 4]| Vec3A::new(a[0], a[1], a[2]);
+        for i in 0..n {
+            into.x[i] = v3(xv[2 * i]);
+            into.v[i] = v3(xv[2 * i + 1]);
+            let col = |k: usize| v3(cf[6 * i + k]);
+            into.c[i] = Mat3A::from_cols(col(0), col(1), col(2));
+            into.f[i] = Mat3A::from_cols(col(3), col(4), col(5));
+        }
+        Ok(())
+    }
+}

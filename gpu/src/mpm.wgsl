@@ -1,0 +1,384 @@
+// MLS-MPM substep on the GPU (Hu et al. 2018, "A moving least squares material point method
+// with displacement discontinuity and two-way rigid body coupling", eqs. 17 and 29): the same
+// P2G, grid update and G2P as splatphys-core's CPU solver (src/mpm/p2g.rs, grid_update.rs,
+// g2p.rs), on a dense grid.
+//
+// P2G scatters with 64-bit fixed-point sums built from two u32 atomics each (the low word's
+// carry goes into the high word), so a node's sum is exact and does not depend on the order in
+// which particles add to it: results are deterministic for a given device.
+
+struct Params {
+    grid_dims: vec3<i32>,
+    n_particles: u32,
+    grid_origin: vec3<f32>,
+    dx: f32,
+    gravity: vec3<f32>,
+    dt: f32,
+    inv_dx: f32,
+    n_colliders: u32,
+    scale_m: f32,
+    scale_p: f32,
+    inv_scale_m: f32,
+    inv_scale_p: f32,
+    pad0: f32,
+    pad1: f32,
+};
+
+// Material: Lamé mu, lambda (Pa), Kelvin–Voigt viscosity eta (Pa s), model (0 fixed-corotated
+// "jelly", 1 neo-Hookean).
+struct Material {
+    mu: f32,
+    lambda: f32,
+    eta: f32,
+    model: u32,
+};
+
+// Collider: kind (0 plane: a = point, b = outward normal; 1 box: a = min, b = max; 2 domain
+// bound: a = min, b = max), surface (0 sticky, 1 slip, 2 separate), Coulomb friction.
+struct Collider {
+    kind: u32,
+    surface: u32,
+    friction: f32,
+    pad: f32,
+    a: vec4<f32>,
+    b: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> params: Params;
+// Per particle: (x, mass), (v, volume0).
+@group(0) @binding(1) var<storage, read_write> xv: array<vec4<f32>>;
+// Per particle: C columns 0..2, then F columns 0..2 (w unused).
+@group(0) @binding(2) var<storage, read_write> cf: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> particle_material: array<u32>;
+@group(0) @binding(4) var<storage, read> materials: array<Material>;
+@group(0) @binding(5) var<storage, read> colliders: array<Collider>;
+// Per node 8 words: mass, px, py, pz, each as (low u32, high u32) of a 64-bit fixed-point sum.
+@group(0) @binding(6) var<storage, read_write> grid_sum: array<atomic<u32>>;
+// Per node: velocity (m/s), mass (kg).
+@group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
+// [0] particles or nodes that failed (left the grid, not finite), [1] largest speed (f32 bits),
+// [2] first failed particle + 1.
+@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
+
+const TWO_32: f32 = 4294967296.0;
+// Workgroups per row of a dispatch (the limit per dimension); work items are numbered row by
+// row, 64 per workgroup.
+const ROW: u32 = 65535u;
+
+fn flat_index(gid: vec3<u32>) -> u32 {
+    return gid.x + gid.y * ROW * 64u;
+}
+
+// Adds `value` (already scaled; |value| < 2^62) to the 64-bit fixed-point sum at `slot`.
+fn add_fixed(slot: u32, value: f32) {
+    let a = abs(value);
+    let hi_f = floor(a / TWO_32);
+    var hi = u32(hi_f);
+    var lo = u32(round(a - hi_f * TWO_32));
+    if value < 0.0 {
+        lo = ~lo + 1u;
+        hi = ~hi + select(0u, 1u, lo == 0u);
+    }
+    let old = atomicAdd(&grid_sum[slot], lo);
+    let carry = select(0u, 1u, old + lo < old);
+    atomicAdd(&grid_sum[slot + 1u], hi + carry);
+}
+
+// The 64-bit fixed-point sum at `slot` as f32 (still scaled).
+fn read_fixed(slot: u32) -> f32 {
+    let lo = atomicLoad(&grid_sum[slot]);
+    let hi = atomicLoad(&grid_sum[slot + 1u]);
+    let negative = (hi & 0x80000000u) != 0u;
+    var l = lo;
+    var h = hi;
+    if negative {
+        l = ~lo + 1u;
+        h = ~hi + select(0u, 1u, l == 0u);
+    }
+    let magnitude = f32(h) * TWO_32 + f32(l);
+    return select(magnitude, -magnitude, negative);
+}
+
+fn fail(p: u32) {
+    atomicAdd(&status[0], 1u);
+    atomicMax(&status[2], p + 1u);
+}
+
+fn node_index(node: vec3<i32>) -> i32 {
+    let d = params.grid_dims;
+    if any(node < vec3<i32>(0)) || any(node >= d) {
+        return -1;
+    }
+    return node.x + d.x * (node.y + d.y * node.z);
+}
+
+// Quadratic B-spline weights per axis for offsets 0, 1, 2 (bspline.rs).
+struct Stencil {
+    base: vec3<i32>,
+    fx: vec3<f32>,
+    w0: vec3<f32>,
+    w1: vec3<f32>,
+    w2: vec3<f32>,
+};
+
+fn stencil(x: vec3<f32>) -> Stencil {
+    let xp = (x - params.grid_origin) * params.inv_dx;
+    let base_f = floor(xp - vec3<f32>(0.5));
+    let fx = xp - base_f;
+    var s: Stencil;
+    s.base = vec3<i32>(base_f);
+    s.fx = fx;
+    s.w0 = 0.5 * (vec3<f32>(1.5) - fx) * (vec3<f32>(1.5) - fx);
+    s.w1 = vec3<f32>(0.75) - (fx - vec3<f32>(1.0)) * (fx - vec3<f32>(1.0));
+    s.w2 = 0.5 * (fx - vec3<f32>(0.5)) * (fx - vec3<f32>(0.5));
+    return s;
+}
+
+fn weight(s: Stencil, axis: u32, i: u32) -> f32 {
+    if i == 0u {
+        return s.w0[axis];
+    } else if i == 1u {
+        return s.w1[axis];
+    }
+    return s.w2[axis];
+}
+
+fn det3(m: mat3x3<f32>) -> f32 {
+    return dot(m[0], cross(m[1], m[2]));
+}
+
+// R of F = R S by Newton's iteration X <- (X + X^-T) / 2 (Higham 1986), as
+// splatphys-core's math/newton_polar.rs; an inverted or singular F keeps the identity.
+fn polar_rotation(a: mat3x3<f32>) -> mat3x3<f32> {
+    var x = a;
+    for (var step = 0; step < 12; step++) {
+        let k0 = cross(x[1], x[2]);
+        let k1 = cross(x[2], x[0]);
+        let k2 = cross(x[0], x[1]);
+        let det = dot(x[0], k0);
+        if !(det > 1.0e-30) {
+            return mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+        }
+        let h = 0.5 / det;
+        let next = mat3x3<f32>(x[0] * 0.5 + k0 * h, x[1] * 0.5 + k1 * h, x[2] * 0.5 + k2 * h);
+        let d = max(max(abs(next[0] - x[0]), abs(next[1] - x[1])), abs(next[2] - x[2]));
+        x = next;
+        if max(max(d.x, d.y), d.z) <= 3.0e-4 {
+            break;
+        }
+    }
+    return x;
+}
+
+const IDENTITY: mat3x3<f32> = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+
+// Kirchhoff stress of the particle's model plus its Kelvin–Voigt damping J eta (C + C^T).
+fn kirchhoff(m: Material, f: mat3x3<f32>, c: mat3x3<f32>) -> mat3x3<f32> {
+    let j = det3(f);
+    var tau: mat3x3<f32>;
+    if m.model == 0u {
+        // Fixed-corotated: 2 mu (F - R) F^T + lambda (J - 1) J I.
+        let r = polar_rotation(f);
+        tau = (f - r) * transpose(f) * (2.0 * m.mu) + IDENTITY * (m.lambda * (j - 1.0) * j);
+    } else {
+        // Compressible neo-Hookean: mu (F F^T - I) + lambda ln J I.
+        tau = (f * transpose(f) - IDENTITY) * m.mu + IDENTITY * (m.lambda * log(max(j, 1.0e-4)));
+    }
+    if m.eta > 0.0 {
+        tau = tau + (c + transpose(c)) * (m.eta * j);
+    }
+    return tau;
+}
+
+@compute @workgroup_size(64)
+fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = flat_index(gid);
+    if p >= params.n_particles {
+        return;
+    }
+    let xm = xv[2u * p];
+    let vv = xv[2u * p + 1u];
+    let mass = xm.w;
+    let c = mat3x3<f32>(cf[6u * p].xyz, cf[6u * p + 1u].xyz, cf[6u * p + 2u].xyz);
+    let f = mat3x3<f32>(cf[6u * p + 3u].xyz, cf[6u * p + 4u].xyz, cf[6u * p + 5u].xyz);
+    let tau = kirchhoff(materials[particle_material[p]], f, c);
+    let d_inv = 4.0 * params.inv_dx * params.inv_dx;
+    let affine = tau * (-params.dt * vv.w * d_inv) + c * mass;
+    let s = stencil(xm.xyz);
+    // Momentum at offset o (cells): w (m v + affine (o - fx) dx) = w (q + A o), A = affine dx.
+    let a = affine * params.dx;
+    let q = vv.xyz * mass - a * s.fx;
+    for (var k = 0u; k < 3u; k++) {
+        for (var j = 0u; j < 3u; j++) {
+            for (var i = 0u; i < 3u; i++) {
+                let w = weight(s, 0u, i) * weight(s, 1u, j) * weight(s, 2u, k);
+                let node = node_index(s.base + vec3<i32>(i32(i), i32(j), i32(k)));
+                if node < 0 {
+                    fail(p);
+                    continue;
+                }
+                let mom = (q + a * vec3<f32>(f32(i), f32(j), f32(k))) * w;
+                let slot = u32(node) * 8u;
+                add_fixed(slot, mass * w * params.scale_m);
+                add_fixed(slot + 2u, mom.x * params.scale_p);
+                add_fixed(slot + 4u, mom.y * params.scale_p);
+                add_fixed(slot + 6u, mom.z * params.scale_p);
+            }
+        }
+    }
+}
+
+// Coulomb friction on tangential velocity vt for an approaching normal speed `pressed` >= 0.
+fn friction(vt: vec3<f32>, pressed: f32, mu: f32) -> vec3<f32> {
+    if mu <= 0.0 || pressed <= 0.0 {
+        return vt;
+    }
+    let speed = length(vt);
+    if speed <= mu * pressed {
+        return vec3<f32>(0.0);
+    }
+    return vt * (1.0 - mu * pressed / speed);
+}
+
+// collider/surface.rs: sticky, slip or separate with friction, at outward normal n.
+fn apply_surface(v: vec3<f32>, n: vec3<f32>, surface: u32, mu: f32) -> vec3<f32> {
+    let vn = dot(v, n);
+    if surface == 0u {
+        return vec3<f32>(0.0);
+    } else if surface == 1u {
+        return friction(v - vn * n, max(-vn, 0.0), mu);
+    }
+    if vn < 0.0 {
+        return friction(v - vn * n, -vn, mu);
+    }
+    return v;
+}
+
+// The collider's outward normal at node position x if x is inside it, else zero (collider/).
+fn contact_normal(c: Collider, x: vec3<f32>) -> vec3<f32> {
+    if c.kind == 0u {
+        if dot(x - c.a.xyz, c.b.xyz) <= 0.0 {
+            return c.b.xyz;
+        }
+        return vec3<f32>(0.0);
+    }
+    let lo = c.a.xyz;
+    let hi = c.b.xyz;
+    if c.kind == 1u {
+        if any(x < lo) || any(x > hi) {
+            return vec3<f32>(0.0);
+        }
+        let below = x - lo;
+        let above = hi - x;
+        var best = 3.0e38;
+        var n = vec3<f32>(0.0, 0.0, 1.0);
+        for (var axis = 0u; axis < 3u; axis++) {
+            var e = vec3<f32>(0.0);
+            e[axis] = 1.0;
+            if below[axis] < best {
+                best = below[axis];
+                n = -e;
+            }
+            if above[axis] < best {
+                best = above[axis];
+                n = e;
+            }
+        }
+        return n;
+    }
+    // Domain bound: the inward normal outside the box.
+    let n = select(vec3<f32>(0.0), vec3<f32>(1.0), x < lo) - select(vec3<f32>(0.0), vec3<f32>(1.0), x > hi);
+    let len = length(n);
+    if len > 0.0 {
+        return n / len;
+    }
+    return vec3<f32>(0.0);
+}
+
+@compute @workgroup_size(64)
+fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let d = params.grid_dims;
+    let n_nodes = u32(d.x * d.y * d.z);
+    let i = flat_index(gid);
+    if i >= n_nodes {
+        return;
+    }
+    let slot = i * 8u;
+    let m = read_fixed(slot) * params.inv_scale_m;
+    if m <= 0.0 {
+        grid_v[i] = vec4<f32>(0.0);
+        return;
+    }
+    let p = vec3<f32>(read_fixed(slot + 2u), read_fixed(slot + 4u), read_fixed(slot + 6u)) * params.inv_scale_p;
+    var v = p / m + params.gravity * params.dt;
+    let node = vec3<i32>(i32(i) % d.x, (i32(i) / d.x) % d.y, i32(i) / (d.x * d.y));
+    let x = params.grid_origin + vec3<f32>(node) * params.dx;
+    for (var k = 0u; k < params.n_colliders; k++) {
+        let c = colliders[k];
+        let n = contact_normal(c, x);
+        if dot(n, n) > 0.0 {
+            v = apply_surface(v, n, c.surface, c.friction);
+        }
+    }
+    if !(all(abs(v) < vec3<f32>(3.0e38))) {
+        atomicAdd(&status[0], 1u);
+    }
+    grid_v[i] = vec4<f32>(v, m);
+}
+
+@compute @workgroup_size(64)
+fn g2p(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = flat_index(gid);
+    if p >= params.n_particles {
+        return;
+    }
+    let xm = xv[2u * p];
+    let vv = xv[2u * p + 1u];
+    let v_old = vv.xyz;
+    let s = stencil(xm.xyz);
+    // With u = vi - v_old and d = (i, j, k) - fx (cells): v = v_old + sum w u and
+    // C = (4 / dx) sum w u d^T (g2p.rs).
+    var sum_u = vec3<f32>(0.0);
+    var col0 = vec3<f32>(0.0);
+    var col1 = vec3<f32>(0.0);
+    var col2 = vec3<f32>(0.0);
+    for (var k = 0u; k < 3u; k++) {
+        for (var j = 0u; j < 3u; j++) {
+            for (var i = 0u; i < 3u; i++) {
+                let w = weight(s, 0u, i) * weight(s, 1u, j) * weight(s, 2u, k);
+                let node = node_index(s.base + vec3<i32>(i32(i), i32(j), i32(k)));
+                if node < 0 {
+                    continue;
+                }
+                let u = (grid_v[u32(node)].xyz - v_old) * w;
+                let dcell = vec3<f32>(f32(i), f32(j), f32(k)) - s.fx;
+                sum_u += u;
+                col0 += u * dcell.x;
+                col1 += u * dcell.y;
+                col2 += u * dcell.z;
+            }
+        }
+    }
+    let new_v = v_old + sum_u;
+    let new_c = mat3x3<f32>(col0, col1, col2) * (4.0 * params.inv_dx);
+    let f = mat3x3<f32>(cf[6u * p + 3u].xyz, cf[6u * p + 4u].xyz, cf[6u * p + 5u].xyz);
+    let new_f = (IDENTITY + new_c * params.dt) * f;
+    let new_x = xm.xyz + new_v * params.dt;
+    let big = vec3<f32>(3.0e38);
+    let finite = all(abs(new_x) < big) && all(abs(new_v) < big) && all(abs(new_c[0]) < big)
+        && all(abs(new_c[1]) < big) && all(abs(new_c[2]) < big) && all(abs(new_f[0]) < big)
+        && all(abs(new_f[1]) < big) && all(abs(new_f[2]) < big);
+    if !finite {
+        fail(p);
+        return;
+    }
+    xv[2u * p] = vec4<f32>(new_x, xm.w);
+    xv[2u * p + 1u] = vec4<f32>(new_v, vv.w);
+    cf[6u * p] = vec4<f32>(new_c[0], 0.0);
+    cf[6u * p + 1u] = vec4<f32>(new_c[1], 0.0);
+    cf[6u * p + 2u] = vec4<f32>(new_c[2], 0.0);
+    cf[6u * p + 3u] = vec4<f32>(new_f[0], 0.0);
+    cf[6u * p + 4u] = vec4<f32>(new_f[1], 0.0);
+    cf[6u * p + 5u] = vec4<f32>(new_f[2], 0.0);
+    atomicMax(&status[1], bitcast<u32>(length(new_v)));
+}

@@ -1,0 +1,180 @@
+//! The GPU path against closed forms and against the CPU solver on the same problem.
+//!
+//! Needs a wgpu adapter: a GPU, or Mesa's lavapipe (software Vulkan, `apt install
+//! mesa-vulkan-drivers`), which CI installs. Without one every test here prints why and passes,
+//! unless `SPLATPHYS_REQUIRE_GPU` is set (CI sets it): then a missing adapter fails.
+
+use glam::Vec3A;
+use splatphys_core::collider::{BoxShape, Collider, Shape, Surface};
+use splatphys_core::material::{ConstitutiveModel, Material, MaterialModel, MaterialSpec};
+use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
+use splatphys_gpu::mpm::check_supported;
+use splatphys_gpu::{GpuContext, GpuError, GpuMpm};
+
+/// The device, or `None` (with a message) where there is none and none is required.
+fn context() -> Option<GpuContext> {
+    match GpuContext::new() {
+        Ok(ctx) => {
+            eprintln!("GPU tests on {}", ctx.name());
+            Some(ctx)
+        }
+        Err(e) => {
+            assert!(
+                std::env::var_os("SPLATPHYS_REQUIRE_GPU").is_none(),
+                "SPLATPHYS_REQUIRE_GPU is set and there is no adapter: {e}"
+            );
+            eprintln!("skipped: {e}");
+            None
+        }
+    }
+}
+
+/// An elastic cube of n³ particles filling (0.35, 0.35, 0.3)..(0.65, 0.65, 0.6) m at `v0` m/s,
+/// jelly E = 1e5 Pa, ν = 0.3, 1000 kg/m³, in a 1 m domain bound 3 cells in, fixed dt = 1e-4 s:
+/// the standard problem of `splatphys bench mpm`.
+fn cube(n: u32, dx_m: f32, v0: Vec3A, gravity: Vec3A, material: Material) -> MpmSystem {
+    let mut p = Particles::lattice_box(
+        Vec3A::new(0.35, 0.35, 0.3),
+        Vec3A::new(0.65, 0.65, 0.6),
+        0.3 / n as f32,
+        1000.0,
+        0,
+        0,
+    );
+    p.v.iter_mut().for_each(|v| *v = v0);
+    let mut sys = MpmSystem::new(p, vec![material], dx_m);
+    sys.gravity_m_s2 = gravity;
+    sys.policy = TimeStepPolicy::Fixed {
+        dt_s: 1e-4,
+        force: false,
+    };
+    let bound = BoxShape::new(Vec3A::splat(3.0 * dx_m), Vec3A::splat(1.0 - 3.0 * dx_m)).unwrap();
+    sys.colliders.push(Collider::fixed(
+        Shape::DomainBound(bound),
+        Surface::Separate,
+        0.0,
+    ));
+    sys
+}
+
+fn jelly() -> Material {
+    Material::jelly(1e5, 0.3, 1000.0).unwrap()
+}
+
+fn model(model: MaterialModel, e_pa: f64, nu: f64, density: f64) -> Material {
+    Material::from_spec(&MaterialSpec::new(model, e_pa, nu, density)).unwrap()
+}
+
+fn com(p: &Particles) -> Vec3A {
+    let m: f32 = p.mass_kg.iter().sum();
+    p.x.iter()
+        .zip(&p.mass_kg)
+        .fold(Vec3A::ZERO, |s, (x, &w)| s + *x * w)
+        / m
+}
+
+/// Runs `sys` on the GPU for `substeps` of 1e-4 s; returns its particles.
+fn on_gpu(ctx: GpuContext, sys: &MpmSystem, substeps: u32) -> Particles {
+    let mut gpu = GpuMpm::new(ctx, sys).expect("supported");
+    gpu.substeps(substeps, 1e-4);
+    gpu.check().expect("no failed substep");
+    let mut out = sys.particles.clone();
+    gpu.read_particles(&mut out).unwrap();
+    out
+}
+
+#[test]
+fn a_falling_cube_follows_the_closed_form() {
+    let Some(ctx) = context() else { return };
+    let g = Vec3A::new(0.0, 0.0, -9.81);
+    let v0 = Vec3A::new(0.3, 0.0, 1.0);
+    let sys = cube(8, 1.0 / 32.0, v0, g, jelly());
+    let before = com(&sys.particles);
+    // 0.15 s: the cube rises and falls back without reaching a wall.
+    let after = on_gpu(ctx, &sys, 1500);
+    // Symplectic Euler (gravity into the grid velocity, then x += dt v) after N substeps of dt:
+    // x0 + v0 t + g t² / 2 + g dt t / 2.
+    let (t, dt) = (0.15f32, 1e-4f32);
+    let want = before + v0 * t + g * (0.5 * t * t + 0.5 * dt * t);
+    let got = com(&after);
+    println!("COM after {t} s: {got:?}, closed form {want:?}");
+    assert!((got - want).length() < 1e-5, "{got:?} vs {want:?}");
+    // A free translation stays a translation: every particle moved by the same amount, to f32
+    // rounding of positions near 0.5 m over 1,500 substeps.
+    let moved = after.x[0] - sys.particles.x[0];
+    let spread = after
+        .x
+        .iter()
+        .zip(&sys.particles.x)
+        .map(|(a, b)| (*a - *b - moved).length())
+        .fold(0.0f32, f32::max);
+    println!("largest difference between two particles' displacements: {spread:.1e} m");
+    assert!(spread < 5e-5, "{spread}");
+}
+
+#[test]
+fn the_standard_cube_matches_the_cpu_solver_through_its_landing() {
+    for material in [jelly(), model(MaterialModel::NeoHookean, 1e5, 0.3, 1000.0)] {
+        let Some(ctx) = context() else { return };
+        let g = Vec3A::new(0.0, 0.0, -9.8);
+        let mut cpu = cube(10, 1.0 / 32.0, Vec3A::new(0.0, 0.0, -1.0), g, material);
+        let gpu = on_gpu(ctx, &cpu, 3000);
+        for _ in 0..3000 {
+            cpu.substep(1.0).unwrap();
+        }
+        // 0.3 s: the cube has hit the floor (about 0.2 s) and is on its way back up.
+        let worst = cpu
+            .particles
+            .x
+            .iter()
+            .zip(&gpu.x)
+            .map(|(a, b)| (*a - *b).length())
+            .fold(0.0f32, f32::max);
+        let (c_cpu, c_gpu) = (com(&cpu.particles), com(&gpu));
+        println!(
+            "{}: COM CPU {c_cpu:?} GPU {c_gpu:?}; worst particle apart {worst:.2e} m (a cell is {:.3} m)",
+            cpu.materials[0].name(),
+            1.0 / 32.0
+        );
+        let rising = cpu.particles.v.iter().map(|v| v.z).sum::<f32>() > 0.0;
+        assert!(rising, "the cube should be on its way back up");
+        assert!((c_cpu - c_gpu).length() < 1e-3, "{c_cpu:?} vs {c_gpu:?}");
+        assert!(worst < 1.0 / 32.0 * 0.1, "worst particle {worst} m apart");
+    }
+}
+
+#[test]
+fn a_run_gives_the_same_bits_every_time() {
+    let Some(ctx) = context() else { return };
+    let sys = cube(
+        8,
+        1.0 / 32.0,
+        Vec3A::new(0.2, -0.1, -1.0),
+        Vec3A::new(0.0, 0.0, -9.8),
+        jelly(),
+    );
+    let a = on_gpu(ctx, &sys, 2500);
+    let b = on_gpu(GpuContext::new().unwrap(), &sys, 2500);
+    assert_eq!(a.x, b.x);
+    assert_eq!(a.f, b.f);
+}
+
+#[test]
+fn what_the_gpu_does_not_run_is_refused_with_its_name() {
+    let snow = model(MaterialModel::Snow, 1.4e5, 0.2, 400.0);
+    let sys = cube(
+        4,
+        1.0 / 32.0,
+        Vec3A::ZERO,
+        Vec3A::new(0.0, 0.0, -9.8),
+        snow,
+    );
+    let e = check_supported(&sys).unwrap_err();
+    assert!(matches!(e, GpuError::Unsupported { .. }));
+    assert!(e.to_string().contains("snow"), "{e}");
+    let mut sys = cube(4, 1.0 / 32.0, Vec3A::ZERO, Vec3A::ZERO, jelly());
+    sys.colliders.clear();
+    let e = check_supported(&sys).unwrap_err();
+    assert!(e.to_string().contains("domain bound"), "{e}");
+    assert!(check_supported(&cube(4, 1.0 / 32.0, Vec3A::ZERO, Vec3A::ZERO, jelly())).is_ok());
+}
