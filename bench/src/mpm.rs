@@ -5,7 +5,9 @@
 //! `--domain-scale 4` puts the same cube in a domain 4× larger per axis: with the sparse grid the
 //! cost must not change. `--vs-taichi` then runs the Taichi reference of the same problem
 //! (`bench/taichi/mpm_cube.py`, through [`crate::taichi`]) with the same arguments and prints its
-//! result and the ratio; without Taichi it says so and stops after our result.
+//! result and the ratio; without Taichi it says so and stops after our result. `--device gpu`
+//! runs the same problem through splatphys-gpu (dense grid over the domain; the Taichi reference
+//! then runs on CUDA).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -47,9 +49,9 @@ pub struct MpmBenchArgs {
     /// not affected.
     #[arg(long)]
     pub shuffle: bool,
-    /// Then run the Taichi reference of the same problem (bench/taichi/mpm_cube.py, CPU backend,
-    /// dense grid) with the same arguments and print its result and the ratio; skipped with a
-    /// message when Taichi is not installed.
+    /// Then run the Taichi reference of the same problem (bench/taichi/mpm_cube.py, dense grid;
+    /// its CPU backend, or CUDA with --device gpu) with the same arguments and print its result
+    /// and the ratio; skipped with a message when Taichi is not installed.
     #[arg(long)]
     pub vs_taichi: bool,
     /// The Taichi script (default: bench/taichi/mpm_cube.py in the current directory or the
@@ -59,6 +61,20 @@ pub struct MpmBenchArgs {
     /// Python interpreter for --vs-taichi.
     #[arg(long, default_value = "python3", requires = "vs_taichi")]
     pub python: String,
+    /// Where the kernels run: `cpu` (the sparse grid, `--threads` workers) or `gpu` (WGSL
+    /// compute shaders through wgpu on the first adapter: a GPU, or Mesa's lavapipe; a dense
+    /// grid over the domain).
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    pub device: Device,
+}
+
+/// Where `bench mpm` runs the kernels.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Device {
+    /// The CPU solver.
+    Cpu,
+    /// The GPU backend (splatphys-gpu).
+    Gpu,
 }
 
 /// The standard problem's elastic cube: n³ particles filling (0.35, 0.35, 0.3)..(0.65, 0.65,
@@ -131,6 +147,14 @@ pub fn run(a: &MpmBenchArgs) -> Result<()> {
         sys.particles = shuffled(&sys.particles);
     }
     let count = sys.particles.len();
+    if a.device == Device::Gpu {
+        let line = gpu_run(a, &mut sys)?;
+        println!("{line}");
+        return match script {
+            Some(script) => vs_taichi(a, &script, &line),
+            None => Ok(()),
+        };
+    }
     let seconds = pool.install(|| -> Result<f64> {
         for _ in 0..WARMUP_SUBSTEPS {
             sys.substep(1.0)?;
@@ -142,22 +166,11 @@ pub fn run(a: &MpmBenchArgs) -> Result<()> {
         Ok(t.elapsed().as_secs_f64())
     })?;
     let rate = (count as f64 * a.steps as f64) / seconds;
-    let p = &sys.particles;
-    let mass: f64 = p.mass_kg.iter().map(|&m| m as f64).sum();
-    let com_z =
-        p.x.iter()
-            .zip(&p.mass_kg)
-            .map(|(x, &m)| x.z as f64 * m as f64)
-            .sum::<f64>()
-            / mass.max(f64::MIN_POSITIVE);
-    let momentum_z: f64 =
-        p.v.iter()
-            .zip(&p.mass_kg)
-            .map(|(v, &m)| v.z as f64 * m as f64)
-            .sum();
+    let (com_z, momentum_z) = com_and_momentum_z(&sys.particles);
     let ours = json!({
         "bench": "mpm",
         "impl": "splatphys",
+        "device": "cpu",
         "particles": count,
         "steps": a.steps,
         "threads": a.threads,
@@ -177,6 +190,66 @@ pub fn run(a: &MpmBenchArgs) -> Result<()> {
     }
 }
 
+/// The particles' COM height (m) and z momentum (kg m/s).
+fn com_and_momentum_z(p: &Particles) -> (f64, f64) {
+    let mass: f64 = p.mass_kg.iter().map(|&m| m as f64).sum();
+    let com_z =
+        p.x.iter()
+            .zip(&p.mass_kg)
+            .map(|(x, &m)| x.z as f64 * m as f64)
+            .sum::<f64>()
+            / mass.max(f64::MIN_POSITIVE);
+    let momentum_z: f64 =
+        p.v.iter()
+            .zip(&p.mass_kg)
+            .map(|(v, &m)| v.z as f64 * m as f64)
+            .sum();
+    (com_z, momentum_z)
+}
+
+/// The same problem on the GPU: warm-up substeps, then `--steps` queued at once and timed until
+/// the GPU has finished them; the JSON line of [`run`] with the adapter's name.
+#[cfg(feature = "gpu")]
+fn gpu_run(a: &MpmBenchArgs, sys: &mut MpmSystem) -> Result<serde_json::Value> {
+    use splatphys_gpu::{GpuContext, GpuMpm};
+    let ctx = GpuContext::new()?;
+    let device = ctx.name();
+    let mut gpu = GpuMpm::new(ctx, sys)?;
+    let dt = 1e-4;
+    gpu.substeps(WARMUP_SUBSTEPS, dt);
+    gpu.check()?;
+    let t = Instant::now();
+    gpu.substeps(a.steps, dt);
+    gpu.check()?;
+    let seconds = t.elapsed().as_secs_f64();
+    gpu.read_particles(&mut sys.particles)?;
+    let count = sys.particles.len();
+    let (com_z, momentum_z) = com_and_momentum_z(&sys.particles);
+    Ok(json!({
+        "bench": "mpm",
+        "impl": "splatphys",
+        "device": device,
+        "particles": count,
+        "steps": a.steps,
+        "grid": a.grid,
+        "domain_scale": a.domain_scale,
+        "shuffled": a.shuffle,
+        "grid_nodes": gpu.grid_nodes(),
+        "seconds": seconds,
+        "particle_substeps_per_s": (count as f64 * a.steps as f64) / seconds,
+        "com_z_m": com_z,
+        "momentum_z_kg_m_s": momentum_z,
+    }))
+}
+
+/// Without the `gpu` feature: says so.
+#[cfg(not(feature = "gpu"))]
+fn gpu_run(_: &MpmBenchArgs, _: &mut MpmSystem) -> Result<serde_json::Value> {
+    anyhow::bail!(
+        "--device gpu: this build has no GPU backend (build splatphys-bench with the `gpu` feature)"
+    )
+}
+
 /// Runs the Taichi reference with `a`'s arguments and prints its line and the comparison.
 fn vs_taichi(a: &MpmBenchArgs, script: &std::path::Path, ours: &serde_json::Value) -> Result<()> {
     let args = [
@@ -186,6 +259,14 @@ fn vs_taichi(a: &MpmBenchArgs, script: &std::path::Path, ours: &serde_json::Valu
         ("--threads", a.threads.to_string()),
         ("--warmup", WARMUP_SUBSTEPS.to_string()),
         ("--domain-scale", a.domain_scale.to_string()),
+        (
+            "--arch",
+            match a.device {
+                Device::Cpu => "cpu",
+                Device::Gpu => "cuda",
+            }
+            .to_string(),
+        ),
     ];
     let Some(theirs) = taichi::run_reference(&a.python, script, &args)? else {
         return Ok(());
@@ -216,6 +297,8 @@ fn vs_taichi(a: &MpmBenchArgs, script: &std::path::Path, ours: &serde_json::Valu
             "com_z_diff_m": com_diff,
             "momentum_z_diff_kg_m_s": momentum_diff,
             "taichi_version": theirs["taichi_version"],
+            "taichi_arch": theirs["arch"],
+            "device": ours["device"],
         })
     );
     Ok(())

@@ -39,6 +39,8 @@ def main() -> int:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--warmup", type=int, default=5, help="untimed substeps (compile here)")
     ap.add_argument("--domain-scale", type=float, default=1.0, help="domain edge (m)")
+    ap.add_argument("--arch", choices=["cpu", "cuda", "vulkan"], default="cpu",
+                    help="Taichi backend (cuda: the GPU comparison of `bench mpm --device gpu`)")
     a = ap.parse_args()
     if a.particles_per_axis < 1 or a.grid < 8 or a.steps < 0 or a.threads < 1 or a.warmup < 1:
         ap.error("need --particles-per-axis >= 1, --grid >= 8, --steps >= 0, --threads >= 1, --warmup >= 1")
@@ -48,7 +50,7 @@ def main() -> int:
         import numpy as np
         import taichi as ti
 
-        ti.init(arch=ti.cpu, cpu_max_num_threads=a.threads, default_fp=ti.f32, random_seed=0)
+        ti.init(arch=getattr(ti, a.arch), cpu_max_num_threads=a.threads, default_fp=ti.f32, random_seed=0)
 
     n = a.particles_per_axis
     dx = 1.0 / a.grid
@@ -162,6 +164,7 @@ def main() -> int:
                 "bench": "mpm",
                 "impl": "taichi",
                 "taichi_version": ".".join(str(p) for p in ti.__version__),
+                "arch": a.arch,
                 "particles": n_particles,
                 "steps": a.steps,
                 "threads": a.threads,

@@ -275,10 +275,8 @@ impl GpuMpm {
         let cf: Vec<[f32; 4]> = (0..p.len())
             .flat_map(|i| {
                 let (c, f) = (p.c[i], p.f[i]);
-                [
-                    c.x_axis, c.y_axis, c.z_axis, f.x_axis, f.y_axis, f.z_axis,
-                ]
-                .map(|col| col.extend(0.0).to_array())
+                [c.x_axis, c.y_axis, c.z_axis, f.x_axis, f.y_axis, f.z_axis]
+                    .map(|col| col.extend(0.0).to_array())
             })
             .collect();
         let pmat: Vec<u32> = p.material.iter().map(|&m| u32::from(m)).collect();

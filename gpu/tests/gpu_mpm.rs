@@ -98,9 +98,11 @@ fn a_falling_cube_follows_the_closed_form() {
     let want = before + v0 * t + g * (0.5 * t * t + 0.5 * dt * t);
     let got = com(&after);
     println!("COM after {t} s: {got:?}, closed form {want:?}");
-    assert!((got - want).length() < 1e-5, "{got:?} vs {want:?}");
-    // A free translation stays a translation: every particle moved by the same amount, to f32
-    // rounding of positions near 0.5 m over 1,500 substeps.
+    // Within the rounding of f32 positions near 0.5 m (half an ulp, 3e-8 m, per substep, over
+    // 1,500 substeps: 4.5e-5 m at worst).
+    assert!((got - want).length() < 4.5e-5, "{got:?} vs {want:?}");
+    // A free translation stays a translation: every particle moved by the same amount, to that
+    // rounding.
     let moved = after.x[0] - sys.particles.x[0];
     let spread = after
         .x
@@ -109,7 +111,7 @@ fn a_falling_cube_follows_the_closed_form() {
         .map(|(a, b)| (*a - *b - moved).length())
         .fold(0.0f32, f32::max);
     println!("largest difference between two particles' displacements: {spread:.1e} m");
-    assert!(spread < 5e-5, "{spread}");
+    assert!(spread < 9e-5, "{spread}");
 }
 
 #[test]
@@ -162,13 +164,7 @@ fn a_run_gives_the_same_bits_every_time() {
 #[test]
 fn what_the_gpu_does_not_run_is_refused_with_its_name() {
     let snow = model(MaterialModel::Snow, 1.4e5, 0.2, 400.0);
-    let sys = cube(
-        4,
-        1.0 / 32.0,
-        Vec3A::ZERO,
-        Vec3A::new(0.0, 0.0, -9.8),
-        snow,
-    );
+    let sys = cube(4, 1.0 / 32.0, Vec3A::ZERO, Vec3A::new(0.0, 0.0, -9.8), snow);
     let e = check_supported(&sys).unwrap_err();
     assert!(matches!(e, GpuError::Unsupported { .. }));
     assert!(e.to_string().contains("snow"), "{e}");
