@@ -143,7 +143,7 @@ fn child_json_is_compared_and_its_arguments_are_ours() {
     assert_eq!(lines.len(), 3, "ours, Taichi's, the comparison");
     assert_eq!(
         lines[1]["args"],
-        "--particles-per-axis 4 --grid 64 --steps 2 --threads 1 --warmup 5 --domain-scale 1"
+        "--particles-per-axis 4 --grid 64 --steps 2 --threads 1 --warmup 5 --domain-scale 1 --arch cpu"
     );
     let cmp = &lines[2];
     assert_eq!(cmp["bench"], "mpm-vs-taichi");
