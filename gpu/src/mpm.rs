@@ -13,6 +13,8 @@ use wgpu::util::DeviceExt;
 
 use crate::{GpuContext, GpuError};
 
+/// u32 words per grid node in the shader's `grid_sum` (four 64-bit sums and the node gap).
+const NODE_WORDS: u64 = 9;
 /// Work items per workgroup (`@workgroup_size(64)` in the shader).
 const WORKGROUP: u32 = 64;
 /// Workgroups per dispatch row (the per-dimension limit); the shader's `ROW`.
@@ -37,7 +39,8 @@ struct Params {
     scale_p: f32,
     inv_scale_m: f32,
     inv_scale_p: f32,
-    pad: [f32; 2],
+    n_gated: u32,
+    pad: f32,
 }
 
 /// The shader's `Material`.
@@ -57,7 +60,7 @@ struct GpuCollider {
     kind: u32,
     surface: u32,
     friction: f32,
-    pad: f32,
+    gated: u32,
     a: [f32; 4],
     b: [f32; 4],
 }
@@ -107,11 +110,6 @@ fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuE
             Surface::Slip => 1,
             Surface::Separate => 2,
         };
-        if c.is_gated() {
-            return Err(unsupported(
-                "a plane or box collider that lets material leave (its gap check runs on the CPU); sticky ones and the domain bound run",
-            ));
-        }
         let (kind, a, b) = match c.shape {
             Shape::Plane(p) => (0, p.point_m, p.normal),
             Shape::Box(b) => (1, b.min_m, b.max_m),
@@ -124,7 +122,7 @@ fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuE
             kind,
             surface,
             friction: c.friction,
-            pad: 0.0,
+            gated: u32::from(c.is_gated()),
             a: a.extend(0.0).to_array(),
             b: b.extend(0.0).to_array(),
         });
@@ -251,7 +249,8 @@ impl GpuMpm {
             scale_p,
             inv_scale_m: 1.0 / scale_m,
             inv_scale_p: 1.0 / scale_p,
-            pad: [0.0; 2],
+            n_gated: sys.colliders.iter().filter(|c| c.is_gated()).count() as u32,
+            pad: 0.0,
         };
         let device = &ctx.device;
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
@@ -312,7 +311,7 @@ impl GpuMpm {
         );
         let grid_sum = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("grid_sum"),
-            size: u64::from(n_nodes) * 32,
+            size: u64::from(n_nodes) * 4 * NODE_WORDS,
             usage: rw,
             mapped_at_creation: false,
         });

@@ -20,7 +20,7 @@ struct Params {
     scale_p: f32,
     inv_scale_m: f32,
     inv_scale_p: f32,
-    pad0: f32,
+    n_gated: u32,
     pad1: f32,
 };
 
@@ -34,12 +34,13 @@ struct Material {
 };
 
 // Collider: kind (0 plane: a = point, b = outward normal; 1 box: a = min, b = max; 2 domain
-// bound: a = min, b = max), surface (0 sticky, 1 slip, 2 separate), Coulomb friction.
+// bound: a = min, b = max), surface (0 sticky, 1 slip, 2 separate), Coulomb friction, and
+// whether its nodes take the rule only where material reaches the surface (mpm/reach.rs).
 struct Collider {
     kind: u32,
     surface: u32,
     friction: f32,
-    pad: f32,
+    gated: u32,
     a: vec4<f32>,
     b: vec4<f32>,
 };
@@ -52,7 +53,9 @@ struct Collider {
 @group(0) @binding(3) var<storage, read> particle_material: array<u32>;
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var<storage, read> colliders: array<Collider>;
-// Per node 8 words: mass, px, py, pz, each as (low u32, high u32) of a 64-bit fixed-point sum.
+// Per node 9 words: mass, px, py, pz, each as (low u32, high u32) of a 64-bit fixed-point sum,
+// then the node's gap to the gated colliders (the bitwise NOT of an order-preserving u32 form of
+// the f32, so that 0 is "no particle's column reaches it" and atomicMax takes the smallest gap).
 @group(0) @binding(6) var<storage, read_write> grid_sum: array<atomic<u32>>;
 // Per node: velocity (m/s), mass (kg).
 @group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
@@ -61,6 +64,10 @@ struct Collider {
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 
 const TWO_32: f32 = 4294967296.0;
+const NODE_WORDS: u32 = 9u;
+// A node counts as reached when the gap is within this fraction of the particle's size
+// (mpm/reach.rs REACH_TOLERANCE).
+const REACH_TOLERANCE: f32 = 0.25;
 // Workgroups per row of a dispatch (the limit per dimension); work items are numbered row by
 // row, 64 per workgroup.
 const ROW: u32 = 65535u;
@@ -190,6 +197,97 @@ fn kirchhoff(m: Material, f: mat3x3<f32>, c: mat3x3<f32>) -> mat3x3<f32> {
     return tau;
 }
 
+// The NOT of an order-preserving u32 form of `gap` (module docs of the grid buffer).
+fn encode_gap(gap: f32) -> u32 {
+    let bits = bitcast<u32>(gap);
+    let ordered = select(~bits, bits ^ 0x80000000u, gap >= 0.0);
+    return ~ordered;
+}
+
+// The smallest gap of a node (m), or a huge value where no column reached it.
+fn node_gap(slot: u32) -> f32 {
+    let stored = atomicLoad(&grid_sum[slot + 8u]);
+    if stored == 0u {
+        return 3.0e38;
+    }
+    let ordered = ~stored;
+    let bits = select(~ordered, ordered ^ 0x80000000u, (ordered & 0x80000000u) != 0u);
+    return bitcast<f32>(bits);
+}
+
+// Signed distance (m, negative inside) of x from a plane or box collider and its outward
+// normal (collider/boxes.rs signed_distance), as (normal, distance).
+fn collider_distance(c: Collider, x: vec3<f32>) -> vec4<f32> {
+    if c.kind == 0u {
+        return vec4<f32>(c.b.xyz, dot(x - c.a.xyz, c.b.xyz));
+    }
+    let centre = (c.a.xyz + c.b.xyz) * 0.5;
+    let d = x - centre;
+    let q = abs(d) - (c.b.xyz - c.a.xyz) * 0.5;
+    let outside = max(q, vec3<f32>(0.0));
+    let len = length(outside);
+    if len > 0.0 {
+        return vec4<f32>(outside * sign(d) / len, len);
+    }
+    var axis = 2u;
+    if q.x >= q.y && q.x >= q.z {
+        axis = 0u;
+    } else if q.y >= q.z {
+        axis = 1u;
+    }
+    var n = vec3<f32>(0.0);
+    n[axis] = select(-1.0, 1.0, d[axis] >= 0.0);
+    return vec4<f32>(n, q[axis]);
+}
+
+// The node gaps of one particle against the nearest gated collider (mpm/reach.rs): each node of
+// its 3x3x3 stencil in its column along the surface normal, about inside the solid, gets the
+// particle's gap phi - (1/2 + REACH_TOLERANCE) size.
+fn scatter_gaps(x: vec3<f32>, volume0: f32, s: Stencil) {
+    var best = vec4<f32>(0.0, 0.0, 1.0, 3.0e38);
+    for (var k = 0u; k < params.n_colliders; k++) {
+        let c = colliders[k];
+        if c.gated == 0u {
+            continue;
+        }
+        let sd = collider_distance(c, x);
+        if sd.w < best.w {
+            best = sd;
+        }
+    }
+    let dx = params.dx;
+    let phi = best.w;
+    let n = best.xyz;
+    if !(phi < 3.0 * dx) {
+        return;
+    }
+    let size = pow(volume0, 1.0 / 3.0);
+    let gap = phi - (0.5 + REACH_TOLERANCE) * size;
+    if !(gap < 2.0 * dx) {
+        return;
+    }
+    let r = max(0.5 * dx, 0.75 * size);
+    let radius2 = r * r;
+    let encoded = encode_gap(gap);
+    for (var kk = 0; kk < 3; kk++) {
+        for (var jj = 0; jj < 3; jj++) {
+            for (var ii = 0; ii < 3; ii++) {
+                let node = s.base + vec3<i32>(ii, jj, kk);
+                let d = params.grid_origin + vec3<f32>(node) * dx - x;
+                let along = dot(d, n);
+                let across = d - n * along;
+                if phi + along > 0.5 * dx || dot(across, across) > radius2 {
+                    continue;
+                }
+                let index = node_index(node);
+                if index >= 0 {
+                    atomicMax(&grid_sum[u32(index) * NODE_WORDS + 8u], encoded);
+                }
+            }
+        }
+    }
+}
+
 @compute @workgroup_size(64)
 fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = flat_index(gid);
@@ -205,6 +303,9 @@ fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d_inv = 4.0 * params.inv_dx * params.inv_dx;
     let affine = tau * (-params.dt * vv.w * d_inv) + c * mass;
     let s = stencil(xm.xyz);
+    if params.n_gated > 0u {
+        scatter_gaps(xm.xyz, vv.w, s);
+    }
     // Momentum at offset o (cells): w (m v + affine (o - fx) dx) = w (q + A o), A = affine dx.
     let a = affine * params.dx;
     let q = vv.xyz * mass - a * s.fx;
@@ -218,7 +319,7 @@ fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
                     continue;
                 }
                 let mom = (q + a * vec3<f32>(f32(i), f32(j), f32(k))) * w;
-                let slot = u32(node) * 8u;
+                let slot = u32(node) * NODE_WORDS;
                 add_fixed(slot, mass * w * params.scale_m);
                 add_fixed(slot + 2u, mom.x * params.scale_p);
                 add_fixed(slot + 4u, mom.y * params.scale_p);
@@ -303,7 +404,7 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
     if i >= n_nodes {
         return;
     }
-    let slot = i * 8u;
+    let slot = i * NODE_WORDS;
     let m = read_fixed(slot) * params.inv_scale_m;
     if m <= 0.0 {
         grid_v[i] = vec4<f32>(0.0);
@@ -317,6 +418,10 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
         let c = colliders[k];
         let n = contact_normal(c, x);
         if dot(n, n) > 0.0 {
+            // A gated collider's rule only where material meets its surface within the substep.
+            if c.gated != 0u && !(node_gap(slot) <= max(-dot(v, n), 0.0) * params.dt) {
+                continue;
+            }
             v = apply_surface(v, n, c.surface, c.friction);
         }
     }

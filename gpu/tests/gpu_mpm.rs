@@ -146,6 +146,41 @@ fn the_standard_cube_matches_the_cpu_solver_through_its_landing() {
 }
 
 #[test]
+fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
+    let Some(ctx) = context() else { return };
+    let g = Vec3A::new(0.0, 0.0, -9.8);
+    let mut cpu = cube(10, 1.0 / 32.0, Vec3A::new(0.8, 0.0, -1.0), g, jelly());
+    // A floor that lets material leave (its nodes take the rule only where material reaches
+    // them: the gap check) with Coulomb friction, a cell above the domain's floor.
+    let plane = splatphys_core::collider::Plane::new(Vec3A::new(0.0, 0.0, 0.2), Vec3A::Z).unwrap();
+    cpu.colliders
+        .push(Collider::fixed(Shape::Plane(plane), Surface::Separate, 0.3));
+    let gpu = on_gpu(ctx, &cpu, 3000);
+    let mut lowest = f32::MAX;
+    for _ in 0..3000 {
+        cpu.substep(1.0).unwrap();
+        lowest = cpu.particles.x.iter().map(|x| x.z).fold(lowest, f32::min);
+    }
+    let worst = cpu
+        .particles
+        .x
+        .iter()
+        .zip(&gpu.x)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0f32, f32::max);
+    let (c_cpu, c_gpu) = (com(&cpu.particles), com(&gpu));
+    println!(
+        "on a plane: COM CPU {c_cpu:?} GPU {c_gpu:?}; worst particle apart {worst:.2e} m; lowest particle ever {lowest:.4} m"
+    );
+    // It landed on the plane (reached it, never passed it) and friction slowed it.
+    assert!(lowest > 0.19 && lowest < 0.21, "{lowest}");
+    let vx = cpu.particles.v.iter().map(|v| v.x).sum::<f32>() / cpu.particles.len() as f32;
+    assert!(vx < 0.75, "friction should have slowed it: {vx}");
+    assert!((c_cpu - c_gpu).length() < 1e-3, "{c_cpu:?} vs {c_gpu:?}");
+    assert!(worst < 1.0 / 32.0 * 0.1, "worst particle {worst} m apart");
+}
+
+#[test]
 fn a_run_gives_the_same_bits_every_time() {
     let Some(ctx) = context() else { return };
     let sys = cube(
