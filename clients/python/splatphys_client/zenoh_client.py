@@ -43,6 +43,9 @@ DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 # does not have, so the default silence allowed is longer.
 ZENOH_HEARTBEAT_TIMEOUT_S = 2.0 * HEARTBEAT_TIMEOUT_S
 OBJECTS_BUFFER = 64
+# How long after a liveliness token ends the client waits for a final status (a clean
+# shutdown's) before it raises ServerGone.
+GONE_GRACE_S = 0.3
 
 
 class CommandRefused(RuntimeError):
@@ -252,7 +255,9 @@ class ZenohClient:
             self._last_beat = time.monotonic()
             self.shutting_down |= bool(st.flags & wire.STATUS_SHUTTING_DOWN)
             self.last_status = st
-        if self._gone is not None and not self.shutting_down:
+        # A token may end a moment before the last status (a clean shutdown's) arrives: wait
+        # for it briefly before calling the end a crash.
+        if self._gone is not None and not self.shutting_down and time.monotonic() - self._gone[1] > GONE_GRACE_S:
             who, at = self._gone
             raise ServerGone(
                 f"splatphys {'server' if who == 'server' else 'bridge'} under `{self.prefix}` is gone "

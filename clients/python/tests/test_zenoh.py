@@ -124,6 +124,19 @@ def test_a_command_over_zenoh_gets_the_servers_reply(bridged):
         assert r.accepted and r.generation == 1 and r.effective_step == 0
 
 
+def test_a_clean_shutdown_reaches_the_remote_client_as_a_shutdown_not_a_crash(bridged):
+    prefix, endpoint, server, bridge = bridged
+    with sc.ZenohClient(prefix, connect=[endpoint], connect_timeout_s=20.0, frame_buffer=1) as c:
+        assert c.command(sc.Shutdown(), timeout_s=10.0).accepted
+        with pytest.raises(sc.ServerShutDown):
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline:
+                c.recv_frame()
+                c.wait(0.01)
+    assert server.wait(timeout=5) == 0
+    assert bridge.wait(timeout=5) == 0
+
+
 @pytest.mark.parametrize("bridged", [[]], indirect=True)
 def test_a_bridge_without_allow_commands_refuses_with_the_reason(bridged):
     prefix, endpoint, _, _ = bridged

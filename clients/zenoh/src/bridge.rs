@@ -258,6 +258,16 @@ pub fn run(opts: &BridgeOptions) -> Result<BridgeEnd, BridgeError> {
         match result {
             Ok(()) => {}
             Err(BridgeError::Ipc(IpcError::ServerShutDown { .. })) => {
+                // The server's last status says it shut down cleanly: remote clients must hear
+                // it before the server's token goes, or they would take the end for a crash.
+                // Express: sent at once, not batched behind the token's end.
+                if let Ok(Some(s)) = conn.poll_status() {
+                    let _ = session
+                        .put(keys.status(), bytemuck::bytes_of(&s).to_vec())
+                        .express(true)
+                        .congestion_control(CongestionControl::Block)
+                        .wait();
+                }
                 break BridgeEnd::ServerShutDown;
             }
             Err(e) => {
