@@ -88,7 +88,10 @@ fn add_fixed(slot: u32, value: f32) {
     }
     let old = atomicAdd(&grid_sum[slot], lo);
     let carry = select(0u, 1u, old + lo < old);
-    atomicAdd(&grid_sum[slot + 1u], hi + carry);
+    // Adding zero changes nothing: most small positive contributions carry nothing upward.
+    if hi + carry != 0u {
+        atomicAdd(&grid_sum[slot + 1u], hi + carry);
+    }
 }
 
 // The 64-bit fixed-point sum at `slot` as f32 (still scaled).
