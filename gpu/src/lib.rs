@@ -7,13 +7,13 @@
 //! - [`mpm`]: [`GpuMpm`], the particles kept on the GPU between substeps, read back when asked.
 //!
 //! What runs on the GPU: the fixed-corotated ("jelly") and neo-Hookean models with their
-//! Kelvin–Voigt damping; static plane, box and domain-bound colliders with the sticky, slip and
-//! separate rules and Coulomb friction, with the CPU's gap check (a plane or box that lets
+//! Kelvin–Voigt damping; plane, box and domain-bound colliders, static or moving within an
+//! active window, with the sticky, slip and separate rules and Coulomb friction, with the CPU's
+//! gap check (a plane or box that lets
 //! material leave takes its rule only at nodes where material reaches it,
 //! `splatphys_core::mpm::reach`), on a dense grid over the domain bound. What does not (and is
 //! refused with [`GpuError::Unsupported`], naming it, so the caller can stay on the CPU): the
-//! plastic models (snow, sand, metal, plasticine, foam), moving colliders, and a system without
-//! a domain bound.
+//! plastic models (snow, sand, metal, plasticine, foam) and a system without a domain bound.
 //!
 //! P2G adds into 64-bit fixed-point sums (two 32-bit atomics per value, the carry propagated), so
 //! every node's sum is exact whatever order the particles arrive in: a run gives the same bits

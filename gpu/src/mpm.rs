@@ -40,7 +40,7 @@ struct Params {
     inv_scale_m: f32,
     inv_scale_p: f32,
     n_gated: u32,
-    pad: f32,
+    t0: f32,
 }
 
 /// The shader's `Material`.
@@ -63,6 +63,10 @@ struct GpuCollider {
     gated: u32,
     a: [f32; 4],
     b: [f32; 4],
+    /// Velocity (m/s) and, in w, 1 for a moving collider with an active window.
+    velocity: [f32; 4],
+    /// Active window start and end (s).
+    window: [f32; 4],
 }
 
 fn unsupported(what: impl Into<String>) -> GpuError {
@@ -102,9 +106,6 @@ fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuE
     let mut out = Vec::new();
     let mut domain = None;
     for c in &sys.colliders {
-        if c.active_s.is_some() {
-            return Err(unsupported("moving or timed colliders"));
-        }
         let surface = match c.surface {
             Surface::Sticky => 0,
             Surface::Slip => 1,
@@ -125,6 +126,14 @@ fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuE
             gated: u32::from(c.is_gated()),
             a: a.extend(0.0).to_array(),
             b: b.extend(0.0).to_array(),
+            velocity: c
+                .velocity_m_s
+                .extend(if c.active_s.is_some() { 1.0 } else { 0.0 })
+                .to_array(),
+            window: match c.active_s {
+                Some((start, end)) => [start as f32, end.min(f64::from(f32::MAX)) as f32, 0.0, 0.0],
+                None => [0.0; 4],
+            },
         });
     }
     let domain = domain.ok_or_else(|| {
@@ -189,6 +198,7 @@ pub struct GpuMpm {
     p2g: wgpu::ComputePipeline,
     grid_update: wgpu::ComputePipeline,
     g2p: wgpu::ComputePipeline,
+    tick: wgpu::ComputePipeline,
     /// Substeps run.
     pub substeps: u64,
     /// Simulated time (s).
@@ -250,7 +260,7 @@ impl GpuMpm {
             inv_scale_m: 1.0 / scale_m,
             inv_scale_p: 1.0 / scale_p,
             n_gated: sys.colliders.iter().filter(|c| c.is_gated()).count() as u32,
-            pad: 0.0,
+            t0: 0.0,
         };
         let device = &ctx.device;
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
@@ -306,7 +316,7 @@ impl GpuMpm {
         );
         let cols = init(
             "colliders",
-            &nonempty(bytemuck::cast_slice(&cols), 48),
+            &nonempty(bytemuck::cast_slice(&cols), size_of::<GpuCollider>()),
             wgpu::BufferUsages::STORAGE,
         );
         let grid_sum = device.create_buffer(&wgpu::BufferDescriptor {
@@ -388,7 +398,12 @@ impl GpuMpm {
                 cache: None,
             })
         };
-        let (p2g, grid_update, g2p) = (pipeline("p2g"), pipeline("grid_update"), pipeline("g2p"));
+        let (p2g, grid_update, g2p, tick) = (
+            pipeline("p2g"),
+            pipeline("grid_update"),
+            pipeline("g2p"),
+            pipeline("tick"),
+        );
         Ok(Self {
             params,
             n_nodes,
@@ -401,6 +416,7 @@ impl GpuMpm {
             p2g,
             grid_update,
             g2p,
+            tick,
             substeps: 0,
             time_s: sys.time_s,
             ctx,
@@ -424,9 +440,14 @@ impl GpuMpm {
             return;
         }
         self.params.dt = dt_s;
+        self.params.t0 = self.time_s as f32;
         self.ctx
             .queue
             .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+        // The batch's substep counter (status word 3) starts at 0.
+        self.ctx
+            .queue
+            .write_buffer(&self.status, 12, bytemuck::bytes_of(&0u32));
         let mut encoder = self
             .ctx
             .device
@@ -450,6 +471,8 @@ impl GpuMpm {
                 pass.set_pipeline(&self.g2p);
                 pass.dispatch_workgroups(particles.0, particles.1, 1);
             }
+            pass.set_pipeline(&self.tick);
+            pass.dispatch_workgroups(1, 1, 1);
         }
         self.ctx.queue.submit([encoder.finish()]);
         self.substeps += u64::from(count);

@@ -21,7 +21,8 @@ struct Params {
     inv_scale_m: f32,
     inv_scale_p: f32,
     n_gated: u32,
-    pad1: f32,
+    // Time at the start of the batch of substeps (s); substep k of it starts at t0 + k dt.
+    t0: f32,
 };
 
 // Material: Lamé mu, lambda (Pa), Kelvin–Voigt viscosity eta (Pa s), model (0 fixed-corotated
@@ -36,6 +37,8 @@ struct Material {
 // Collider: kind (0 plane: a = point, b = outward normal; 1 box: a = min, b = max; 2 domain
 // bound: a = min, b = max), surface (0 sticky, 1 slip, 2 separate), Coulomb friction, and
 // whether its nodes take the rule only where material reaches the surface (mpm/reach.rs).
+// A moving collider (w of `velocity` = 1) acts within [window.x, window.y) s and is displaced
+// by velocity × (t − window.x) (collider/mod.rs).
 struct Collider {
     kind: u32,
     surface: u32,
@@ -43,6 +46,8 @@ struct Collider {
     gated: u32,
     a: vec4<f32>,
     b: vec4<f32>,
+    velocity: vec4<f32>,
+    window: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -60,7 +65,7 @@ struct Collider {
 // Per node: velocity (m/s), mass (kg).
 @group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
 // [0] particles or nodes that failed (left the grid, not finite), [1] largest speed (f32 bits),
-// [2] first failed particle + 1.
+// [2] first failed particle + 1, [3] substeps done in this batch.
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 
 const TWO_32: f32 = 4294967296.0;
@@ -107,6 +112,31 @@ fn read_fixed(slot: u32) -> f32 {
     }
     let magnitude = f32(h) * TWO_32 + f32(l);
     return select(magnitude, -magnitude, negative);
+}
+
+// Time at the start of the current substep (s).
+fn substep_time() -> f32 {
+    return params.t0 + f32(atomicLoad(&status[3])) * params.dt;
+}
+
+fn collider_active(c: Collider, t: f32) -> bool {
+    return c.velocity.w == 0.0 || (t >= c.window.x && t < c.window.y);
+}
+
+// Displacement of a moving collider at time t (m).
+fn collider_offset(c: Collider, t: f32) -> vec3<f32> {
+    if c.velocity.w == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return c.velocity.xyz * max(t - c.window.x, 0.0);
+}
+
+// Velocity of the collider at time t (m/s): zero when static or inactive.
+fn collider_velocity(c: Collider, t: f32) -> vec3<f32> {
+    if c.velocity.w != 0.0 && collider_active(c, t) {
+        return c.velocity.xyz;
+    }
+    return vec3<f32>(0.0);
 }
 
 fn fail(p: u32) {
@@ -248,12 +278,13 @@ fn collider_distance(c: Collider, x: vec3<f32>) -> vec4<f32> {
 // particle's gap phi - (1/2 + REACH_TOLERANCE) size.
 fn scatter_gaps(x: vec3<f32>, volume0: f32, s: Stencil) {
     var best = vec4<f32>(0.0, 0.0, 1.0, 3.0e38);
+    let t = substep_time();
     for (var k = 0u; k < params.n_colliders; k++) {
         let c = colliders[k];
-        if c.gated == 0u {
+        if c.gated == 0u || !collider_active(c, t) {
             continue;
         }
-        let sd = collider_distance(c, x);
+        let sd = collider_distance(c, x - collider_offset(c, t));
         if sd.w < best.w {
             best = sd;
         }
@@ -417,15 +448,20 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
     var v = p / m + params.gravity * params.dt;
     let node = vec3<i32>(i32(i) % d.x, (i32(i) / d.x) % d.y, i32(i) / (d.x * d.y));
     let x = params.grid_origin + vec3<f32>(node) * params.dx;
+    let t = substep_time();
     for (var k = 0u; k < params.n_colliders; k++) {
         let c = colliders[k];
-        let n = contact_normal(c, x);
+        if !collider_active(c, t) {
+            continue;
+        }
+        let n = contact_normal(c, x - collider_offset(c, t));
         if dot(n, n) > 0.0 {
+            let vc = collider_velocity(c, t);
             // A gated collider's rule only where material meets its surface within the substep.
-            if c.gated != 0u && !(node_gap(slot) <= max(-dot(v, n), 0.0) * params.dt) {
+            if c.gated != 0u && !(node_gap(slot) <= max(-dot(v - vc, n), 0.0) * params.dt) {
                 continue;
             }
-            v = apply_surface(v, n, c.surface, c.friction);
+            v = apply_surface(v - vc, n, c.surface, c.friction) + vc;
         }
     }
     if !(all(abs(v) < vec3<f32>(3.0e38))) {
@@ -489,4 +525,10 @@ fn g2p(@builtin(global_invocation_id) gid: vec3<u32>) {
     cf[6u * p + 4u] = vec4<f32>(new_f[1], 0.0);
     cf[6u * p + 5u] = vec4<f32>(new_f[2], 0.0);
     atomicMax(&status[1], bitcast<u32>(length(new_v)));
+}
+
+// Ends a substep: the next one starts dt later.
+@compute @workgroup_size(1)
+fn tick() {
+    atomicAdd(&status[3], 1u);
 }

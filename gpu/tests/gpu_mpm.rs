@@ -181,6 +181,40 @@ fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
 }
 
 #[test]
+fn a_moving_plane_lifts_and_drags_a_cube_as_on_the_cpu() {
+    let Some(ctx) = context() else { return };
+    let g = Vec3A::new(0.0, 0.0, -9.8);
+    let mut cpu = cube(10, 1.0 / 32.0, Vec3A::ZERO, g, jelly());
+    // A floor rising at 0.3 m/s and sliding at 0.4 m/s from 0.02 s on, with friction: it meets
+    // the falling cube, then carries it up and along.
+    let plane = splatphys_core::collider::Plane::new(Vec3A::new(0.0, 0.0, 0.15), Vec3A::Z).unwrap();
+    let mut moving = Collider::fixed(Shape::Plane(plane), Surface::Separate, 0.4);
+    moving.velocity_m_s = Vec3A::new(0.4, 0.0, 0.3);
+    moving.active_s = Some((0.02, 10.0));
+    cpu.colliders.push(moving);
+    let gpu = on_gpu(ctx, &cpu, 3000);
+    for _ in 0..3000 {
+        cpu.substep(1.0).unwrap();
+    }
+    let worst = cpu
+        .particles
+        .x
+        .iter()
+        .zip(&gpu.x)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0f32, f32::max);
+    let (c_cpu, c_gpu) = (com(&cpu.particles), com(&gpu));
+    let vx = cpu.particles.v.iter().map(|v| v.x).sum::<f32>() / cpu.particles.len() as f32;
+    println!(
+        "moving plane: COM CPU {c_cpu:?} GPU {c_gpu:?}; worst particle apart {worst:.2e} m; v_x {vx:.3} m/s"
+    );
+    // The plane carried it: dragged along x by friction.
+    assert!(vx > 0.05 && c_cpu.x > 0.505, "v_x {vx}, COM {c_cpu:?}");
+    assert!((c_cpu - c_gpu).length() < 1e-3, "{c_cpu:?} vs {c_gpu:?}");
+    assert!(worst < 1.0 / 32.0 * 0.1, "worst particle {worst} m apart");
+}
+
+#[test]
 fn a_run_gives_the_same_bits_every_time() {
     let Some(ctx) = context() else { return };
     let sys = cube(
