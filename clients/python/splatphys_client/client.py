@@ -289,7 +289,96 @@ def iox_config():
     return config
 
 
-class Client:
+def scene_info_of(h: SceneHeader) -> dict:
+    """The scene info dict of a scene header (the first 64 object names; the rest come from
+    `object_names`)."""
+    return {
+        "scene_name": wire.fixed_str(h.scene_name),
+        "generation": h.scene_generation,
+        "gaussian_count": h.gaussian_count,
+        "object_count": h.object_count,
+        "frame_dt_s": h.frame_dt_s,
+        "object_names": [
+            wire.fixed_str(h.object_names[i])
+            for i in range(min(h.object_count, wire.MAX_NAMED_OBJECTS))
+        ],
+    }
+
+
+def reply_of(m: ReplyMsg) -> Reply:
+    """The `Reply` of a `ReplyMsg`."""
+    return Reply(
+        sequence=m.sequence,
+        accepted=m.accepted == 1,
+        effective_step=m.effective_step,
+        reject_code=m.reject_code,
+        reason=wire.fixed_str(m.message),
+        generation=m.scene_generation,
+    )
+
+
+class ClientApi:
+    """What every transport's client offers on top of its own `recv_scene`, `recv_frame`,
+    `poll_status`, `send`, `poll_reply` and `wait(timeout_s)`: waiting for the scene, names,
+    the next frame and a command's reply."""
+
+    _scene_info: Optional[dict] = None
+    last_status: Optional[Status] = None
+
+    def scene_info(self, timeout_s: float = 2.0) -> dict:
+        """Scene name, counts, frame dt (s) and object names, waiting for the scene header."""
+        deadline = time.monotonic() + timeout_s
+        while self._scene_info is None:
+            v = self.recv_scene()
+            if v is not None:
+                v.release()
+                break
+            self.poll_status()
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"no scene header within {timeout_s} s")
+            self.wait(0.001)
+        return self._scene_info
+
+    def object_id(self, name_or_id) -> int:
+        """The id of an object given by name (from the scene header) or number."""
+        if isinstance(name_or_id, int):
+            return name_or_id
+        names = self.scene_info()["object_names"]
+        if name_or_id in names:
+            return names.index(name_or_id)
+        return int(str(name_or_id).lstrip("#"))
+
+    def wait_frame(self, timeout_s: float = 1.0):
+        """Waits up to `timeout_s` for the next frame."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            f = self.recv_frame()
+            if f is not None or time.monotonic() >= deadline:
+                return f
+            self.wait(min(0.0002, max(0.0, deadline - time.monotonic())))
+
+    def command(self, cmd: Command, timeout_s: float = 2.0) -> Reply:
+        """Sends `cmd` and waits up to `timeout_s` for its reply."""
+        seq, pending = self.send(cmd)
+        deadline = time.monotonic() + timeout_s
+        while True:
+            r = self.poll_reply(pending)
+            if r is not None:
+                return r
+            self.poll_status()
+            if time.monotonic() > deadline:
+                pending.delete()
+                st = self.last_status
+                if st is not None and st.flags & wire.STATUS_STALLED:
+                    raise ServerStalled(
+                        f"server stalled: its loop made no progress for {st.progress_age_ms} ms "
+                        f"(at step {st.step}); no reply to command #{seq}"
+                    )
+                raise TimeoutError(f"no reply to command #{seq} within {timeout_s} s")
+            self.wait(0.0001)
+
+
+class Client(ClientApi):
     """A connection to the server under `prefix` (e.g. `splatphys/vase`)."""
 
     def __init__(
@@ -412,18 +501,7 @@ class Client:
         if view.header.layout_version != wire.LAYOUT_VERSION:
             view.release()
             raise LayoutMismatch(f"server layout {view.header.layout_version}, client {wire.LAYOUT_VERSION}")
-        h = view.header
-        self._scene_info = {
-            "scene_name": wire.fixed_str(h.scene_name),
-            "generation": h.scene_generation,
-            "gaussian_count": h.gaussian_count,
-            "object_count": h.object_count,
-            "frame_dt_s": h.frame_dt_s,
-            "object_names": [
-                wire.fixed_str(h.object_names[i])
-                for i in range(min(h.object_count, wire.MAX_NAMED_OBJECTS))
-            ],
-        }
+        self._scene_info = scene_info_of(view.header)
         self._take_object_names()
         return view
 
@@ -449,29 +527,6 @@ class Client:
             if info["object_count"] <= wire.MAX_NAMED_OBJECTS or time.monotonic() > deadline:
                 return
             time.sleep(0.001)
-
-    def scene_info(self, timeout_s: float = 2.0) -> dict:
-        """Scene name, counts, frame dt (s) and object names, waiting for the scene header."""
-        deadline = time.monotonic() + timeout_s
-        while self._scene_info is None:
-            v = self.recv_scene()
-            if v is not None:
-                v.release()
-                break
-            self.poll_status()
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"no scene header within {timeout_s} s")
-            time.sleep(0.001)
-        return self._scene_info
-
-    def object_id(self, name_or_id) -> int:
-        """The id of an object given by name (from the scene header) or number."""
-        if isinstance(name_or_id, int):
-            return name_or_id
-        names = self.scene_info()["object_names"]
-        if name_or_id in names:
-            return names.index(name_or_id)
-        return int(str(name_or_id).lstrip("#"))
 
     # Frames and objects.
     def _recv(self, sub, element_type, dtype) -> Optional[SampleView]:
@@ -501,15 +556,6 @@ class Client:
             newest = self.recv_frame()
         return newest
 
-    def wait_frame(self, timeout_s: float = 1.0) -> Optional[SampleView]:
-        """Waits up to `timeout_s` for the next frame."""
-        deadline = time.monotonic() + timeout_s
-        while True:
-            f = self.recv_frame()
-            if f is not None or time.monotonic() >= deadline:
-                return f
-            self.node.wait(iox2.Duration.from_micros(200))
-
     def recv_objects(self) -> Optional[SampleView]:
         """The oldest buffered objects sample, or None."""
         return self._recv(self.objects_sub, ObjectState, wire.OBJECT_STATE_DTYPE)
@@ -530,31 +576,4 @@ class Client:
         m = _copy(ReplyMsg, r.payload_ptr)
         r.delete()
         pending.delete()
-        return Reply(
-            sequence=m.sequence,
-            accepted=m.accepted == 1,
-            effective_step=m.effective_step,
-            reject_code=m.reject_code,
-            reason=wire.fixed_str(m.message),
-            generation=m.scene_generation,
-        )
-
-    def command(self, cmd: Command, timeout_s: float = 2.0) -> Reply:
-        """Sends `cmd` and waits up to `timeout_s` for its reply."""
-        seq, pending = self.send(cmd)
-        deadline = time.monotonic() + timeout_s
-        while True:
-            r = self.poll_reply(pending)
-            if r is not None:
-                return r
-            self.poll_status()
-            if time.monotonic() > deadline:
-                pending.delete()
-                st = self.last_status
-                if st is not None and st.flags & wire.STATUS_STALLED:
-                    raise ServerStalled(
-                        f"server stalled: its loop made no progress for {st.progress_age_ms} ms "
-                        f"(at step {st.step}); no reply to command #{seq}"
-                    )
-                raise TimeoutError(f"no reply to command #{seq} within {timeout_s} s")
-            self.node.wait(iox2.Duration.from_micros(100))
+        return reply_of(m)

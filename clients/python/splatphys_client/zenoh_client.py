@@ -28,13 +28,15 @@ from . import wire
 from .client import (
     HEARTBEAT_TIMEOUT_S,
     MAX_FRAME_BUFFER,
+    ClientApi,
     Command,
     LayoutMismatch,
     Reply,
     ServerGone,
     ServerNotFound,
     ServerShutDown,
-    ServerStalled,
+    reply_of,
+    scene_info_of,
 )
 from .wire import FrameHeader, ReplyMsg, SceneHeader, Status
 
@@ -117,7 +119,7 @@ def _config(connect: Sequence[str], config_file: Optional[str]):
     return conf
 
 
-class ZenohClient:
+class ZenohClient(ClientApi):
     """A connection through `splatphys-zenoh` to the server under `prefix` (the bridge's key
     prefix, by default the server's service prefix), with `Client`'s methods.
 
@@ -281,17 +283,7 @@ class ZenohClient:
         h = view.header
         if h.layout_version != wire.LAYOUT_VERSION:
             raise LayoutMismatch(f"server layout {h.layout_version}, client {wire.LAYOUT_VERSION}")
-        self._scene_info = {
-            "scene_name": wire.fixed_str(h.scene_name),
-            "generation": h.scene_generation,
-            "gaussian_count": h.gaussian_count,
-            "object_count": h.object_count,
-            "frame_dt_s": h.frame_dt_s,
-            "object_names": [
-                wire.fixed_str(h.object_names[i])
-                for i in range(min(h.object_count, wire.MAX_NAMED_OBJECTS))
-            ],
-        }
+        self._scene_info = scene_info_of(h)
         self._take_object_names()
         return view
 
@@ -311,27 +303,6 @@ class ZenohClient:
             if info["object_count"] <= wire.MAX_NAMED_OBJECTS or time.monotonic() > deadline:
                 return
             self.wait(0.01)
-
-    def scene_info(self, timeout_s: float = 2.0) -> dict:
-        """Scene name, counts, frame dt (s) and object names, waiting for the scene header."""
-        deadline = time.monotonic() + timeout_s
-        while self._scene_info is None:
-            if self.recv_scene() is not None:
-                break
-            self.poll_status()
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"no scene header within {timeout_s} s")
-            self.wait(0.01)
-        return self._scene_info
-
-    def object_id(self, name_or_id) -> int:
-        """The id of an object given by name or number."""
-        if isinstance(name_or_id, int):
-            return name_or_id
-        names = self.scene_info()["object_names"]
-        if name_or_id in names:
-            return names.index(name_or_id)
-        return int(str(name_or_id).lstrip("#"))
 
     # Frames and objects.
     def _recv(self, queue, dtype) -> Optional[BytesView]:
@@ -356,15 +327,6 @@ class ZenohClient:
             while len(self._frames) > 1:
                 self._frames.popleft()
         return self.recv_frame()
-
-    def wait_frame(self, timeout_s: float = 1.0) -> Optional[BytesView]:
-        """Waits up to `timeout_s` for the next frame."""
-        deadline = time.monotonic() + timeout_s
-        while True:
-            f = self.recv_frame()
-            if f is not None or time.monotonic() >= deadline:
-                return f
-            self.wait(min(0.01, max(0.0, deadline - time.monotonic())))
 
     def recv_objects(self) -> Optional[BytesView]:
         """The oldest buffered objects sample, or None."""
@@ -394,32 +356,4 @@ class ZenohClient:
             if why == "Timeout":
                 raise TimeoutError(f"no reply to command #{pending.sequence} through the bridge")
             raise CommandRefused(f"command #{pending.sequence}: {why}")
-        m = ReplyMsg.from_buffer_copy(r.ok.payload.to_bytes())
-        return Reply(
-            sequence=m.sequence,
-            accepted=m.accepted == 1,
-            effective_step=m.effective_step,
-            reject_code=m.reject_code,
-            reason=wire.fixed_str(m.message),
-            generation=m.scene_generation,
-        )
-
-    def command(self, cmd: Command, timeout_s: float = 2.0) -> Reply:
-        """Sends `cmd` and waits up to `timeout_s` for its reply."""
-        seq, pending = self.send(cmd)
-        deadline = time.monotonic() + timeout_s
-        while True:
-            r = self.poll_reply(pending)
-            if r is not None:
-                return r
-            self.poll_status()
-            if time.monotonic() > deadline:
-                pending.delete()
-                st = self.last_status
-                if st is not None and st.flags & wire.STATUS_STALLED:
-                    raise ServerStalled(
-                        f"server stalled: its loop made no progress for {st.progress_age_ms} ms "
-                        f"(at step {st.step}); no reply to command #{seq}"
-                    )
-                raise TimeoutError(f"no reply to command #{seq} within {timeout_s} s")
-            time.sleep(0.0002)
+        return reply_of(ReplyMsg.from_buffer_copy(r.ok.payload.to_bytes()))

@@ -51,6 +51,11 @@ def server(request):
         stderr=subprocess.PIPE,
     )
     yield prefix, proc
+    stop(proc)
+
+
+def stop(proc) -> None:
+    """SIGTERM, then SIGKILL after 5 s, for a process that is still running."""
     if proc.poll() is None:
         proc.send_signal(signal.SIGTERM)
         try:

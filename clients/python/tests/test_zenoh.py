@@ -16,7 +16,7 @@ import time
 import pytest
 
 import splatphys_client as sc
-from test_live import server_binary
+from test_live import server_binary, stop
 
 BIN = server_binary()
 BRIDGE = BIN.parent / "splatphys-zenoh" if BIN is not None else None
@@ -38,16 +38,6 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
-
-def stop(proc) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
 
 
 @pytest.fixture
