@@ -13,7 +13,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use splatphys_tests::{
-    IOX_PREFIX_ENV, Proc, bin, iox_prefix, leftovers, service_prefix, workspace,
+    IOX_PREFIX_ENV, Proc, bin, free_port, iox_prefix, leftovers, service_prefix, workspace,
 };
 
 fn python_has(modules: &str) -> bool {
@@ -23,14 +23,6 @@ fn python_has(modules: &str) -> bool {
         .stderr(Stdio::null())
         .status()
         .is_ok_and(|s| s.success())
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// What one run of the loop printed: final error (mm) and the donut's final COM (m).

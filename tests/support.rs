@@ -1,7 +1,8 @@
 //! Support for the end-to-end tests across processes: the workspace's binaries, refused when
 //! stale ([`bin`]); child processes killed on drop ([`Proc`]) and bounded waits on them; a
-//! per-test iceoryx2 file prefix and service prefix ([`iox_prefix`], [`service_prefix`]) and the
-//! check that nothing of it is left behind ([`leftovers`]); `splatphys serve --fake` and
+//! per-test iceoryx2 file prefix, service prefix and loopback port ([`iox_prefix`],
+//! [`service_prefix`], [`free_port`]) and the check that nothing of it is left behind
+//! ([`leftovers`]); `splatphys serve --fake` and
 //! `splatphys-probe` ([`fake_server`], [`probe`]); and reading what the processes wrote: JSON
 //! lines, CSV tables, PNG frames.
 //!
@@ -23,7 +24,7 @@ mod process;
 mod servers;
 
 pub use bins::{bin, workspace};
-pub use iox::{IOX_PREFIX_ENV, iox_prefix, leftovers, service_prefix};
+pub use iox::{IOX_PREFIX_ENV, free_port, iox_prefix, leftovers, service_prefix};
 pub use output::{
     Row, json_field, json_objects, lit_pixels, num, pngs, read_csv, run_bench, summary,
 };

@@ -8,18 +8,12 @@ use std::time::{Duration, Instant};
 
 use splatphys_ipc::command::{Command as Cmd, encode};
 use splatphys_ipc::wire::{FrameGaussian, FrameHeader, ReplyMsg, SceneHeader};
-use splatphys_tests::{IOX_PREFIX_ENV, Proc, bin, iox_prefix, service_prefix, stepping_server};
+use splatphys_tests::{
+    IOX_PREFIX_ENV, Proc, bin, free_port, iox_prefix, service_prefix, stepping_server,
+};
 use splatphys_zenoh::keys::Keys;
 use zenoh::Wait;
 use zenoh::sample::SampleKind;
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 fn bridge(iox: &str, prefix: &str, port: u16, extra: &[&str]) -> Proc {
     Proc::spawn(

@@ -83,6 +83,64 @@ fn on_gpu(ctx: GpuContext, sys: &MpmSystem, substeps: u32) -> Particles {
     out
 }
 
+/// The same run on the GPU and on the CPU solver (`cpu` is advanced `substeps` of 1e-4 s, and
+/// `each` sees it after every one).
+struct Compared {
+    /// COM (m) on the CPU and on the GPU.
+    com_cpu: Vec3A,
+    com_gpu: Vec3A,
+    /// The largest distance between a particle on the CPU and on the GPU (m).
+    worst_m: f32,
+}
+
+fn against_cpu(
+    ctx: GpuContext,
+    cpu: &mut MpmSystem,
+    substeps: u32,
+    mut each: impl FnMut(&MpmSystem),
+) -> Compared {
+    let gpu = on_gpu(ctx, cpu, substeps);
+    for _ in 0..substeps {
+        cpu.substep(1.0).unwrap();
+        each(cpu);
+    }
+    let worst_m = cpu
+        .particles
+        .x
+        .iter()
+        .zip(&gpu.x)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0f32, f32::max);
+    Compared {
+        com_cpu: com(&cpu.particles),
+        com_gpu: com(&gpu),
+        worst_m,
+    }
+}
+
+impl Compared {
+    /// Prints the comparison and asserts the COMs within 1 mm and every particle within a
+    /// tenth of a cell (`dx_m`).
+    fn assert_close(&self, what: &str, dx_m: f32) {
+        let Self {
+            com_cpu,
+            com_gpu,
+            worst_m,
+        } = self;
+        println!(
+            "{what}: COM CPU {com_cpu:?} GPU {com_gpu:?}; worst particle apart {worst_m:.2e} m (a cell is {dx_m:.3} m)"
+        );
+        assert!(
+            (*com_cpu - *com_gpu).length() < 1e-3,
+            "{what}: {com_cpu:?} vs {com_gpu:?}"
+        );
+        assert!(
+            *worst_m < 0.1 * dx_m,
+            "{what}: worst particle {worst_m} m apart"
+        );
+    }
+}
+
 #[test]
 fn a_falling_cube_follows_the_closed_form() {
     let Some(ctx) = context() else { return };
@@ -120,28 +178,11 @@ fn the_standard_cube_matches_the_cpu_solver_through_its_landing() {
         let Some(ctx) = context() else { return };
         let g = Vec3A::new(0.0, 0.0, -9.8);
         let mut cpu = cube(10, 1.0 / 32.0, Vec3A::new(0.0, 0.0, -1.0), g, material);
-        let gpu = on_gpu(ctx, &cpu, 3000);
-        for _ in 0..3000 {
-            cpu.substep(1.0).unwrap();
-        }
+        let compared = against_cpu(ctx, &mut cpu, 3000, |_| {});
         // 0.3 s: the cube has hit the floor (about 0.2 s) and is on its way back up.
-        let worst = cpu
-            .particles
-            .x
-            .iter()
-            .zip(&gpu.x)
-            .map(|(a, b)| (*a - *b).length())
-            .fold(0.0f32, f32::max);
-        let (c_cpu, c_gpu) = (com(&cpu.particles), com(&gpu));
-        println!(
-            "{}: COM CPU {c_cpu:?} GPU {c_gpu:?}; worst particle apart {worst:.2e} m (a cell is {:.3} m)",
-            cpu.materials[0].name(),
-            1.0 / 32.0
-        );
         let rising = cpu.particles.v.iter().map(|v| v.z).sum::<f32>() > 0.0;
         assert!(rising, "the cube should be on its way back up");
-        assert!((c_cpu - c_gpu).length() < 1e-3, "{c_cpu:?} vs {c_gpu:?}");
-        assert!(worst < 1.0 / 32.0 * 0.1, "worst particle {worst} m apart");
+        compared.assert_close(cpu.materials[0].name(), 1.0 / 32.0);
     }
 }
 
@@ -155,29 +196,16 @@ fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
     let plane = splatphys_core::collider::Plane::new(Vec3A::new(0.0, 0.0, 0.2), Vec3A::Z).unwrap();
     cpu.colliders
         .push(Collider::fixed(Shape::Plane(plane), Surface::Separate, 0.3));
-    let gpu = on_gpu(ctx, &cpu, 3000);
     let mut lowest = f32::MAX;
-    for _ in 0..3000 {
-        cpu.substep(1.0).unwrap();
+    let compared = against_cpu(ctx, &mut cpu, 3000, |cpu| {
         lowest = cpu.particles.x.iter().map(|x| x.z).fold(lowest, f32::min);
-    }
-    let worst = cpu
-        .particles
-        .x
-        .iter()
-        .zip(&gpu.x)
-        .map(|(a, b)| (*a - *b).length())
-        .fold(0.0f32, f32::max);
-    let (c_cpu, c_gpu) = (com(&cpu.particles), com(&gpu));
-    println!(
-        "on a plane: COM CPU {c_cpu:?} GPU {c_gpu:?}; worst particle apart {worst:.2e} m; lowest particle ever {lowest:.4} m"
-    );
+    });
+    println!("on a plane: lowest particle ever {lowest:.4} m");
     // It landed on the plane (reached it, never passed it) and friction slowed it.
     assert!(lowest > 0.19 && lowest < 0.21, "{lowest}");
     let vx = cpu.particles.v.iter().map(|v| v.x).sum::<f32>() / cpu.particles.len() as f32;
     assert!(vx < 0.75, "friction should have slowed it: {vx}");
-    assert!((c_cpu - c_gpu).length() < 1e-3, "{c_cpu:?} vs {c_gpu:?}");
-    assert!(worst < 1.0 / 32.0 * 0.1, "worst particle {worst} m apart");
+    compared.assert_close("on a plane", 1.0 / 32.0);
 }
 
 #[test]
@@ -192,26 +220,13 @@ fn a_moving_plane_lifts_and_drags_a_cube_as_on_the_cpu() {
     moving.velocity_m_s = Vec3A::new(0.4, 0.0, 0.3);
     moving.active_s = Some((0.02, 10.0));
     cpu.colliders.push(moving);
-    let gpu = on_gpu(ctx, &cpu, 3000);
-    for _ in 0..3000 {
-        cpu.substep(1.0).unwrap();
-    }
-    let worst = cpu
-        .particles
-        .x
-        .iter()
-        .zip(&gpu.x)
-        .map(|(a, b)| (*a - *b).length())
-        .fold(0.0f32, f32::max);
-    let (c_cpu, c_gpu) = (com(&cpu.particles), com(&gpu));
+    let compared = against_cpu(ctx, &mut cpu, 3000, |_| {});
     let vx = cpu.particles.v.iter().map(|v| v.x).sum::<f32>() / cpu.particles.len() as f32;
-    println!(
-        "moving plane: COM CPU {c_cpu:?} GPU {c_gpu:?}; worst particle apart {worst:.2e} m; v_x {vx:.3} m/s"
-    );
+    println!("moving plane: v_x {vx:.3} m/s");
     // The plane carried it: dragged along x by friction.
-    assert!(vx > 0.05 && c_cpu.x > 0.505, "v_x {vx}, COM {c_cpu:?}");
-    assert!((c_cpu - c_gpu).length() < 1e-3, "{c_cpu:?} vs {c_gpu:?}");
-    assert!(worst < 1.0 / 32.0 * 0.1, "worst particle {worst} m apart");
+    let c = compared.com_cpu;
+    assert!(vx > 0.05 && c.x > 0.505, "v_x {vx}, COM {c:?}");
+    compared.assert_close("moving plane", 1.0 / 32.0);
 }
 
 #[test]

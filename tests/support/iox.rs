@@ -50,3 +50,11 @@ pub fn leftovers(iox: &str) -> Vec<String> {
     }
     found
 }
+
+/// A TCP port on 127.0.0.1 free at the time of the call (for a test's Zenoh endpoint).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free loopback port")
+        .port()
+}
