@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use splatphys_ipc::IpcError;
 use splatphys_ipc::client::{ClientOptions, Connection};
 use splatphys_ipc::command::decode;
-use splatphys_ipc::wire::{CommandMsg, FrameHeader, SceneHeader};
+use splatphys_ipc::wire::{CommandMsg, FrameHeader, ObjectState, SceneHeader};
 use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
@@ -189,6 +189,8 @@ pub fn run(opts: &BridgeOptions) -> Result<BridgeEnd, BridgeError> {
     let mut scene: Option<(Vec<u8>, u32)> = None;
     let mut names: Option<Vec<u8>> = None;
     let mut last_heartbeat: Option<u64> = None;
+    // The turn's newest objects sample for the ROS 2 side, in a buffer kept across turns.
+    let mut newest_objects: Vec<ObjectState> = Vec::new();
     let put = |p: &zenoh::pubsub::Publisher<'_>, bytes: Vec<u8>| {
         p.put(bytes).wait().map_err(zerr("publishing"))
     };
@@ -225,11 +227,13 @@ pub fn run(opts: &BridgeOptions) -> Result<BridgeEnd, BridgeError> {
                 let Some(o) = conn.recv_objects()? else { break };
                 put(&objects_pub, bytes_of(o.user_header(), o.payload()))?;
                 if ros.is_some() {
-                    newest = Some((*o.user_header(), o.payload().to_vec()));
+                    newest = Some(*o.user_header());
+                    newest_objects.clear();
+                    newest_objects.extend_from_slice(o.payload());
                 }
             }
-            if let (Some(r), Some((header, objects))) = (&mut ros, newest) {
-                r.on_objects(&header, &objects)?;
+            if let (Some(r), Some(header)) = (&mut ros, newest) {
+                r.on_objects(&header, &newest_objects)?;
             }
             // The newest status (poll_status drains the service and returns the last one, also
             // when nothing new came): published once per heartbeat.
