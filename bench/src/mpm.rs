@@ -7,7 +7,7 @@
 //! (`bench/taichi/mpm_cube.py`, through [`crate::taichi`]) with the same arguments and prints its
 //! result and the ratio; without Taichi it says so and stops after our result. `--device gpu`
 //! runs the same problem through splatphys-gpu (dense grid over the domain; the Taichi reference
-//! then runs on CUDA).
+//! then runs on CUDA). `--model` picks the cube's material (jelly by default).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -17,7 +17,7 @@ use clap::Args;
 use glam::Vec3A;
 use serde_json::json;
 use splatphys_core::collider::{BoxShape, Collider, Shape, Surface};
-use splatphys_core::material::Material;
+use splatphys_core::material::{Material, MaterialModel, MaterialSpec};
 use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
 
 use crate::{taichi, thread_pool};
@@ -66,6 +66,11 @@ pub struct MpmBenchArgs {
     /// grid over the domain).
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub device: Device,
+    /// The cube's material model (jelly, neo-hookean, snow, sand, metal, plasticine, foam), with
+    /// the problem's E, ν and density and the model's default parameters. The Taichi reference
+    /// runs jelly only.
+    #[arg(long, default_value_t = MaterialModel::FixedCorotated)]
+    pub model: MaterialModel,
 }
 
 /// Where `bench mpm` runs the kernels.
@@ -84,9 +89,28 @@ pub enum Device {
 /// # Errors
 /// When the domain is too small for its 3-cell bound.
 pub fn elastic_cube(particles_per_axis: u32, dx_m: f32, domain_m: f32) -> Result<MpmSystem> {
+    cube_of(
+        MaterialModel::FixedCorotated,
+        particles_per_axis,
+        dx_m,
+        domain_m,
+    )
+}
+
+/// [`elastic_cube`] of material `model` (its default parameters beside the problem's E, ν and
+/// density).
+///
+/// # Errors
+/// When the domain is too small for its 3-cell bound.
+pub fn cube_of(
+    model: MaterialModel,
+    particles_per_axis: u32,
+    dx_m: f32,
+    domain_m: f32,
+) -> Result<MpmSystem> {
     let n = particles_per_axis.max(1);
     let spacing = 0.3 / n as f32;
-    let jelly = Material::jelly(1e5, 0.3, 1000.0)?;
+    let material = Material::from_spec(&MaterialSpec::new(model, 1e5, 0.3, 1000.0))?;
     let mut p = Particles::lattice_box(
         Vec3A::new(0.35, 0.35, 0.3),
         Vec3A::new(0.65, 0.65, 0.6),
@@ -96,7 +120,7 @@ pub fn elastic_cube(particles_per_axis: u32, dx_m: f32, domain_m: f32) -> Result
         0,
     );
     p.v.iter_mut().for_each(|v| *v = Vec3A::new(0.0, 0.0, -1.0));
-    let mut sys = MpmSystem::new(p, vec![jelly], dx_m);
+    let mut sys = MpmSystem::new(p, vec![material], dx_m);
     sys.gravity_m_s2 = Vec3A::new(0.0, 0.0, -9.8);
     sys.policy = TimeStepPolicy::Fixed {
         dt_s: 1e-4,
@@ -141,7 +165,13 @@ pub fn run(a: &MpmBenchArgs) -> Result<()> {
     };
     let pool = thread_pool(a.threads)?;
     let dx = 1.0 / a.grid.max(1) as f32;
-    let mut sys = elastic_cube(a.particles_per_axis, dx, a.domain_scale)
+    if a.vs_taichi && a.model != MaterialModel::FixedCorotated {
+        anyhow::bail!(
+            "--vs-taichi runs the jelly cube only (the Taichi reference has no {} model)",
+            a.model
+        );
+    }
+    let mut sys = cube_of(a.model, a.particles_per_axis, dx, a.domain_scale)
         .context("--domain-scale too small")?;
     if a.shuffle {
         sys.particles = shuffled(&sys.particles);
@@ -171,6 +201,7 @@ pub fn run(a: &MpmBenchArgs) -> Result<()> {
         "bench": "mpm",
         "impl": "splatphys",
         "device": "cpu",
+        "model": a.model.name(),
         "particles": count,
         "steps": a.steps,
         "threads": a.threads,
@@ -229,6 +260,7 @@ fn gpu_run(a: &MpmBenchArgs, sys: &mut MpmSystem) -> Result<serde_json::Value> {
         "bench": "mpm",
         "impl": "splatphys",
         "device": device,
+        "model": a.model.name(),
         "particles": count,
         "steps": a.steps,
         "grid": a.grid,

@@ -6,14 +6,15 @@
 //!   error the caller reports ([`GpuError::NoAdapter`]), never a panic;
 //! - [`mpm`]: [`GpuMpm`], the particles kept on the GPU between substeps, read back when asked.
 //!
-//! What runs on the GPU: the fixed-corotated ("jelly") and neo-Hookean models with their
-//! Kelvin–Voigt damping; plane, box and domain-bound colliders, static or moving within an
-//! active window, with the sticky, slip and separate rules and Coulomb friction, with the CPU's
-//! gap check (a plane or box that lets
-//! material leave takes its rule only at nodes where material reaches it,
-//! `splatphys_core::mpm::reach`), on a dense grid over the domain bound. What does not (and is
-//! refused with [`GpuError::Unsupported`], naming it, so the caller can stay on the CPU): the
-//! plastic models (snow, sand, metal, plasticine, foam) and a system without a domain bound.
+//! What runs on the GPU: every material model of splatphys-core with its Kelvin–Voigt damping
+//! (fixed-corotated "jelly", neo-Hookean, and the plastic models with their return mappings and
+//! the plastic deformation F_p their Gaussians follow: snow, sand, metal, plasticine, foam; the
+//! SVD they need is the CPU's one-sided Jacobi, `plastic.wgsl`); plane, box and domain-bound
+//! colliders, static or moving within an active window, with the sticky, slip and separate rules
+//! and Coulomb friction, with the CPU's gap check (a plane or box that lets material leave takes
+//! its rule only at nodes where material reaches it, `splatphys_core::mpm::reach`), on a dense
+//! grid over the domain bound. What does not (and is refused with [`GpuError::Unsupported`],
+//! naming it, so the caller can stay on the CPU): a system without a domain bound.
 //!
 //! P2G adds into 64-bit fixed-point sums (two 32-bit atomics per value, the carry propagated), so
 //! every node's sum is exact whatever order the particles arrive in: a run gives the same bits

@@ -51,6 +51,8 @@ struct GpuMaterial {
     lambda: f32,
     eta: f32,
     model: u32,
+    /// The model's parameters (`plastic.wgsl`).
+    p: [f32; 4],
 }
 
 /// The shader's `Collider`.
@@ -73,30 +75,40 @@ fn unsupported(what: impl Into<String>) -> GpuError {
     GpuError::Unsupported { what: what.into() }
 }
 
-/// The GPU form of `materials` (those `used`), or what is not supported.
-fn materials(materials: &[Material], used: &[bool]) -> Result<Vec<GpuMaterial>, GpuError> {
+/// The shader's `MODEL_*`.
+const MODEL_JELLY: u32 = 0;
+const MODEL_NEO_HOOKEAN: u32 = 1;
+const MODEL_SNOW: u32 = 2;
+const MODEL_SAND: u32 = 3;
+const MODEL_VON_MISES: u32 = 4;
+
+/// The GPU form of `materials`: every model of splatphys-core runs there.
+fn materials(materials: &[Material]) -> Vec<GpuMaterial> {
     materials
         .iter()
-        .zip(used)
-        .map(|(m, &used)| {
+        .map(|m| {
             let (model, p) = match m {
-                Material::Jelly(j) => (0, j.params),
-                Material::NeoHookean(n) => (1, n.params),
-                other if used => {
-                    return Err(unsupported(format!(
-                        "the {} model (jelly and neo-Hookean run on the GPU)",
-                        splatphys_core::material::ConstitutiveModel::name(other)
-                    )));
+                Material::Jelly(_) => (MODEL_JELLY, [0.0; 4]),
+                Material::NeoHookean(_) => (MODEL_NEO_HOOKEAN, [0.0; 4]),
+                Material::Snow(s) => (MODEL_SNOW, [s.hardening, s.theta_c, s.theta_s, 0.0]),
+                Material::Sand(s) => (MODEL_SAND, [s.alpha(), 0.0, 0.0, 0.0]),
+                Material::Metal(m) => (MODEL_VON_MISES, [m.yield_stress_pa, 0.0, 0.0, 0.0]),
+                Material::Plasticine(p) => {
+                    (MODEL_VON_MISES, [p.yield_stress_pa, p.softening, 0.0, 0.0])
                 }
-                // Not used by any particle: a placeholder the shader never reads.
-                _ => return Ok(GpuMaterial::zeroed()),
+                Material::Foam(f) => (
+                    MODEL_VON_MISES,
+                    [f.yield_stress_pa, 0.0, f.viscosity_pa_s, 0.0],
+                ),
             };
-            Ok(GpuMaterial {
-                mu: p.mu_pa,
-                lambda: p.lambda_pa,
-                eta: p.damping_viscosity_pa_s,
+            let e = splatphys_core::material::ConstitutiveModel::elastic(m);
+            GpuMaterial {
+                mu: e.mu_pa,
+                lambda: e.lambda_pa,
+                eta: e.damping_viscosity_pa_s,
                 model,
-            })
+                p,
+            }
         })
         .collect()
 }
@@ -153,13 +165,16 @@ struct Supported {
 fn supported(sys: &MpmSystem) -> Result<Supported, GpuError> {
     let p = &sys.particles;
     let n = u32::try_from(p.len()).map_err(|_| unsupported("more than 2^32 particles"))?;
-    let mut used = vec![false; sys.materials.len()];
-    for &m in &p.material {
-        *used
-            .get_mut(m as usize)
-            .ok_or_else(|| unsupported(format!("material index {m} without a material")))? = true;
+    if let Some(&m) = p
+        .material
+        .iter()
+        .find(|&&m| m as usize >= sys.materials.len())
+    {
+        return Err(unsupported(format!(
+            "material index {m} without a material"
+        )));
     }
-    let materials = materials(&sys.materials, &used)?;
+    let materials = materials(&sys.materials);
     let (colliders, domain) = colliders(sys)?;
     Ok(Supported {
         n,
@@ -192,6 +207,7 @@ pub struct GpuMpm {
     params_buf: wgpu::Buffer,
     xv: wgpu::Buffer,
     cf: wgpu::Buffer,
+    plastic: wgpu::Buffer,
     grid_sum: wgpu::Buffer,
     status: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
@@ -288,6 +304,17 @@ impl GpuMpm {
                     .map(|col| col.extend(0.0).to_array())
             })
             .collect();
+        // F_p's columns, the plastic scalar in the first one's w.
+        let plastic: Vec<[f32; 4]> = (0..p.len())
+            .flat_map(|i| {
+                let fp = p.f_plastic[i];
+                [
+                    fp.x_axis.extend(p.plastic[i]).to_array(),
+                    fp.y_axis.extend(0.0).to_array(),
+                    fp.z_axis.extend(0.0).to_array(),
+                ]
+            })
+            .collect();
         let pmat: Vec<u32> = p.material.iter().map(|&m| u32::from(m)).collect();
         // Storage buffers may not be empty: one unused element where there is nothing.
         let nonempty = |v: &[u8], size: usize| {
@@ -304,6 +331,7 @@ impl GpuMpm {
         );
         let xv = init("xv", &nonempty(bytemuck::cast_slice(&xv), 32), rw);
         let cf = init("cf", &nonempty(bytemuck::cast_slice(&cf), 96), rw);
+        let plastic = init("plastic", &nonempty(bytemuck::cast_slice(&plastic), 48), rw);
         let pmat = init(
             "particle_material",
             &nonempty(bytemuck::cast_slice(&pmat), 4),
@@ -311,7 +339,7 @@ impl GpuMpm {
         );
         let mats = init(
             "materials",
-            &nonempty(bytemuck::cast_slice(&mats), 16),
+            &nonempty(bytemuck::cast_slice(&mats), size_of::<GpuMaterial>()),
             wgpu::BufferUsages::STORAGE,
         );
         let cols = init(
@@ -353,6 +381,7 @@ impl GpuMpm {
                 storage(6, false),
                 storage(7, false),
                 storage(8, false),
+                storage(9, false),
             ],
         });
         let buffers = [
@@ -365,6 +394,7 @@ impl GpuMpm {
             &grid_sum,
             &grid_v,
             &status,
+            &plastic,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -381,7 +411,9 @@ impl GpuMpm {
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("mpm.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("mpm.wgsl").into()),
+            source: wgpu::ShaderSource::Wgsl(
+                concat!(include_str!("mpm.wgsl"), include_str!("plastic.wgsl")).into(),
+            ),
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("mpm"),
@@ -410,6 +442,7 @@ impl GpuMpm {
             params_buf,
             xv,
             cf,
+            plastic,
             grid_sum,
             status,
             bind_group,
@@ -542,8 +575,8 @@ impl GpuMpm {
         Ok(f32::from_bits(words[1]))
     }
 
-    /// Copies the particles' positions, velocities, C and F back into `into` (which must be the
-    /// set uploaded: same count and order).
+    /// Copies the particles' positions, velocities, C, F, F_p and plastic state back into `into`
+    /// (which must be the set uploaded: same count and order).
     ///
     /// # Errors
     /// [`GpuError::Readback`], or a count that does not match.
@@ -560,8 +593,10 @@ impl GpuMpm {
         }
         let xv = self.read(&self.xv)?;
         let cf = self.read(&self.cf)?;
+        let plastic = self.read(&self.plastic)?;
         let xv: &[[f32; 4]] = bytemuck::cast_slice(&xv);
         let cf: &[[f32; 4]] = bytemuck::cast_slice(&cf);
+        let plastic: &[[f32; 4]] = bytemuck::cast_slice(&plastic);
         let v3 = |a: [f32; 4]| Vec3A::new(a[0], a[1], a[2]);
         for i in 0..n {
             into.x[i] = v3(xv[2 * i]);
@@ -569,6 +604,9 @@ impl GpuMpm {
             let col = |k: usize| v3(cf[6 * i + k]);
             into.c[i] = Mat3A::from_cols(col(0), col(1), col(2));
             into.f[i] = Mat3A::from_cols(col(3), col(4), col(5));
+            let fp = |k: usize| v3(plastic[3 * i + k]);
+            into.f_plastic[i] = Mat3A::from_cols(fp(0), fp(1), fp(2));
+            into.plastic[i] = plastic[3 * i][3];
         }
         Ok(())
     }

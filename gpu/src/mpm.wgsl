@@ -1,7 +1,8 @@
 // MLS-MPM substep on the GPU (Hu et al. 2018, "A moving least squares material point method
 // with displacement discontinuity and two-way rigid body coupling", eqs. 17 and 29): the same
 // P2G, grid update and G2P as splatphys-core's CPU solver (src/mpm/p2g.rs, grid_update.rs,
-// g2p.rs), on a dense grid.
+// g2p.rs), on a dense grid, with the return mappings of the plastic models (plastic.wgsl, which
+// is appended to this file when the module is built).
 //
 // P2G scatters with 64-bit fixed-point sums built from two u32 atomics each (the low word's
 // carry goes into the high word), so a node's sum is exact and does not depend on the order in
@@ -25,14 +26,26 @@ struct Params {
     t0: f32,
 };
 
-// Material: Lamé mu, lambda (Pa), Kelvin–Voigt viscosity eta (Pa s), model (0 fixed-corotated
-// "jelly", 1 neo-Hookean).
+// Material: Lamé mu, lambda (Pa), Kelvin–Voigt viscosity eta (Pa s), model (MODEL_*), and the
+// model's parameters p0..p3 (plastic.wgsl says which each uses).
 struct Material {
     mu: f32,
     lambda: f32,
     eta: f32,
     model: u32,
+    p0: f32,
+    p1: f32,
+    p2: f32,
+    p3: f32,
 };
+
+// Fixed-corotated ("jelly"), neo-Hookean, snow (fixed-corotated with hardening), sand and von
+// Mises (metal, plasticine, foam; both on Hencky strain).
+const MODEL_JELLY: u32 = 0u;
+const MODEL_NEO_HOOKEAN: u32 = 1u;
+const MODEL_SNOW: u32 = 2u;
+const MODEL_SAND: u32 = 3u;
+const MODEL_VON_MISES: u32 = 4u;
 
 // Collider: kind (0 plane: a = point, b = outward normal; 1 box: a = min, b = max; 2 domain
 // bound: a = min, b = max), surface (0 sticky, 1 slip, 2 separate), Coulomb friction, and
@@ -67,6 +80,9 @@ struct Collider {
 // [0] particles or nodes that failed (left the grid, not finite), [1] largest speed (f32 bits),
 // [2] first failed particle + 1, [3] substeps done in this batch.
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
+// Per particle: F_p columns 0..2 (the plastic deformation its Gaussians follow), with the model's
+// plastic scalar (snow's Jp, the others' accumulated plastic strain) in the first column's w.
+@group(0) @binding(9) var<storage, read_write> plastic: array<vec4<f32>>;
 
 const TWO_32: f32 = 4294967296.0;
 const NODE_WORDS: u32 = 9u;
@@ -212,17 +228,24 @@ fn polar_rotation(a: mat3x3<f32>) -> mat3x3<f32> {
 
 const IDENTITY: mat3x3<f32> = mat3x3<f32>(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
 
-// Kirchhoff stress of the particle's model plus its Kelvin–Voigt damping J eta (C + C^T).
-fn kirchhoff(m: Material, f: mat3x3<f32>, c: mat3x3<f32>) -> mat3x3<f32> {
+// Kirchhoff stress of the particle's model at plastic state `jp` plus its Kelvin–Voigt damping
+// J eta (C + C^T).
+fn kirchhoff(m: Material, f: mat3x3<f32>, c: mat3x3<f32>, jp: f32) -> mat3x3<f32> {
     let j = det3(f);
     var tau: mat3x3<f32>;
-    if m.model == 0u {
-        // Fixed-corotated: 2 mu (F - R) F^T + lambda (J - 1) J I.
+    if m.model == MODEL_JELLY || m.model == MODEL_SNOW {
+        // Fixed-corotated: 2 mu (F - R) F^T + lambda (J - 1) J I; snow's moduli hardened.
+        var h = 1.0;
+        if m.model == MODEL_SNOW {
+            h = hardening_factor(m.p0, jp);
+        }
         let r = polar_rotation(f);
-        tau = (f - r) * transpose(f) * (2.0 * m.mu) + IDENTITY * (m.lambda * (j - 1.0) * j);
-    } else {
+        tau = (f - r) * transpose(f) * (2.0 * m.mu * h) + IDENTITY * (m.lambda * h * (j - 1.0) * j);
+    } else if m.model == MODEL_NEO_HOOKEAN {
         // Compressible neo-Hookean: mu (F F^T - I) + lambda ln J I.
         tau = (f * transpose(f) - IDENTITY) * m.mu + IDENTITY * (m.lambda * log(max(j, 1.0e-4)));
+    } else {
+        tau = hencky_stress(f, m.mu, m.lambda);
     }
     if m.eta > 0.0 {
         tau = tau + (c + transpose(c)) * (m.eta * j);
@@ -333,7 +356,7 @@ fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let mass = xm.w;
     let c = mat3x3<f32>(cf[6u * p].xyz, cf[6u * p + 1u].xyz, cf[6u * p + 2u].xyz);
     let f = mat3x3<f32>(cf[6u * p + 3u].xyz, cf[6u * p + 4u].xyz, cf[6u * p + 5u].xyz);
-    let tau = kirchhoff(materials[particle_material[p]], f, c);
+    let tau = kirchhoff(materials[particle_material[p]], f, c, plastic[3u * p].w);
     let d_inv = 4.0 * params.inv_dx * params.inv_dx;
     let affine = tau * (-params.dt * vv.w * d_inv) + c * mass;
     let s = stencil(xm.xyz);
@@ -506,15 +529,25 @@ fn g2p(@builtin(global_invocation_id) gid: vec3<u32>) {
     let new_v = v_old + sum_u;
     let new_c = mat3x3<f32>(col0, col1, col2) * (4.0 * params.inv_dx);
     let f = mat3x3<f32>(cf[6u * p + 3u].xyz, cf[6u * p + 4u].xyz, cf[6u * p + 5u].xyz);
-    let new_f = (IDENTITY + new_c * params.dt) * f;
+    let trial_f = (IDENTITY + new_c * params.dt) * f;
+    let fp0 = plastic[3u * p];
+    let returned = project(materials[particle_material[p]], trial_f, fp0.w, params.dt);
+    let new_f = returned.f;
     let new_x = xm.xyz + new_v * params.dt;
     let big = vec3<f32>(3.0e38);
     let finite = all(abs(new_x) < big) && all(abs(new_v) < big) && all(abs(new_c[0]) < big)
         && all(abs(new_c[1]) < big) && all(abs(new_c[2]) < big) && all(abs(new_f[0]) < big)
-        && all(abs(new_f[1]) < big) && all(abs(new_f[2]) < big);
+        && all(abs(new_f[1]) < big) && all(abs(new_f[2]) < big) && abs(returned.plastic) < 3.0e38;
     if !finite {
         fail(p);
         return;
+    }
+    if returned.changed {
+        let fp = mat3x3<f32>(fp0.xyz, plastic[3u * p + 1u].xyz, plastic[3u * p + 2u].xyz);
+        let new_fp = after_return_mapping(trial_f, new_f, fp);
+        plastic[3u * p] = vec4<f32>(new_fp[0], returned.plastic);
+        plastic[3u * p + 1u] = vec4<f32>(new_fp[1], 0.0);
+        plastic[3u * p + 2u] = vec4<f32>(new_fp[2], 0.0);
     }
     xv[2u * p] = vec4<f32>(new_x, xm.w);
     xv[2u * p + 1u] = vec4<f32>(new_v, vv.w);

@@ -46,6 +46,11 @@ impl Sand {
             alpha,
         })
     }
+
+    /// The cone coefficient α = √(2/3) · 2 sin φ / (3 − sin φ) (Klár et al. 2016, eq. 31).
+    pub fn alpha(&self) -> f32 {
+        self.alpha
+    }
 }
 
 impl ConstitutiveModel for Sand {
