@@ -122,6 +122,7 @@ fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuE
             Surface::Sticky => 0,
             Surface::Slip => 1,
             Surface::Separate => 2,
+            Surface::Clamp => 3,
         };
         let (kind, a, b) = match c.shape {
             Shape::Plane(p) => (0, p.point_m, p.normal),
@@ -134,7 +135,7 @@ fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuE
         out.push(GpuCollider {
             kind,
             surface,
-            friction: c.friction,
+            friction: c.surface.friction(c.friction),
             gated: u32::from(c.is_gated()),
             a: a.extend(0.0).to_array(),
             b: b.extend(0.0).to_array(),

@@ -48,7 +48,8 @@ const MODEL_SAND: u32 = 3u;
 const MODEL_VON_MISES: u32 = 4u;
 
 // Collider: kind (0 plane: a = point, b = outward normal; 1 box: a = min, b = max; 2 domain
-// bound: a = min, b = max), surface (0 sticky, 1 slip, 2 separate), Coulomb friction, and
+// bound: a = min, b = max), surface (0 sticky, 1 slip, 2 separate, 3 clamp), Coulomb friction
+// (a sticky collider's already raised to STICKY_FRICTION), and
 // whether its nodes take the rule only where material reaches the surface (mpm/reach.rs).
 // A moving collider (w of `velocity` = 1) acts within [window.x, window.y) s and is displaced
 // by velocity × (t − window.x) (collider/mod.rs).
@@ -323,8 +324,9 @@ fn scatter_gaps(x: vec3<f32>, volume0: f32, s: Stencil) {
     if !(gap < 2.0 * dx) {
         return;
     }
+    // A particle already inside holds every node of its stencil there (mpm/reach.rs).
     let r = max(0.5 * dx, 0.75 * size);
-    let radius2 = r * r;
+    let radius2 = select(r * r, 3.0e38, phi < 0.0);
     let encoded = encode_gap(gap);
     for (var kk = 0; kk < 3; kk++) {
         for (var jj = 0; jj < 3; jj++) {
@@ -398,10 +400,11 @@ fn friction(vt: vec3<f32>, pressed: f32, mu: f32) -> vec3<f32> {
     return vt * (1.0 - mu * pressed / speed);
 }
 
-// collider/surface.rs: sticky, slip or separate with friction, at outward normal n.
+// collider/surface.rs: clamp, slip, or separate and sticky (separate with the larger friction
+// it was given) with friction, at outward normal n.
 fn apply_surface(v: vec3<f32>, n: vec3<f32>, surface: u32, mu: f32) -> vec3<f32> {
     let vn = dot(v, n);
-    if surface == 0u {
+    if surface == 3u {
         return vec3<f32>(0.0);
     } else if surface == 1u {
         return friction(v - vn * n, max(-vn, 0.0), mu);

@@ -158,10 +158,10 @@ fn a_damped_bar_decays_at_the_kelvin_voigt_rate() {
             dt_s: 1e-4,
             force: false,
         };
-        // Sticky wall: every node at x <= 0 is held, so the bar is clamped at x = 0.
+        // A clamp: every node at x <= 0 is held, so the bar is clamped at x = 0.
         sys.colliders.push(Collider::fixed(
             Shape::Plane(Plane::new(Vec3A::ZERO, Vec3A::X).expect("plane")),
-            Surface::Sticky,
+            Surface::Clamp,
             0.0,
         ));
         // The tip's mean axial speed every 1 ms over 0.5 s (about 4 periods of 4 L / c).

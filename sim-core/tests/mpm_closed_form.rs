@@ -76,10 +76,10 @@ fn fixed_free_bar_period_matches_4l_over_c() {
     let tip_x0: f32 = tip.iter().map(|&i| p.x[i].x).sum::<f32>() / tip.len() as f32;
     let mut sys = MpmSystem::new(p, vec![jelly], dx);
     sys.gravity_m_s2 = Vec3A::ZERO;
-    // Sticky wall: every node at x <= 0 is held, so the bar is clamped at x = 0.
+    // A clamp: every node at x <= 0 is held, so the bar is clamped at x = 0.
     sys.colliders.push(Collider::fixed(
         Shape::Plane(Plane::new(Vec3A::ZERO, Vec3A::X).unwrap()),
-        Surface::Sticky,
+        Surface::Clamp,
         0.0,
     ));
     let c = (e / rho).sqrt();

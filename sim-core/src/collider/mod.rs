@@ -78,9 +78,9 @@ impl Collider {
 
     /// Whether a grid node inside it takes its rule only where material reaches the surface
     /// ([`crate::mpm::reach`]): a plane or a box that lets material leave. The domain bound and
-    /// a sticky collider (a clamp holds the material it encloses) hold every node inside.
+    /// a clamp (which holds the material it encloses) hold every node inside.
     pub fn is_gated(&self) -> bool {
-        !matches!(self.shape, Shape::DomainBound(_)) && self.surface != Surface::Sticky
+        !matches!(self.shape, Shape::DomainBound(_)) && self.surface != Surface::Clamp
     }
 
     /// Outward normal if grid node position `x` is inside the collider at time `t_s`.

@@ -5,7 +5,7 @@
 //! materials", SIGGRAPH course, section 12).
 //!
 //! A node of the deformable's grid whose signed distance in a solid is ≤ 0 takes the solid's
-//! surface rule (sticky, slip, or by default "separate" with Coulomb friction, the rule whose grid
+//! surface rule (sticky, clamp, slip, or by default "separate" with Coulomb friction, the rule whose grid
 //! friction matches the analytic law) relative to the solid's velocity there. Inside an
 //! immovable procedural solid that lets material leave, only where the material reaches the
 //! surface within the substep ([`crate::mpm::reach`]): a ball rolling on it is not braked by the
@@ -259,12 +259,12 @@ pub fn gaps(
 }
 
 /// Whether a node inside `o` takes its rule only where material reaches it (`apply`'s
-/// `reach`): an immovable solid with an exact surface whose rule lets material leave. A sticky
-/// solid holds every node inside it (a clamp holds the material it encloses: gated, a clamped
-/// bar's period and damping were off), and a movable one meets the grid two-way over its whole
-/// band (gated, a 1.6 kg block sank 7.4 mm into a jelly that carries it 0.8 mm down).
+/// `reach`): an immovable solid with an exact surface whose rule lets material leave. A clamp
+/// holds every node inside it (it holds the material it encloses: gated, a clamped bar's period
+/// and damping were off), and a movable solid meets the grid two-way over its whole band (gated,
+/// a 1.6 kg block sank 7.4 mm into a jelly that carries it 0.8 mm down).
 fn gated(o: &Obstacle) -> bool {
-    o.placed.geometry.is_exact() && !o.is_movable() && o.surface != Surface::Sticky
+    o.placed.geometry.is_exact() && !o.is_movable() && o.surface != Surface::Clamp
 }
 
 /// A node of a block touching a movable obstacle.

@@ -20,12 +20,13 @@
 //!
 //! The surface rules as impulses (compare [`crate::collider::apply_surface`]): with v the
 //! relative velocity and v_n = v·n,
-//! - separate: an approaching v_n < 0 takes the normal impulse −v_n / k(n);
+//! - separate and sticky: an approaching v_n < 0 takes the normal impulse −v_n / k(n);
 //! - slip: v_n takes −v_n / k(n) both ways;
-//! - sticky: the whole v is removed, j = −K⁻¹ v;
-//! - friction (separate and slip): after the normal impulse, the tangential relative velocity v_t
-//!   takes an impulse of at most μ times the approaching normal impulse, max(−v_n, 0) / k(n),
-//!   toward stopping it, |v_t| / k(t) at most.
+//! - clamp: the whole v is removed, j = −K⁻¹ v;
+//! - friction (separate, sticky and slip): after the normal impulse, the tangential relative
+//!   velocity v_t takes an impulse of at most μ times the approaching normal impulse,
+//!   max(−v_n, 0) / k(n), toward stopping it, |v_t| / k(t) at most; sticky's μ is at least
+//!   [`crate::collider::surface::STICKY_FRICTION`].
 
 use glam::{DMat3, DVec3, Vec3A};
 
@@ -87,7 +88,7 @@ pub fn node_impulse(
     let inv_m = 1.0 / mass_kg as f64;
     let vn = v.dot(n);
     let j = match surface {
-        Surface::Sticky => {
+        Surface::Clamp => {
             let k = solid.matrix(inv_m, r);
             if k.determinant().abs() > 0.0 {
                 -(k.inverse() * v)
@@ -95,10 +96,11 @@ pub fn node_impulse(
                 DVec3::ZERO
             }
         }
-        Surface::Slip | Surface::Separate => {
-            if surface == Surface::Separate && vn >= 0.0 {
+        Surface::Slip | Surface::Separate | Surface::Sticky => {
+            if surface != Surface::Slip && vn >= 0.0 {
                 return Vec3A::ZERO;
             }
+            let mu = surface.friction(mu);
             let kn = solid.along(inv_m, r, n);
             let jn = -vn / kn;
             let pressed = (-vn).max(0.0) / kn;
@@ -134,7 +136,7 @@ mod tests {
     #[test]
     fn against_an_immovable_solid_the_impulse_is_the_one_way_rule() {
         let m = 0.3f32;
-        for surface in [Surface::Separate, Surface::Slip, Surface::Sticky] {
+        for surface in [Surface::Separate, Surface::Slip, Surface::Sticky, Surface::Clamp] {
             for v in [
                 Vec3A::new(0.2, -0.1, -0.5),
                 Vec3A::new(2.0, 0.5, -0.1),

@@ -15,7 +15,8 @@
 //! e = max(e_A, e_B) (Box2D's mixing rules), rolling resistance b = max(b_A, b_B). Grid
 //! colliders and the captured background have a friction coefficient and no restitution or
 //! rolling resistance of their own (the object's applies); a sticky collider acts on a rigid
-//! object as friction [`STICKY_FRICTION`].
+//! object as friction [`STICKY_FRICTION`] (as on deformable material, `collider::surface`), and
+//! so does a clamp (the rigid solver has no glue).
 
 pub mod block;
 pub mod boundary;

@@ -283,7 +283,9 @@ pub(super) fn solve(
                 Other::Collider(ci) => {
                     let col = &env.colliders[*ci as usize];
                     let mu = match col.surface {
-                        crate::collider::Surface::Sticky => crate::contact::STICKY_FRICTION,
+                        crate::collider::Surface::Sticky | crate::collider::Surface::Clamp => {
+                            crate::contact::STICKY_FRICTION
+                        }
                         _ => mix_friction(ba.friction, col.friction) as f64,
                     };
                     (collider0 + *ci as usize, mu, ba.restitution as f64)
