@@ -241,7 +241,7 @@ impl<'a, S: Simulation> Server<'a, S> {
             objects_pub,
             frame_book,
             objects_book,
-            subscriber_counts: (usize::MAX, usize::MAX),
+            subscribers: (Vec::new(), Vec::new()),
         };
         let waiting = cfg.wait_for_lossless > 0 || cfg.wait_for_subscribers > 0;
         let report = ServerReport {

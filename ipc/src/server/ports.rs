@@ -18,6 +18,9 @@ use crate::wire::{
     SceneGaussian, SceneHeader, write_fixed_str,
 };
 
+/// A service's subscribers as the books see them: (iceoryx2 subscriber id, lossless).
+pub(super) type Subscribers = Vec<(u128, bool)>;
+
 pub(super) struct Ports {
     pub(super) names: ServiceNames,
     pub(super) frame_service: FrameService,
@@ -26,27 +29,34 @@ pub(super) struct Ports {
     pub(super) objects_pub: Publisher<Iox, [ObjectState], FrameHeader>,
     pub(super) frame_book: LagBook,
     pub(super) objects_book: LagBook,
-    pub(super) subscriber_counts: (usize, usize),
+    /// The `frame` and `objects` subscribers the books were last given: (id, lossless).
+    pub(super) subscribers: (Subscribers, Subscribers),
 }
 
 impl Ports {
-    /// Re-reads which subscribers exist and which ask for lossless delivery.
+    /// Re-reads which subscribers exist and which ask for lossless delivery, and tells the
+    /// books when that changed. The lists are compared, not their lengths: a dead recorder
+    /// cleaned up while a new one attaches leaves the count as it was, and the new recorder,
+    /// unknown to the book, was dropped like a best-effort subscriber whenever its buffer filled
+    /// (gaps in a lossless recording).
     pub(super) fn refresh_subscribers(&mut self, force: bool) {
-        use iceoryx2::service::port_factory::PortFactory;
-        let counts = (
-            self.frame_service.dynamic_config().number_of_subscribers(),
-            self.objects_service
-                .dynamic_config()
-                .number_of_subscribers(),
-        );
-        if !force && counts == self.subscriber_counts {
-            return;
+        let mut frame = frame_subscribers(&self.frame_service);
+        let mut objects = objects_subscribers(&self.objects_service);
+        frame.sort_unstable();
+        objects.sort_unstable();
+        if force || frame != self.subscribers.0 {
+            self.frame_book.set_subscribers(&frame);
+            self.subscribers.0 = frame;
         }
-        self.subscriber_counts = counts;
-        self.frame_book
-            .set_subscribers(&frame_subscribers(&self.frame_service));
-        let o = objects_subscribers(&self.objects_service);
-        self.objects_book.set_subscribers(&o);
+        if force || objects != self.subscribers.1 {
+            self.objects_book.set_subscribers(&objects);
+            self.subscribers.1 = objects;
+        }
+    }
+
+    /// How many subscribers the `frame` service has.
+    pub(super) fn frame_subscriber_count(&self) -> usize {
+        self.subscribers.0.len()
     }
 }
 

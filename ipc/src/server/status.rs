@@ -34,7 +34,7 @@ pub(super) fn status<S: Simulation>(
                 0
             },
         scene_generation: sim.scene_generation(),
-        subscriber_count: ports.subscriber_counts.0 as u32,
+        subscriber_count: ports.frame_subscriber_count() as u32,
         reported_subscribers: lags.len() as u32,
         ..Default::default()
     };

@@ -136,7 +136,12 @@ mod tests {
     #[test]
     fn against_an_immovable_solid_the_impulse_is_the_one_way_rule() {
         let m = 0.3f32;
-        for surface in [Surface::Separate, Surface::Slip, Surface::Sticky, Surface::Clamp] {
+        for surface in [
+            Surface::Separate,
+            Surface::Slip,
+            Surface::Sticky,
+            Surface::Clamp,
+        ] {
             for v in [
                 Vec3A::new(0.2, -0.1, -0.5),
                 Vec3A::new(2.0, 0.5, -0.1),
