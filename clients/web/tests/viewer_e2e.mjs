@@ -33,6 +33,7 @@ const waitFor = (f, a, timeout = 60000) => page.waitForFunction(f, a, { timeout,
 const out = { mode, log };
 
 try {
+  out.stage = 'first frame';
   await page.goto(url);
   // A frame applied and drawn (the page also draws the scene before its first frame arrives).
   await waitFor(() => window.splatphys && window.splatphys.lastStep !== null);
@@ -108,16 +109,20 @@ try {
     const rgb = Buffer.from(await sp(() => window.splatphys.readPixels()), 'base64');
     out.litPixels = rgb.reduce((n, _, i) => n + (i % 3 === 0 && (rgb[i] | rgb[i + 1] | rgb[i + 2]) > 8 ? 1 : 0), 0);
   } else if (mode === 'finished') {
+    out.stage = 'finished status';
     await waitFor(() => window.splatphys.serverStatus && window.splatphys.serverStatus.finished);
+    out.stage = 'last frame drawn';
     await waitFor(() => window.splatphys.lastStep === window.splatphys.serverStatus.step);
     await page.waitForTimeout(300);
     out.finalStep = await sp(() => window.splatphys.lastStep);
     out.statusText = await page.textContent('#status');
     const rgb = Buffer.from(await sp(() => window.splatphys.readPixels()), 'base64');
     out.litPixels = rgb.reduce((n, _, i) => n + (i % 3 === 0 && (rgb[i] | rgb[i + 1] | rgb[i + 2]) > 8 ? 1 : 0), 0);
+    out.stage = 'reset';
     await page.click('#reset');
     await waitFor(() => window.splatphys.lastStep === 0, null, 30000);
     out.stepAfterReset = await sp(() => window.splatphys.lastStep);
+    out.stage = 'resume';
     await page.click('#resume');
     await waitFor(() => window.splatphys.lastStep > 2, null, 60000);
     out.stepAfterResume = await sp(() => window.splatphys.lastStep);
@@ -136,6 +141,11 @@ try {
 } catch (e) {
   out.ok = false;
   out.error = String(e && e.message || e);
+  // What the page held when it gave up (which wait `stage` names).
+  out.page = await sp(() => window.splatphys && {
+    lastStep: window.splatphys.lastStep,
+    status: window.splatphys.serverStatus,
+  }).catch(() => null);
 }
 if (mode === 'stopped') fs.writeFileSync(arg, JSON.stringify(out));
 console.log(JSON.stringify(out));
