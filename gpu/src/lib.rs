@@ -4,7 +4,10 @@
 //!
 //! - [`context`]: finding an adapter and opening a device ([`GpuContext`]); no adapter is an
 //!   error the caller reports ([`GpuError::NoAdapter`]), never a panic;
-//! - [`mpm`]: [`GpuMpm`], the particles kept on the GPU between substeps, read back when asked.
+//! - [`mpm`]: [`GpuMpm`], the particles kept on the GPU between substeps, read back when asked;
+//!   what the COM layer needs of them (mass, COM, momentum, angular momentum, inertia, bounds,
+//!   largest speed: [`GpuMpm::moments`]) summed on the GPU, and the rigid velocity field its laws
+//!   add ([`GpuMpm::rigid_field`]) applied there.
 //!
 //! What runs on the GPU: every material model of splatphys-core with its Kelvin–Voigt damping
 //! (fixed-corotated "jelly", neo-Hookean, and the plastic models with their return mappings and

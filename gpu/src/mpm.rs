@@ -13,6 +13,10 @@ use wgpu::util::DeviceExt;
 
 use crate::{GpuContext, GpuError};
 
+mod moments;
+
+/// f32 values per set of moments in the shader's `moments` buffer (`sums.wgsl`).
+const MOMENTS: u32 = 28;
 /// u32 words per grid node in the shader's `grid_sum` (four 64-bit sums and the node gap).
 const NODE_WORDS: u64 = 9;
 /// Work items per workgroup (`@workgroup_size(64)` in the shader).
@@ -41,6 +45,12 @@ struct Params {
     inv_scale_p: f32,
     n_gated: u32,
     t0: f32,
+    reference: [f32; 3],
+    n_groups: u32,
+    field_dv: [f32; 3],
+    _pad0: f32,
+    field_dw: [f32; 3],
+    _pad1: f32,
 }
 
 /// The shader's `Material`.
@@ -209,6 +219,7 @@ pub struct GpuMpm {
     xv: wgpu::Buffer,
     cf: wgpu::Buffer,
     plastic: wgpu::Buffer,
+    moments: wgpu::Buffer,
     grid_sum: wgpu::Buffer,
     status: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
@@ -216,6 +227,9 @@ pub struct GpuMpm {
     grid_update: wgpu::ComputePipeline,
     g2p: wgpu::ComputePipeline,
     tick: wgpu::ComputePipeline,
+    moments_per_group: wgpu::ComputePipeline,
+    moments_total: wgpu::ComputePipeline,
+    rigid_field: wgpu::ComputePipeline,
     /// Substeps run.
     pub substeps: u64,
     /// Simulated time (s).
@@ -278,6 +292,12 @@ impl GpuMpm {
             inv_scale_p: 1.0 / scale_p,
             n_gated: sys.colliders.iter().filter(|c| c.is_gated()).count() as u32,
             t0: 0.0,
+            reference: [0.0; 3],
+            n_groups: n.div_ceil(WORKGROUP).max(1),
+            field_dv: [0.0; 3],
+            _pad0: 0.0,
+            field_dw: [0.0; 3],
+            _pad1: 0.0,
         };
         let device = &ctx.device;
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
@@ -361,6 +381,12 @@ impl GpuMpm {
             mapped_at_creation: false,
         });
         let status = init("status", &[0u8; 16], rw);
+        let moments = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("moments"),
+            size: 4 * MOMENTS as u64 * (1 + u64::from(params.n_groups)),
+            usage: rw,
+            mapped_at_creation: false,
+        });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("mpm"),
             entries: &[
@@ -383,6 +409,7 @@ impl GpuMpm {
                 storage(7, false),
                 storage(8, false),
                 storage(9, false),
+                storage(10, false),
             ],
         });
         let buffers = [
@@ -396,6 +423,7 @@ impl GpuMpm {
             &grid_v,
             &status,
             &plastic,
+            &moments,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -413,7 +441,12 @@ impl GpuMpm {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("mpm.wgsl"),
             source: wgpu::ShaderSource::Wgsl(
-                concat!(include_str!("mpm.wgsl"), include_str!("plastic.wgsl")).into(),
+                concat!(
+                    include_str!("mpm.wgsl"),
+                    include_str!("plastic.wgsl"),
+                    include_str!("sums.wgsl")
+                )
+                .into(),
             ),
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -437,6 +470,11 @@ impl GpuMpm {
             pipeline("g2p"),
             pipeline("tick"),
         );
+        let (moments_per_group, moments_total, rigid_field) = (
+            pipeline("moments_per_group"),
+            pipeline("moments_total"),
+            pipeline("rigid_field"),
+        );
         Ok(Self {
             params,
             n_nodes,
@@ -444,6 +482,7 @@ impl GpuMpm {
             xv,
             cf,
             plastic,
+            moments,
             grid_sum,
             status,
             bind_group,
@@ -451,6 +490,9 @@ impl GpuMpm {
             grid_update,
             g2p,
             tick,
+            moments_per_group,
+            moments_total,
+            rigid_field,
             substeps: 0,
             time_s: sys.time_s,
             ctx,
@@ -475,9 +517,7 @@ impl GpuMpm {
         }
         self.params.dt = dt_s;
         self.params.t0 = self.time_s as f32;
-        self.ctx
-            .queue
-            .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+        self.write_params();
         // The batch's substep counter (status word 3) starts at 0.
         self.ctx
             .queue
@@ -518,9 +558,20 @@ impl GpuMpm {
         self.substeps(1, dt_s);
     }
 
+    /// Queues the upload of the parameters (before the next submission's work).
+    fn write_params(&self) {
+        self.ctx
+            .queue
+            .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+    }
+
     /// Waits for the GPU and copies `buffer` back.
     fn read(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-        let size = buffer.size();
+        self.read_prefix(buffer, buffer.size())
+    }
+
+    /// Waits for the GPU and copies the first `size` bytes of `buffer` back.
+    fn read_prefix(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
         let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size,

@@ -24,6 +24,13 @@ struct Params {
     n_gated: u32,
     // Time at the start of the batch of substeps (s); substep k of it starts at t0 + k dt.
     t0: f32,
+    // The point moments are taken about and the rigid field turns about (m), and the number of
+    // workgroups of a pass over the particles (sums.wgsl).
+    reference: vec3<f32>,
+    n_groups: u32,
+    // The rigid field's uniform velocity (m/s) and angular velocity (rad/s) (sums.wgsl).
+    field_dv: vec3<f32>,
+    field_dw: vec3<f32>,
 };
 
 // Material: Lamé mu, lambda (Pa), Kelvin–Voigt viscosity eta (Pa s), model (MODEL_*), and the
@@ -84,6 +91,8 @@ struct Collider {
 // Per particle: F_p columns 0..2 (the plastic deformation its Gaussians follow), with the model's
 // plastic scalar (snow's Jp, the others' accumulated plastic strain) in the first column's w.
 @group(0) @binding(9) var<storage, read_write> plastic: array<vec4<f32>>;
+// An object's moments: the total, then each workgroup's (sums.wgsl).
+@group(0) @binding(10) var<storage, read_write> moments: array<f32>;
 
 const TWO_32: f32 = 4294967296.0;
 const NODE_WORDS: u32 = 9u;

@@ -1,0 +1,104 @@
+//! An object's moments summed on the GPU, and the rigid velocity field the COM layer adds to an
+//! object (`sums.wgsl`): what the COM layer needs of an object whose particles stay on the GPU
+//! crosses the bus as one small buffer, not as the particles.
+
+use glam::{DVec3, Vec3A};
+use splatphys_core::world::BodyState;
+use splatphys_core::world::measure::inertia_from_second_moments;
+
+use crate::mpm::{MOMENTS, dispatch};
+use crate::{GpuError, GpuMpm};
+
+impl GpuMpm {
+    /// The particles' state as `splatphys_core::world::measure` computes it from them on the
+    /// CPU (mass, COM, velocity, angular momentum about the COM with the APIC spin term, inertia
+    /// about the COM, bounds), and their largest speed (m/s). The radius is the farthest corner
+    /// of the bounds from the COM plus dx/2, at least the CPU's. Summed on the GPU in f32 about
+    /// `reference` (m): a point near the particles, such as their last COM, keeps the sums
+    /// accurate. Waits for the GPU (for every substep queued before it, too).
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`].
+    pub fn moments(&mut self, reference: Vec3A) -> Result<(BodyState, f32), GpuError> {
+        self.params.reference = reference.to_array();
+        self.write_params();
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("moments"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("moments"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            let groups = dispatch(self.params.n_particles);
+            pass.set_pipeline(&self.moments_per_group);
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+            pass.set_pipeline(&self.moments_total);
+            pass.dispatch_workgroups(1, 1, 1);
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+        let bytes = self.read_prefix(&self.moments, 4 * MOMENTS as u64)?;
+        let s: &[f32] = bytemuck::cast_slice(&bytes);
+        Ok((self.state_of(s, reference), s[26]))
+    }
+
+    /// [`GpuMpm::moments`]'s sums `s` about `reference` as a [`BodyState`].
+    fn state_of(&self, s: &[f32], reference: Vec3A) -> BodyState {
+        let f = |k: usize| f64::from(s[k]);
+        let v3 = |k: usize| DVec3::new(f(k), f(k + 1), f(k + 2));
+        let m = f(0);
+        if m.is_nan() || m <= 0.0 {
+            return BodyState::default();
+        }
+        let mean = v3(1) / m;
+        let velocity = v3(4) / m;
+        // Σ m (y − ȳ) × (v − V) = Σ m y × v − M ȳ × V, and the second moments likewise.
+        let orbital = v3(7) - mean.cross(velocity) * m;
+        let diag = v3(13) - mean * mean * m;
+        let off = v3(16) - DVec3::new(mean.x * mean.y, mean.x * mean.z, mean.y * mean.z) * m;
+        let d = f64::from(self.params.dx).powi(2) / 4.0;
+        let r0 = reference.as_dvec3();
+        let (lo, hi) = (v3(20), v3(23));
+        let far = (lo - mean).abs().max((hi - mean).abs());
+        BodyState {
+            mass_kg: m,
+            com_m: r0 + mean,
+            velocity_m_s: velocity,
+            angular_momentum: orbital + v3(10) * d,
+            inertia: inertia_from_second_moments(diag, off, 2.0 * d * m),
+            radius_m: far.length() + f64::from(self.params.dx) / 2.0,
+            aabb_m: (r0 + lo, r0 + hi),
+        }
+    }
+
+    /// Queues the rigid field the COM layer's laws add to an object: v += `dv` + `dw` ×
+    /// (x − `about`) and C += \[`dw`\]× on every particle (m/s, rad/s, m), as
+    /// `splatphys_core::world::coherence` does on the CPU. Returns without waiting.
+    pub fn rigid_field(&mut self, dv: Vec3A, dw: Vec3A, about: Vec3A) {
+        self.params.reference = about.to_array();
+        self.params.field_dv = dv.to_array();
+        self.params.field_dw = dw.to_array();
+        self.write_params();
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("rigid field"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("rigid field"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            let groups = dispatch(self.params.n_particles);
+            pass.set_pipeline(&self.rigid_field);
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+}

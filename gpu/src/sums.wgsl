@@ -1,0 +1,147 @@
+// What the COM layer needs of an object whose particles stay on the GPU: its moments, summed on
+// the GPU so that one small buffer crosses the bus (world/measure.rs computes the same on the
+// CPU), and the rigid velocity field the COM layer's laws add to it (world/coherence.rs
+// rigid_field). Appended to mpm.wgsl when the module is built.
+//
+// Moments are taken about a reference point r0 (params.reference: the object's last COM keeps
+// the f32 sums accurate), y = x - r0, in a fixed order (per workgroup of 64, then over the
+// workgroups in index order), so they are deterministic for a given device:
+//   [0] sum m, [1..4) sum m y, [4..7) sum m v, [7..10) sum m y x v,
+//   [10..13) sum m (C_zy - C_yz, C_xz - C_zx, C_yx - C_xy) (the APIC spin),
+//   [13..16) sum m (y_x^2, y_y^2, y_z^2), [16..19) sum m (y_x y_y, y_x y_z, y_y y_z),
+//   [19] sum m |v|^2, [20..23) min y, [23..26) max y, [26] max |v|, [27] unused.
+
+const MOMENTS: u32 = 28u;
+const SUMS: u32 = 20u;
+
+var<workgroup> partial: array<f32, 1792>; // 64 threads x MOMENTS
+
+// This work item's particle's moments (zeros and neutral bounds past the last particle).
+fn particle_moments(p: u32, out_base: u32) {
+    for (var k = 0u; k < MOMENTS; k++) {
+        partial[out_base + k] = 0.0;
+    }
+    for (var k = 20u; k < 23u; k++) {
+        partial[out_base + k] = 3.0e38;
+    }
+    for (var k = 23u; k < 26u; k++) {
+        partial[out_base + k] = -3.0e38;
+    }
+    if p >= params.n_particles {
+        return;
+    }
+    let xm = xv[2u * p];
+    let v = xv[2u * p + 1u].xyz;
+    let m = xm.w;
+    let y = xm.xyz - params.reference;
+    let c = mat3x3<f32>(cf[6u * p].xyz, cf[6u * p + 1u].xyz, cf[6u * p + 2u].xyz);
+    let l = cross(y, v) * m;
+    let spin = vec3<f32>(c[1].z - c[2].y, c[2].x - c[0].z, c[0].y - c[1].x) * m;
+    let values = array<f32, 20>(
+        m, m * y.x, m * y.y, m * y.z, m * v.x, m * v.y, m * v.z, l.x, l.y, l.z,
+        spin.x, spin.y, spin.z, m * y.x * y.x, m * y.y * y.y, m * y.z * y.z,
+        m * y.x * y.y, m * y.x * y.z, m * y.y * y.z, m * dot(v, v),
+    );
+    for (var k = 0u; k < SUMS; k++) {
+        partial[out_base + k] = values[k];
+    }
+    for (var k = 0u; k < 3u; k++) {
+        partial[out_base + 20u + k] = y[k];
+        partial[out_base + 23u + k] = y[k];
+    }
+    partial[out_base + 26u] = length(v);
+}
+
+// Folds thread `t + stride`'s moments into thread t's.
+fn fold(t: u32, stride: u32) {
+    let a = t * MOMENTS;
+    let b = (t + stride) * MOMENTS;
+    for (var k = 0u; k < SUMS; k++) {
+        partial[a + k] += partial[b + k];
+    }
+    for (var k = 20u; k < 23u; k++) {
+        partial[a + k] = min(partial[a + k], partial[b + k]);
+    }
+    for (var k = 23u; k < 27u; k++) {
+        partial[a + k] = max(partial[a + k], partial[b + k]);
+    }
+}
+
+// The tree over the workgroup's 64 threads; thread 0 ends with the total.
+fn reduce_workgroup(t: u32) {
+    for (var stride = 32u; stride > 0u; stride = stride / 2u) {
+        workgroupBarrier();
+        if t < stride {
+            fold(t, stride);
+        }
+    }
+    workgroupBarrier();
+}
+
+// Pass 1: each workgroup's moments into moments[MOMENTS * (1 + group)].
+@compute @workgroup_size(64)
+fn moments_per_group(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_index) t: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    particle_moments(flat_index(gid), t * MOMENTS);
+    reduce_workgroup(t);
+    if t == 0u {
+        let group = wid.x + wid.y * ROW;
+        for (var k = 0u; k < MOMENTS; k++) {
+            moments[MOMENTS * (1u + group) + k] = partial[k];
+        }
+    }
+}
+
+// Pass 2, one workgroup: the groups' moments, thread t taking groups t, t + 64, ... in order,
+// then the tree; the total into moments[0..MOMENTS).
+@compute @workgroup_size(64)
+fn moments_total(@builtin(local_invocation_index) t: u32) {
+    let base = t * MOMENTS;
+    for (var k = 0u; k < MOMENTS; k++) {
+        partial[base + k] = 0.0;
+    }
+    for (var k = 20u; k < 23u; k++) {
+        partial[base + k] = 3.0e38;
+    }
+    for (var k = 23u; k < 27u; k++) {
+        partial[base + k] = -3.0e38;
+    }
+    for (var g = t; g < params.n_groups; g += 64u) {
+        let src = MOMENTS * (1u + g);
+        for (var k = 0u; k < SUMS; k++) {
+            partial[base + k] += moments[src + k];
+        }
+        for (var k = 20u; k < 23u; k++) {
+            partial[base + k] = min(partial[base + k], moments[src + k]);
+        }
+        for (var k = 23u; k < 27u; k++) {
+            partial[base + k] = max(partial[base + k], moments[src + k]);
+        }
+    }
+    reduce_workgroup(t);
+    if t == 0u {
+        for (var k = 0u; k < MOMENTS; k++) {
+            moments[k] = partial[k];
+        }
+    }
+}
+
+// v += dv + dw x (x - about), C += [dw]x on every particle (world/coherence.rs rigid_field), with
+// (dv, dw, about) in params.field_dv, field_dw and reference.
+@compute @workgroup_size(64)
+fn rigid_field(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = flat_index(gid);
+    if p >= params.n_particles {
+        return;
+    }
+    let dw = params.field_dw;
+    let x = xv[2u * p].xyz;
+    let vv = xv[2u * p + 1u];
+    xv[2u * p + 1u] = vec4<f32>(vv.xyz + params.field_dv + cross(dw, x - params.reference), vv.w);
+    cf[6u * p] = vec4<f32>(cf[6u * p].xyz + vec3<f32>(0.0, dw.z, -dw.y), 0.0);
+    cf[6u * p + 1u] = vec4<f32>(cf[6u * p + 1u].xyz + vec3<f32>(-dw.z, 0.0, dw.x), 0.0);
+    cf[6u * p + 2u] = vec4<f32>(cf[6u * p + 2u].xyz + vec3<f32>(dw.y, -dw.x, 0.0), 0.0);
+}
