@@ -6,7 +6,8 @@
 //!   error the caller reports ([`GpuError::NoAdapter`]), never a panic;
 //! - [`mpm`]: [`GpuMpm`], the particles kept on the GPU between substeps, read back when asked;
 //!   what the COM layer needs of them (mass, COM, momentum, angular momentum, inertia, bounds,
-//!   largest speed: [`GpuMpm::moments`]) summed on the GPU, and the rigid velocity field its laws
+//!   largest speed: [`GpuMpm::moments`]; each collider's impulse:
+//!   [`GpuMpm::collider_impulses_n_s`]) summed on the GPU, and the rigid velocity field its laws
 //!   add ([`GpuMpm::rigid_field`]) applied there.
 //!
 //! What runs on the GPU: every material model of splatphys-core with its Kelvin–Voigt damping

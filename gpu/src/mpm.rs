@@ -17,8 +17,11 @@ mod moments;
 
 /// f32 values per set of moments in the shader's `moments` buffer (`sums.wgsl`).
 const MOMENTS: u32 = 28;
+/// u32 words per collider after the nodes in the shader's `grid_sum` (its impulse: three 64-bit
+/// sums).
+pub(crate) const COLLIDER_WORDS: u64 = 6;
 /// u32 words per grid node in the shader's `grid_sum` (four 64-bit sums and the node gap).
-const NODE_WORDS: u64 = 9;
+pub(crate) const NODE_WORDS: u64 = 9;
 /// Work items per workgroup (`@workgroup_size(64)` in the shader).
 const WORKGROUP: u32 = 64;
 /// Workgroups per dispatch row (the per-dimension limit); the shader's `ROW`.
@@ -370,7 +373,9 @@ impl GpuMpm {
         );
         let grid_sum = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("grid_sum"),
-            size: u64::from(n_nodes) * 4 * NODE_WORDS,
+            size: 4
+                * (u64::from(n_nodes) * NODE_WORDS
+                    + COLLIDER_WORDS * u64::from(params.n_colliders)),
             usage: rw,
             mapped_at_creation: false,
         });
@@ -567,11 +572,21 @@ impl GpuMpm {
 
     /// Waits for the GPU and copies `buffer` back.
     fn read(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-        self.read_prefix(buffer, buffer.size())
+        self.read_range(buffer, 0, buffer.size())
     }
 
     /// Waits for the GPU and copies the first `size` bytes of `buffer` back.
     fn read_prefix(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
+        self.read_range(buffer, 0, size)
+    }
+
+    /// Waits for the GPU and copies `size` bytes of `buffer` from byte `offset` back.
+    fn read_range(
+        &self,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+        size: u64,
+    ) -> Result<Vec<u8>, GpuError> {
         let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size,
@@ -584,7 +599,7 @@ impl GpuMpm {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("readback"),
             });
-        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
         self.ctx.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         staging.map_async(wgpu::MapMode::Read, .., move |r| {

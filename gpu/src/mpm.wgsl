@@ -82,6 +82,9 @@ struct Collider {
 // Per node 9 words: mass, px, py, pz, each as (low u32, high u32) of a 64-bit fixed-point sum,
 // then the node's gap to the gated colliders (the bitwise NOT of an order-preserving u32 form of
 // the f32, so that 0 is "no particle's column reaches it" and atomicMax takes the smallest gap).
+// After the nodes, per collider 6 words: the normal impulse it gave the grid in the substep,
+// n n·Δp summed over its nodes (grid_update.rs's collider impulses), as three 64-bit sums at the
+// momentum scale.
 @group(0) @binding(6) var<storage, read_write> grid_sum: array<atomic<u32>>;
 // Per node: velocity (m/s), mass (kg).
 @group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
@@ -496,7 +499,15 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
             if c.gated != 0u && !(node_gap(slot) <= max(-dot(v - vc, n), 0.0) * params.dt) {
                 continue;
             }
+            let before = v;
             v = apply_surface(v - vc, n, c.surface, c.friction) + vc;
+            let dp = n * (dot(v - before, n) * m * params.scale_p);
+            if any(dp != vec3<f32>(0.0)) {
+                let slot = n_nodes * NODE_WORDS + 6u * k;
+                add_fixed(slot, dp.x);
+                add_fixed(slot + 2u, dp.y);
+                add_fixed(slot + 4u, dp.z);
+            }
         }
     }
     if !(all(abs(v) < vec3<f32>(3.0e38))) {

@@ -209,6 +209,39 @@ fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
 }
 
 #[test]
+fn the_impulse_a_plane_gives_a_cube_resting_on_it_is_the_cpus() {
+    // A jelly cube dropped 1 cm onto a sticky plane, 0.2 s on (resting on it, still ringing):
+    // the GPU's sum of the plane's normal impulse in the last substep is the CPU's, and it holds
+    // the cube up (of the order of its weight times dt; measured 1.75×, the ringing).
+    let Some(ctx) = context() else { return };
+    let g = Vec3A::new(0.0, 0.0, -9.8);
+    let mut cpu = cube(8, 1.0 / 32.0, Vec3A::ZERO, g, jelly());
+    let plane = splatphys_core::collider::Plane::new(Vec3A::new(0.0, 0.0, 0.29), Vec3A::Z).unwrap();
+    cpu.colliders
+        .push(Collider::fixed(Shape::Plane(plane), Surface::Sticky, 0.3));
+    let mut gpu = GpuMpm::new(ctx, &cpu).expect("supported");
+    gpu.substeps(2000, 1e-4);
+    let on_gpu = gpu.collider_impulses_n_s().unwrap();
+    for _ in 0..2000 {
+        cpu.substep(1.0).unwrap();
+    }
+    let on_cpu = cpu.solver.collider_impulses_n_s().to_vec();
+    let weight_dt = cpu.particles.mass_kg.iter().sum::<f32>() as f64 * 9.8 * 1e-4;
+    println!(
+        "plane's impulse in the last substep: GPU {:?}, CPU {:?} N s; weight x dt {weight_dt:.3e}",
+        on_gpu[1], on_cpu[1]
+    );
+    assert_eq!(on_gpu.len(), 2);
+    // The domain bound is far from the cube and gave nothing.
+    assert_eq!(on_gpu[0], glam::DVec3::ZERO);
+    assert!((on_gpu[1] - on_cpu[1]).length() < 1e-3 * on_cpu[1].length());
+    assert!(
+        on_cpu[1].z > 0.5 * weight_dt && on_cpu[1].z < 3.0 * weight_dt,
+        "{on_cpu:?}"
+    );
+}
+
+#[test]
 fn a_moving_plane_lifts_and_drags_a_cube_as_on_the_cpu() {
     let Some(ctx) = context() else { return };
     let g = Vec3A::new(0.0, 0.0, -9.8);

@@ -1,12 +1,13 @@
-//! An object's moments summed on the GPU, and the rigid velocity field the COM layer adds to an
-//! object (`sums.wgsl`): what the COM layer needs of an object whose particles stay on the GPU
-//! crosses the bus as one small buffer, not as the particles.
+//! What the COM layer needs of an object whose particles stay on the GPU, as small buffers
+//! instead of the particles: its moments summed on the GPU (`sums.wgsl`), the normal impulse
+//! each collider gave it in the last substep (summed in the grid update), and the rigid velocity
+//! field the COM layer's laws add to it.
 
 use glam::{DVec3, Vec3A};
 use splatphys_core::world::BodyState;
 use splatphys_core::world::measure::inertia_from_second_moments;
 
-use crate::mpm::{MOMENTS, dispatch};
+use crate::mpm::{COLLIDER_WORDS, MOMENTS, NODE_WORDS, dispatch};
 use crate::{GpuError, GpuMpm};
 
 impl GpuMpm {
@@ -44,6 +45,34 @@ impl GpuMpm {
         let bytes = self.read_prefix(&self.moments, 4 * MOMENTS as u64)?;
         let s: &[f32] = bytemuck::cast_slice(&bytes);
         Ok((self.state_of(s, reference), s[26]))
+    }
+
+    /// The normal impulse each collider gave the particles in the last substep (N s, one per
+    /// collider in the system's order, zero for one not touched): n n·Δp summed over its grid
+    /// nodes, as `MpmSolver::collider_impulses_n_s` reports on the CPU (what the restitution law
+    /// at collider contacts takes). Exact sums of 64-bit fixed-point terms. Waits for the GPU.
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`].
+    pub fn collider_impulses_n_s(&self) -> Result<Vec<DVec3>, GpuError> {
+        let n = u64::from(self.params.n_colliders);
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let offset = 4 * u64::from(self.n_nodes) * NODE_WORDS;
+        let bytes = self.read_range(&self.grid_sum, offset, 4 * COLLIDER_WORDS * n)?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        let scale = 1.0 / f64::from(self.params.scale_p);
+        let value = |k: usize| {
+            let bits = u64::from(words[k]) | (u64::from(words[k + 1]) << 32);
+            bits as i64 as f64 * scale
+        };
+        Ok((0..n as usize)
+            .map(|c| {
+                let k = c * COLLIDER_WORDS as usize;
+                DVec3::new(value(k), value(k + 2), value(k + 4))
+            })
+            .collect())
     }
 
     /// [`GpuMpm::moments`]'s sums `s` about `reference` as a [`BodyState`].
