@@ -126,9 +126,7 @@ fn a_jelly_ball_rolling_on_a_plane_slows_less_on_a_finer_grid() {
         (at(0.1) - at(0.6)) / 0.5
     };
     let (coarse, fine) = (slowing(0.01), slowing(0.005));
-    println!(
-        "rolling on a plane: slowing {coarse:.3} m/s² on a 1 cm grid, {fine:.3} m/s² on 5 mm"
-    );
+    println!("rolling on a plane: slowing {coarse:.3} m/s² on a 1 cm grid, {fine:.3} m/s² on 5 mm");
     assert!(fine < 0.67 * coarse, "{fine} vs {coarse}");
     assert!(fine > 0.0, "the fine ball sped up: {fine}");
 }
