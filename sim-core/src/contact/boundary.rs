@@ -5,8 +5,8 @@
 //! materials", SIGGRAPH course, section 12).
 //!
 //! A node of the deformable's grid whose signed distance in a solid is ≤ 0 takes the solid's
-//! surface rule (sticky, clamp, slip, or by default "separate" with Coulomb friction, the rule whose grid
-//! friction matches the analytic law) relative to the solid's velocity there. Inside an
+//! surface rule (sticky, clamp, slip, or by default "separate" with Coulomb friction, the rule
+//! whose grid friction matches the analytic law) relative to the solid's velocity there. Inside an
 //! immovable procedural solid that lets material leave, only where the material reaches the
 //! surface within the substep ([`crate::mpm::reach`]): a ball rolling on it is not braked by the
 //! nodes ahead of its contact, and a body lands on the surface, not on the nodes above it.
