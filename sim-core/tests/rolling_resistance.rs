@@ -176,8 +176,8 @@ fn a_jelly_ball_dropped_on_a_table_stops_rocking_with_rolling_resistance() {
     // The paper's dropped jelly ball (r = 4 cm, E = 2e5 Pa) on a sticky table: its lattice
     // leaves the first bounce slightly sideways, and without rolling resistance it rolls and
     // rocks on (a rigid motion on its flattened base that its material cannot damp; measured
-    // 0.016 m/s). With b = 2 mm its horizontal motion drops below the 1 cm/s of "at rest"
-    // (measured 0.1 mm/s). Largest horizontal COM speed over the last 0.5 s of 3 s.
+    // 0.079 m/s). With b = 2 mm its horizontal motion drops below the 1 cm/s of "at rest"
+    // (measured 2.8 mm/s). Largest horizontal COM speed over the last 0.5 s of 3 s.
     let ball = |b: f32| {
         SceneObject::sphere("ball", [0.0, 0.0, 0.2], 0.04)
             .spacing_m(0.005)
@@ -197,7 +197,7 @@ fn a_jelly_ball_dropped_on_a_table_stops_rocking_with_rolling_resistance() {
     println!(
         "jelly ball, horizontal speed over 2.5-3 s: {free:.4} m/s free, {resisted:.4} m/s with b = 2 mm"
     );
-    assert!(free > 0.01, "the free ball stopped rocking: {free} m/s");
+    assert!(free > 0.03, "the free ball stopped rocking: {free} m/s");
     assert!(
         resisted < 0.01,
         "with b = 2 mm it still moves at {resisted} m/s"

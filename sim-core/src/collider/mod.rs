@@ -77,10 +77,13 @@ impl Collider {
     }
 
     /// Whether a grid node inside it takes its rule only where material reaches the surface
-    /// ([`crate::mpm::reach`]): a plane or a box that lets material leave. The domain bound and
-    /// a clamp (which holds the material it encloses) hold every node inside.
+    /// ([`crate::mpm::reach`]): a plane or a box that lets material leave and does not grip.
+    /// The domain bound, a clamp (which holds the material it encloses) and a sticky surface hold
+    /// every node inside: gated, a sticky table made the donut of `bench sag` 13–29 % stiffer on
+    /// 10–40 mm grids than on 5 mm, against 6–19 % held at every node.
     pub fn is_gated(&self) -> bool {
-        !matches!(self.shape, Shape::DomainBound(_)) && self.surface != Surface::Clamp
+        !matches!(self.shape, Shape::DomainBound(_))
+            && !matches!(self.surface, Surface::Clamp | Surface::Sticky)
     }
 
     /// Outward normal if grid node position `x` is inside the collider at time `t_s`.

@@ -259,12 +259,15 @@ pub fn gaps(
 }
 
 /// Whether a node inside `o` takes its rule only where material reaches it (`apply`'s
-/// `reach`): an immovable solid with an exact surface whose rule lets material leave. A clamp
-/// holds every node inside it (it holds the material it encloses: gated, a clamped bar's period
-/// and damping were off), and a movable solid meets the grid two-way over its whole band (gated,
-/// a 1.6 kg block sank 7.4 mm into a jelly that carries it 0.8 mm down).
+/// `reach`): an immovable solid with an exact surface whose rule lets material leave and does not
+/// grip. A clamp holds every node inside it (it holds the material it encloses: gated, a clamped
+/// bar's period and damping were off), so does a sticky one (as a sticky collider,
+/// [`crate::collider::Collider::is_gated`]), and a movable solid meets the grid two-way over its
+/// whole band (gated, a 1.6 kg block sank 7.4 mm into a jelly that carries it 0.8 mm down).
 fn gated(o: &Obstacle) -> bool {
-    o.placed.geometry.is_exact() && !o.is_movable() && o.surface != Surface::Clamp
+    o.placed.geometry.is_exact()
+        && !o.is_movable()
+        && !matches!(o.surface, Surface::Clamp | Surface::Sticky)
 }
 
 /// A node of a block touching a movable obstacle.
