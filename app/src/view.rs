@@ -56,6 +56,7 @@ impl Viewer {
             .arg(opt("--host", &args.view_host))
             .arg(opt("--port", args.view_port))
             .args(camera_args)
+            .arg(opt("--exit-with-parent", std::process::id()))
             .stdin(Stdio::null())
             .stdout(Stdio::piped());
         if let Some(t) = &args.view_token {

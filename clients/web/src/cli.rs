@@ -49,6 +49,10 @@ pub struct Cli {
     /// Image height, pixels.
     #[arg(long, default_value_t = 480)]
     pub height: u32,
+    /// End when process PID ends (`splatphys serve --view` passes its own: a viewer whose server
+    /// was killed would otherwise wait for it for ever). Linux only.
+    #[arg(long, value_name = "PID", hide = true)]
+    pub exit_with_parent: Option<u32>,
 }
 
 /// Parses `x,y,z` (clap value parser).

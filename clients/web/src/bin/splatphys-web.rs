@@ -10,6 +10,9 @@ use splatphys_web::{CameraJson, WebConfig, serve};
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
+    if let Some(parent) = cli.exit_with_parent {
+        follow_parent(parent);
+    }
     if !(cli.fov_deg > 0.0 && cli.fov_deg < 180.0) {
         bail!("--fov-deg {} is not in (0, 180)", cli.fov_deg);
     }
@@ -54,3 +57,22 @@ fn main() -> Result<()> {
     eprintln!("splatphys-web: stopped; {}", stats.summary());
     Ok(())
 }
+
+/// Asks the kernel for SIGTERM when the parent ends (the viewer then stops as on any SIGTERM),
+/// and ends now if `parent` has already gone (it died before the request took effect).
+#[cfg(target_os = "linux")]
+fn follow_parent(parent: u32) {
+    use rustix::process::{Signal, getppid, set_parent_process_death_signal};
+    if let Err(e) = set_parent_process_death_signal(Some(Signal::TERM)) {
+        eprintln!("splatphys-web: cannot follow the parent process: {e}");
+        return;
+    }
+    if getppid().map(|p| p.as_raw_nonzero().get() as u32) != Some(parent) {
+        eprintln!("splatphys-web: process {parent} has already ended");
+        std::process::exit(0);
+    }
+}
+
+/// Elsewhere the viewer outlives a killed parent (it is stopped with it on a clean exit).
+#[cfg(not(target_os = "linux"))]
+fn follow_parent(_parent: u32) {}
