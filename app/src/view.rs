@@ -56,6 +56,8 @@ impl Viewer {
             .arg(opt("--host", &args.view_host))
             .arg(opt("--port", args.view_port))
             .args(camera_args)
+            // The viewer ends when this process does (Linux's parent-death signal, which follows
+            // the spawning thread: start it from the thread that lives as long as the command).
             .arg(opt("--exit-with-parent", std::process::id()))
             .stdin(Stdio::null())
             .stdout(Stdio::piped());
