@@ -2,8 +2,8 @@
 
 use crate::GpuError;
 
-/// An open wgpu device and its queue.
-#[derive(Debug)]
+/// An open wgpu device and its queue; a clone shares them.
+#[derive(Debug, Clone)]
 pub struct GpuContext {
     /// The device.
     pub device: wgpu::Device,

@@ -11,12 +11,15 @@ use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
 use splatphys_gpu::mpm::check_supported;
 use splatphys_gpu::{GpuContext, GpuError, GpuMpm};
 
-/// The device, or `None` (with a message) where there is none and none is required.
+/// The device every test shares, or `None` (with a message) where there is none and none is
+/// required. One device for the whole run: lavapipe keeps well over a gigabyte per device it
+/// opened until the process ends, and a device per test ran the tests out of memory.
 fn context() -> Option<GpuContext> {
-    match GpuContext::new() {
+    static SHARED: std::sync::OnceLock<Result<GpuContext, String>> = std::sync::OnceLock::new();
+    match SHARED.get_or_init(|| GpuContext::new().map_err(|e| e.to_string())) {
         Ok(ctx) => {
             eprintln!("GPU tests on {}", ctx.name());
-            Some(ctx)
+            Some(ctx.clone())
         }
         Err(e) => {
             assert!(
@@ -273,7 +276,7 @@ fn a_run_gives_the_same_bits_every_time() {
         jelly(),
     );
     let a = on_gpu(ctx, &sys, 2500);
-    let b = on_gpu(GpuContext::new().unwrap(), &sys, 2500);
+    let b = on_gpu(context().expect("the same device"), &sys, 2500);
     assert_eq!(a.x, b.x);
     assert_eq!(a.f, b.f);
 }
