@@ -16,17 +16,22 @@ const SUMS: u32 = 20u;
 
 var<workgroup> partial: array<f32, 1792>; // 64 threads x MOMENTS
 
-// This work item's particle's moments (zeros and neutral bounds past the last particle).
-fn particle_moments(p: u32, out_base: u32) {
+// Empty moments at `base`: zero sums and speed, bounds that any value replaces.
+fn reset(base: u32) {
     for (var k = 0u; k < MOMENTS; k++) {
-        partial[out_base + k] = 0.0;
+        partial[base + k] = 0.0;
     }
     for (var k = 20u; k < 23u; k++) {
-        partial[out_base + k] = 3.0e38;
+        partial[base + k] = 3.0e38;
     }
     for (var k = 23u; k < 26u; k++) {
-        partial[out_base + k] = -3.0e38;
+        partial[base + k] = -3.0e38;
     }
+}
+
+// This work item's particle's moments (empty past the last particle).
+fn particle_moments(p: u32, out_base: u32) {
+    reset(out_base);
     if p >= params.n_particles {
         return;
     }
@@ -100,15 +105,7 @@ fn moments_per_group(
 @compute @workgroup_size(64)
 fn moments_total(@builtin(local_invocation_index) t: u32) {
     let base = t * MOMENTS;
-    for (var k = 0u; k < MOMENTS; k++) {
-        partial[base + k] = 0.0;
-    }
-    for (var k = 20u; k < 23u; k++) {
-        partial[base + k] = 3.0e38;
-    }
-    for (var k = 23u; k < 27u; k++) {
-        partial[base + k] = -3.0e38;
-    }
+    reset(base);
     for (var g = t; g < params.n_groups; g += 64u) {
         let src = MOMENTS * (1u + g);
         for (var k = 0u; k < SUMS; k++) {

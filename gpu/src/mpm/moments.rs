@@ -23,25 +23,14 @@ impl GpuMpm {
     pub fn moments(&mut self, reference: Vec3A) -> Result<(BodyState, f32), GpuError> {
         self.params.reference = reference.to_array();
         self.write_params();
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("moments"),
-            });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("moments"),
-                timestamp_writes: None,
-            });
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            let groups = dispatch(self.params.n_particles);
-            pass.set_pipeline(&self.moments_per_group);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
-            pass.set_pipeline(&self.moments_total);
-            pass.dispatch_workgroups(1, 1, 1);
-        }
-        self.ctx.queue.submit([encoder.finish()]);
+        let groups = dispatch(self.params.n_particles);
+        self.submit_pass(
+            "moments",
+            &[
+                (&self.moments_per_group, groups),
+                (&self.moments_total, (1, 1)),
+            ],
+        );
         let bytes = self.read_prefix(&self.moments, 4 * MOMENTS as u64)?;
         let s: &[f32] = bytemuck::cast_slice(&bytes);
         Ok((self.state_of(s, reference), s[26]))
@@ -112,21 +101,26 @@ impl GpuMpm {
         self.params.field_dv = dv.to_array();
         self.params.field_dw = dw.to_array();
         self.write_params();
+        let groups = dispatch(self.params.n_particles);
+        self.submit_pass("rigid field", &[(&self.rigid_field, groups)]);
+    }
+
+    /// Submits one compute pass that runs `kernels` (pipeline, (x, y) workgroups) in order.
+    fn submit_pass(&self, label: &str, kernels: &[(&wgpu::ComputePipeline, (u32, u32))]) {
         let mut encoder = self
             .ctx
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("rigid field"),
-            });
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("rigid field"),
+                label: Some(label),
                 timestamp_writes: None,
             });
             pass.set_bind_group(0, &self.bind_group, &[]);
-            let groups = dispatch(self.params.n_particles);
-            pass.set_pipeline(&self.rigid_field);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
+            for (pipeline, (x, y)) in kernels {
+                pass.set_pipeline(pipeline);
+                pass.dispatch_workgroups(*x, *y, 1);
+            }
         }
         self.ctx.queue.submit([encoder.finish()]);
     }
