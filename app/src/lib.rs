@@ -4,6 +4,7 @@
 //!
 //! - [`world_sim`]: the adapter that makes a sim-core [`World`](splatphys_core::world::World) a
 //!   server-ready [`Simulation`](splatphys_ipc::Simulation);
+//! - [`device`]: `--device` (deformable objects' MPM on a GPU where their situation allows);
 //! - [`level_of_detail`]: `--budget-fps` and `--spacing-from` (calibrated or recorded level of
 //!   detail);
 //! - [`plan`]: what the parent of `splatphys run` reads from the scene, once;
@@ -17,6 +18,7 @@ pub mod align;
 pub mod calibration;
 pub mod child_args;
 pub mod cli;
+pub mod device;
 pub mod inspect;
 pub mod level_of_detail;
 pub mod plan;

@@ -11,6 +11,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::child_args::{opt, opt_path};
+use crate::device::DeviceArgs;
 use crate::level_of_detail::{self, LodArgs};
 use crate::plan::RunPlan;
 use crate::report::{RunSummary, ServerJson, read_json, write_json};
@@ -72,6 +73,9 @@ pub struct RunArgs {
     /// Level of detail by budget.
     #[command(flatten)]
     pub lod: LodArgs,
+    /// Where deformable objects' MPM runs.
+    #[command(flatten)]
+    pub device: DeviceArgs,
     /// After the run, write frames as INRIA PLY files (`OUT/export/frame_<index>.ply`, world
     /// metres, z up, with each Gaussian's `object_id`) from the recording.
     #[arg(long)]
@@ -151,8 +155,10 @@ fn in_process(args: &RunArgs) -> Result<()> {
         rayon::current_num_threads(),
         "splatphys run",
     )?;
+    args.device.apply(&mut scene);
     let mut sim = WorldSim::new(&plan.name, &scene)
         .with_context(|| format!("building scene {:?}", plan.name))?;
+    crate::device::attach(&mut sim.world, "splatphys run");
     let mut csv = create_objects_csv(&args.out, plan.object_names.clone())?;
     let mut objects = vec![ObjectState::default(); sim.object_count()];
     let mut write_rows = |sim: &WorldSim, csv: &mut ObjectsCsv<_>| -> Result<()> {
@@ -460,6 +466,9 @@ fn multi_process(args: &RunArgs) -> Result<()> {
         let path = args.out.join("level_of_detail.json");
         level_of_detail::write(&path, &r.chosen)?;
         server_cmd.arg(opt_path("--spacing-from", &path));
+    }
+    if let Some(device) = args.device.child_arg() {
+        server_cmd.arg(device);
     }
     let mut server = Proc::spawn("server", server_cmd, &logs.join("server.log"), args.threads)?;
     let viewer = if args.view.view {

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use crate::device::{self, DeviceArgs};
 use crate::level_of_detail::{self, LodArgs};
 use crate::plan::camera_args;
 use crate::report::{ServerJson, method_name, write_json};
@@ -86,6 +87,9 @@ pub struct ServeArgs {
     /// Level of detail by budget.
     #[command(flatten)]
     pub lod: LodArgs,
+    /// Where deformable objects' MPM runs.
+    #[command(flatten)]
+    pub device: DeviceArgs,
 }
 
 /// Starts the viewer when `--view` asks for it, printing its URL.
@@ -169,8 +173,10 @@ fn serve_scene(args: &ServeArgs, cfg: &ServerConfig) -> Result<()> {
         rayon::current_num_threads(),
         "splatphys serve",
     )?;
+    args.device.apply(&mut scene);
     let mut sim =
         WorldSim::new(&name, &scene).with_context(|| format!("building scene {name:?}"))?;
+    device::attach(&mut sim.world, "splatphys serve");
     eprintln!(
         "splatphys serve: scene {name:?}: {} objects, {} particles, {} Gaussians published, {} frames",
         sim.world.bodies().len(),

@@ -60,6 +60,10 @@ pub fn run_scene(scene: &Scene, pb: &ProgressBar) -> Result<Trace> {
 pub fn run_scene_within(scene: &Scene, pb: &ProgressBar, max_wall_s: f64) -> Result<Trace> {
     let t = Instant::now();
     let mut w = World::from_scene(scene).context("building the world")?;
+    if let Some(gpu) = crate::device::connect(&mut w) {
+        gpu.map_err(anyhow::Error::msg)
+            .context("the scene asks for device \"gpu\"")?;
+    }
     let build_s = t.elapsed().as_secs_f64();
     let ids = moving(scene);
     let o0 = w.objects();

@@ -35,7 +35,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
-use splatphys_core::scene::{ObjectKind, Scene, SceneObject};
+use splatphys_core::scene::{Device, ObjectKind, Scene, SceneObject};
 
 use crate::chart::{self, Series};
 use splatphys::trace::{Trace, gaussian_errors_cells, max_distance, moving, run_scene};
@@ -67,6 +67,11 @@ pub struct RealtimeBenchArgs {
     /// Leave out the candidate that makes every deformable object rigid.
     #[arg(long)]
     pub no_rigid: bool,
+    /// Where the grid candidates' MPM runs: `cpu`, `gpu`, or both (`cpu,gpu`: each candidate
+    /// twice, side by side; the reference always on the CPU). A GPU run's deformable objects step
+    /// there while only grid colliders reach them (`[simulation] device`).
+    #[arg(long, value_delimiter = ',', default_value = "cpu", value_parser = parse_device)]
+    pub device: Vec<Device>,
     /// Simulated frames per wall second to reach.
     #[arg(long, default_value_t = 30.0)]
     pub target_fps: f64,
@@ -76,6 +81,10 @@ pub struct RealtimeBenchArgs {
     /// Where `realtime.csv`, `.svg` and `.png` go.
     #[arg(long, default_value = "docs/results/bench")]
     pub out_dir: PathBuf,
+}
+
+fn parse_device(s: &str) -> Result<Device, String> {
+    s.parse::<Device>().map_err(|e| e.to_string())
 }
 
 /// CSV columns, in order.
@@ -264,7 +273,8 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
         a.dx_factor.len()
     } else {
         a.dx_m.len()
-    } as u64;
+    } as u64
+        * a.device.len() as u64;
     let total_frames: u64 = scenes
         .iter()
         .map(|(_, s)| {
@@ -304,15 +314,22 @@ pub fn run(a: &RealtimeBenchArgs) -> Result<()> {
         let (reference, r) = run(scene, "reference", (dx_ref, None), None)?;
         let mut scene_rows = vec![r];
         for &dx in &dxs {
-            let mut s = scene.clone();
-            let h = dx * a.spacing_per_dx;
-            s.simulation.grid_dx_m = dx;
-            for k in moving(&s) {
-                s.objects[k].physics_spacing_m = Some(h as f32);
-                s.objects[k].grid_dx_m = Some(dx);
+            for &device in &a.device {
+                let mut s = scene.clone();
+                let h = dx * a.spacing_per_dx;
+                s.simulation.grid_dx_m = dx;
+                s.simulation.device = device;
+                for k in moving(&s) {
+                    s.objects[k].physics_spacing_m = Some(h as f32);
+                    s.objects[k].grid_dx_m = Some(dx);
+                }
+                let on = match device {
+                    Device::Cpu => "",
+                    Device::Gpu => " on gpu",
+                };
+                let setting = format!("dx {:.1} mm / h {:.2} mm{on}", dx * 1e3, h * 1e3);
+                scene_rows.push(run(&s, &setting, (dx, Some(h)), Some(&reference))?.1);
             }
-            let setting = format!("dx {:.1} mm / h {:.2} mm", dx * 1e3, h * 1e3);
-            scene_rows.push(run(&s, &setting, (dx, Some(h)), Some(&reference))?.1);
         }
         if let Some(s) = rigid_variant(scene, a) {
             let setting = "rigid (COM layer only)";

@@ -4,6 +4,9 @@
 //!
 //! - [`context`]: finding an adapter and opening a device ([`GpuContext`]); no adapter is an
 //!   error the caller reports ([`GpuError::NoAdapter`]), never a panic;
+//! - [`backend`]: [`GpuBackend`], the GPU as the device a `World` runs deformable objects' MPM
+//!   on (`splatphys_core::world::device`: an object steps there while only grid colliders can
+//!   reach it);
 //! - [`mpm`]: [`GpuMpm`], the particles kept on the GPU between substeps, read back when asked;
 //!   what the COM layer needs of them (mass, COM, momentum, angular momentum, inertia, bounds,
 //!   largest speed: [`GpuMpm::moments`]; each collider's impulse:
@@ -24,9 +27,11 @@
 //! every node's sum is exact whatever order the particles arrive in: a run gives the same bits
 //! on the same device every time.
 
+pub mod backend;
 pub mod context;
 pub mod mpm;
 
+pub use backend::GpuBackend;
 pub use context::GpuContext;
 pub use mpm::GpuMpm;
 

@@ -13,19 +13,25 @@ use wgpu::util::DeviceExt;
 
 use crate::{GpuContext, GpuError};
 
+mod kernels;
 mod moments;
+mod upload;
+
+use kernels::Kernels;
 
 /// f32 values per set of moments in the shader's `moments` buffer (`sums.wgsl`).
 const MOMENTS: u32 = 28;
 /// u32 words per collider after the nodes in the shader's `grid_sum` (its impulse: three 64-bit
-/// sums).
-pub(crate) const COLLIDER_WORDS: u64 = 6;
+/// sums; the nodes with mass inside it).
+pub(crate) const COLLIDER_WORDS: u64 = 7;
 /// u32 words per grid node in the shader's `grid_sum` (four 64-bit sums and the node gap).
 pub(crate) const NODE_WORDS: u64 = 9;
 /// Work items per workgroup (`@workgroup_size(64)` in the shader).
 const WORKGROUP: u32 = 64;
 /// Workgroups per dispatch row (the per-dimension limit); the shader's `ROW`.
 const ROW: u32 = 65_535;
+/// Substeps per command buffer that [`GpuMpm::substeps`] submits.
+const SUBMIT_BATCH: u32 = 64;
 /// Momentum's fixed-point scale is the mass scale over this: a node's momentum may reach this
 /// many m/s times the system's mass before its sum could overflow.
 const MOMENTUM_HEADROOM: f32 = 4096.0;
@@ -126,8 +132,12 @@ fn materials(materials: &[Material]) -> Vec<GpuMaterial> {
         .collect()
 }
 
-/// The GPU form of `sys`'s colliders and the domain bound's box (the grid's extent).
-fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuError> {
+/// The GPU form of `sys`'s colliders and the grid's extent: the domain bound's box, else
+/// `extent`.
+fn colliders(
+    sys: &MpmSystem,
+    extent: Option<(Vec3A, Vec3A)>,
+) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuError> {
     let mut out = Vec::new();
     let mut domain = None;
     for c in &sys.colliders {
@@ -162,7 +172,7 @@ fn colliders(sys: &MpmSystem) -> Result<(Vec<GpuCollider>, (Vec3A, Vec3A)), GpuE
             },
         });
     }
-    let domain = domain.ok_or_else(|| {
+    let domain = domain.or(extent).ok_or_else(|| {
         unsupported("a system without a domain bound (the GPU grid is dense over it)")
     })?;
     Ok((out, domain))
@@ -176,7 +186,7 @@ struct Supported {
     domain: (Vec3A, Vec3A),
 }
 
-fn supported(sys: &MpmSystem) -> Result<Supported, GpuError> {
+fn supported(sys: &MpmSystem, extent: Option<(Vec3A, Vec3A)>) -> Result<Supported, GpuError> {
     let p = &sys.particles;
     let n = u32::try_from(p.len()).map_err(|_| unsupported("more than 2^32 particles"))?;
     if let Some(&m) = p
@@ -189,7 +199,7 @@ fn supported(sys: &MpmSystem) -> Result<Supported, GpuError> {
         )));
     }
     let materials = materials(&sys.materials);
-    let (colliders, domain) = colliders(sys)?;
+    let (colliders, domain) = colliders(sys, extent)?;
     Ok(Supported {
         n,
         materials,
@@ -203,7 +213,7 @@ fn supported(sys: &MpmSystem) -> Result<Supported, GpuError> {
 /// # Errors
 /// [`GpuError::Unsupported`] naming the first model, collider or layout it does not run.
 pub fn check_supported(sys: &MpmSystem) -> Result<(), GpuError> {
-    supported(sys).map(|_| ())
+    supported(sys, None).map(|_| ())
 }
 
 /// The dispatch size for `n` work items: (x, y) workgroups, rows of [`ROW`].
@@ -226,30 +236,11 @@ pub struct GpuMpm {
     grid_sum: wgpu::Buffer,
     status: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
-    p2g: wgpu::ComputePipeline,
-    grid_update: wgpu::ComputePipeline,
-    g2p: wgpu::ComputePipeline,
-    tick: wgpu::ComputePipeline,
-    moments_per_group: wgpu::ComputePipeline,
-    moments_total: wgpu::ComputePipeline,
-    rigid_field: wgpu::ComputePipeline,
+    kernels: Kernels,
     /// Substeps run.
     pub substeps: u64,
     /// Simulated time (s).
     pub time_s: f64,
-}
-
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
 }
 
 impl GpuMpm {
@@ -259,12 +250,25 @@ impl GpuMpm {
     /// # Errors
     /// [`GpuError::Unsupported`] for a model, collider or layout the GPU path does not run.
     pub fn new(ctx: GpuContext, sys: &MpmSystem) -> Result<Self, GpuError> {
+        Self::new_over(ctx, sys, None)
+    }
+
+    /// [`GpuMpm::new`] on a grid over `extent` (min, max corners in m) where `sys` has no
+    /// domain bound; a particle that leaves it fails its substep ([`GpuMpm::check`]).
+    ///
+    /// # Errors
+    /// As [`GpuMpm::new`].
+    pub fn new_over(
+        ctx: GpuContext,
+        sys: &MpmSystem,
+        extent: Option<(Vec3A, Vec3A)>,
+    ) -> Result<Self, GpuError> {
         let Supported {
             n,
             materials: mats,
             colliders: cols,
             domain: (lo, hi),
-        } = supported(sys)?;
+        } = supported(sys, extent)?;
         let p = &sys.particles;
         let dx = sys.solver.dx_m;
         // Nodes at integer multiples of dx, as on the CPU's sparse grid, three cells beyond the
@@ -302,6 +306,7 @@ impl GpuMpm {
             field_dw: [0.0; 3],
             _pad1: 0.0,
         };
+        let kernels = Kernels::new(&ctx.device);
         let device = &ctx.device;
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -313,32 +318,7 @@ impl GpuMpm {
         let rw = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_SRC
             | wgpu::BufferUsages::COPY_DST;
-        let xv: Vec<[f32; 4]> = (0..p.len())
-            .flat_map(|i| {
-                [
-                    p.x[i].extend(p.mass_kg[i]).to_array(),
-                    p.v[i].extend(p.volume0_m3[i]).to_array(),
-                ]
-            })
-            .collect();
-        let cf: Vec<[f32; 4]> = (0..p.len())
-            .flat_map(|i| {
-                let (c, f) = (p.c[i], p.f[i]);
-                [c.x_axis, c.y_axis, c.z_axis, f.x_axis, f.y_axis, f.z_axis]
-                    .map(|col| col.extend(0.0).to_array())
-            })
-            .collect();
-        // F_p's columns, the plastic scalar in the first one's w.
-        let plastic: Vec<[f32; 4]> = (0..p.len())
-            .flat_map(|i| {
-                let fp = p.f_plastic[i];
-                [
-                    fp.x_axis.extend(p.plastic[i]).to_array(),
-                    fp.y_axis.extend(0.0).to_array(),
-                    fp.z_axis.extend(0.0).to_array(),
-                ]
-            })
-            .collect();
+        let upload::Packed { xv, cf, plastic } = upload::pack(p);
         let pmat: Vec<u32> = p.material.iter().map(|&m| u32::from(m)).collect();
         // Storage buffers may not be empty: one unused element where there is nothing.
         let nonempty = |v: &[u8], size: usize| {
@@ -392,31 +372,6 @@ impl GpuMpm {
             usage: rw,
             mapped_at_creation: false,
         });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("mpm"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1, false),
-                storage(2, false),
-                storage(3, true),
-                storage(4, true),
-                storage(5, true),
-                storage(6, false),
-                storage(7, false),
-                storage(8, false),
-                storage(9, false),
-                storage(10, false),
-            ],
-        });
         let buffers = [
             &params_buf,
             &xv,
@@ -440,46 +395,9 @@ impl GpuMpm {
             .collect();
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("mpm"),
-            layout: &layout,
+            layout: &kernels.layout,
             entries: &entries,
         });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("mpm.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(
-                concat!(
-                    include_str!("mpm.wgsl"),
-                    include_str!("plastic.wgsl"),
-                    include_str!("sums.wgsl")
-                )
-                .into(),
-            ),
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("mpm"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let (p2g, grid_update, g2p, tick) = (
-            pipeline("p2g"),
-            pipeline("grid_update"),
-            pipeline("g2p"),
-            pipeline("tick"),
-        );
-        let (moments_per_group, moments_total, rigid_field) = (
-            pipeline("moments_per_group"),
-            pipeline("moments_total"),
-            pipeline("rigid_field"),
-        );
         Ok(Self {
             params,
             n_nodes,
@@ -491,13 +409,7 @@ impl GpuMpm {
             grid_sum,
             status,
             bind_group,
-            p2g,
-            grid_update,
-            g2p,
-            tick,
-            moments_per_group,
-            moments_total,
-            rigid_field,
+            kernels,
             substeps: 0,
             time_s: sys.time_s,
             ctx,
@@ -527,33 +439,48 @@ impl GpuMpm {
         self.ctx
             .queue
             .write_buffer(&self.status, 12, bytemuck::bytes_of(&0u32));
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("mpm") });
         let particles = dispatch(self.params.n_particles);
         let nodes = dispatch(self.n_nodes);
-        for _ in 0..count {
-            encoder.clear_buffer(&self.grid_sum, 0, None);
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("substep"),
-                timestamp_writes: None,
-            });
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            if self.params.n_particles > 0 {
-                pass.set_pipeline(&self.p2g);
-                pass.dispatch_workgroups(particles.0, particles.1, 1);
+        // Submitted in batches, at most two in flight: one command buffer of thousands of
+        // substeps held gigabytes on lavapipe.
+        let mut in_flight = None;
+        let mut left = count;
+        while left > 0 {
+            let batch = left.min(SUBMIT_BATCH);
+            left -= batch;
+            let mut encoder = self
+                .ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("mpm") });
+            for _ in 0..batch {
+                encoder.clear_buffer(&self.grid_sum, 0, None);
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("substep"),
+                    timestamp_writes: None,
+                });
+                pass.set_bind_group(0, &self.bind_group, &[]);
+                if self.params.n_particles > 0 {
+                    pass.set_pipeline(&self.kernels.p2g);
+                    pass.dispatch_workgroups(particles.0, particles.1, 1);
+                }
+                pass.set_pipeline(&self.kernels.grid_update);
+                pass.dispatch_workgroups(nodes.0, nodes.1, 1);
+                if self.params.n_particles > 0 {
+                    pass.set_pipeline(&self.kernels.g2p);
+                    pass.dispatch_workgroups(particles.0, particles.1, 1);
+                }
+                pass.set_pipeline(&self.kernels.tick);
+                pass.dispatch_workgroups(1, 1, 1);
             }
-            pass.set_pipeline(&self.grid_update);
-            pass.dispatch_workgroups(nodes.0, nodes.1, 1);
-            if self.params.n_particles > 0 {
-                pass.set_pipeline(&self.g2p);
-                pass.dispatch_workgroups(particles.0, particles.1, 1);
+            let submitted = self.ctx.queue.submit([encoder.finish()]);
+            if let Some(previous) = in_flight.replace(submitted) {
+                // A failure here shows at the next read-back.
+                let _ = self.ctx.device.poll(wgpu::PollType::Wait {
+                    submission_index: Some(previous),
+                    timeout: None,
+                });
             }
-            pass.set_pipeline(&self.tick);
-            pass.dispatch_workgroups(1, 1, 1);
         }
-        self.ctx.queue.submit([encoder.finish()]);
         self.substeps += u64::from(count);
         self.time_s += f64::from(dt_s) * f64::from(count);
     }

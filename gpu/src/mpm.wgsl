@@ -82,9 +82,10 @@ struct Collider {
 // Per node 9 words: mass, px, py, pz, each as (low u32, high u32) of a 64-bit fixed-point sum,
 // then the node's gap to the gated colliders (the bitwise NOT of an order-preserving u32 form of
 // the f32, so that 0 is "no particle's column reaches it" and atomicMax takes the smallest gap).
-// After the nodes, per collider 6 words: the normal impulse it gave the grid in the substep,
+// After the nodes, per collider 7 words: the normal impulse it gave the grid in the substep,
 // n n·Δp summed over its nodes (grid_update.rs's collider impulses), as three 64-bit sums at the
-// momentum scale.
+// momentum scale, then the count of nodes with mass inside it (whether or not they took its
+// rule).
 @group(0) @binding(6) var<storage, read_write> grid_sum: array<atomic<u32>>;
 // Per node: velocity (m/s), mass (kg).
 @group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
@@ -99,6 +100,7 @@ struct Collider {
 
 const TWO_32: f32 = 4294967296.0;
 const NODE_WORDS: u32 = 9u;
+const COLLIDER_WORDS: u32 = 7u;
 // A node counts as reached when the gap is within this fraction of the particle's size
 // (mpm/reach.rs REACH_TOLERANCE).
 const REACH_TOLERANCE: f32 = 0.25;
@@ -494,6 +496,7 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let n = contact_normal(c, x - collider_offset(c, t));
         if dot(n, n) > 0.0 {
+            atomicAdd(&grid_sum[n_nodes * NODE_WORDS + COLLIDER_WORDS * k + 6u], 1u);
             let vc = collider_velocity(c, t);
             // A gated collider's rule only where material meets its surface within the substep.
             if c.gated != 0u && !(node_gap(slot) <= max(-dot(v - vc, n), 0.0) * params.dt) {
@@ -503,7 +506,7 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
             v = apply_surface(v - vc, n, c.surface, c.friction) + vc;
             let dp = n * (dot(v - before, n) * m * params.scale_p);
             if any(dp != vec3<f32>(0.0)) {
-                let slot = n_nodes * NODE_WORDS + 6u * k;
+                let slot = n_nodes * NODE_WORDS + COLLIDER_WORDS * k;
                 add_fixed(slot, dp.x);
                 add_fixed(slot + 2u, dp.y);
                 add_fixed(slot + 4u, dp.z);

@@ -27,8 +27,8 @@ impl GpuMpm {
         self.submit_pass(
             "moments",
             &[
-                (&self.moments_per_group, groups),
-                (&self.moments_total, (1, 1)),
+                (&self.kernels.moments_per_group, groups),
+                (&self.kernels.moments_total, (1, 1)),
             ],
         );
         let bytes = self.read_prefix(&self.moments, 4 * MOMENTS as u64)?;
@@ -44,9 +44,19 @@ impl GpuMpm {
     /// # Errors
     /// [`GpuError::Readback`].
     pub fn collider_impulses_n_s(&self) -> Result<Vec<DVec3>, GpuError> {
+        Ok(self.collider_contacts()?.0)
+    }
+
+    /// [`GpuMpm::collider_impulses_n_s`] and each collider's grid nodes with mass inside it in
+    /// the last substep, whether or not they took its rule (`MpmSolver::collider_nodes` on the
+    /// CPU), from one read-back.
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`].
+    pub fn collider_contacts(&self) -> Result<(Vec<DVec3>, Vec<u64>), GpuError> {
         let n = u64::from(self.params.n_colliders);
         if n == 0 {
-            return Ok(Vec::new());
+            return Ok((Vec::new(), Vec::new()));
         }
         let offset = 4 * u64::from(self.n_nodes) * NODE_WORDS;
         let bytes = self.read_range(&self.grid_sum, offset, 4 * COLLIDER_WORDS * n)?;
@@ -59,9 +69,12 @@ impl GpuMpm {
         Ok((0..n as usize)
             .map(|c| {
                 let k = c * COLLIDER_WORDS as usize;
-                DVec3::new(value(k), value(k + 2), value(k + 4))
+                (
+                    DVec3::new(value(k), value(k + 2), value(k + 4)),
+                    u64::from(words[k + 6]),
+                )
             })
-            .collect())
+            .unzip())
     }
 
     /// [`GpuMpm::moments`]'s sums `s` about `reference` as a [`BodyState`].
@@ -102,7 +115,7 @@ impl GpuMpm {
         self.params.field_dw = dw.to_array();
         self.write_params();
         let groups = dispatch(self.params.n_particles);
-        self.submit_pass("rigid field", &[(&self.rigid_field, groups)]);
+        self.submit_pass("rigid field", &[(&self.kernels.rigid_field, groups)]);
     }
 
     /// Submits one compute pass that runs `kernels` (pipeline, (x, y) workgroups) in order.

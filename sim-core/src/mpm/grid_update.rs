@@ -17,11 +17,15 @@ use crate::collider::Collider;
 /// so that no substep allocates for it.
 #[derive(Debug, Clone, Default)]
 pub struct ColliderImpulses {
-    /// `[blocks × colliders]` per grid block (one slot when there is no collider).
-    per_block: Vec<glam::DVec3>,
+    /// `[blocks × colliders]` per grid block (one slot when there is no collider): the impulse
+    /// and the nodes with mass inside the collider.
+    per_block: Vec<(glam::DVec3, u32)>,
     /// `[colliders]` their sums over the blocks, in block order (independent of the thread
     /// count).
     pub total_n_s: Vec<glam::DVec3>,
+    /// `[colliders]` grid nodes with mass inside each, whether or not they took its rule (a
+    /// gated collider's rule waits for material to reach it): the material touching it.
+    pub nodes: Vec<u64>,
 }
 
 /// Reduces `scratch` into `grid`, then updates node velocities; `impulses` gets each collider's
@@ -53,7 +57,7 @@ pub fn update(
     impulses.per_block.clear();
     impulses
         .per_block
-        .resize(keys.len() * stride, glam::DVec3::ZERO);
+        .resize(keys.len() * stride, (glam::DVec3::ZERO, 0));
     let bad = mass_kg
         .par_chunks_mut(BLOCK_NODES)
         .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
@@ -104,6 +108,7 @@ pub fn update(
                             // nodes they touch take the round trip through it.
                             for (ci, collider) in colliders.iter().enumerate() {
                                 if let Some(n) = collider.contact_normal(node, time_s) {
+                                    pushed[ci].1 += 1;
                                     if let Some(g) = gaps.filter(|_| collider.is_gated()) {
                                         let v_rel = v + v_ref - collider.velocity_at(time_s);
                                         if !g.reaches(gb * BLOCK_NODES + l, v_rel.dot(n), dt_s) {
@@ -112,7 +117,7 @@ pub fn update(
                                     }
                                     let before = v;
                                     v = collider.apply(node, v + v_ref, time_s) - v_ref;
-                                    pushed[ci] += (n * n.dot(v - before) * sum.w).as_dvec3();
+                                    pushed[ci].0 += (n * n.dot(v - before) * sum.w).as_dvec3();
                                 }
                             }
                             finite &= v.is_finite();
@@ -131,9 +136,17 @@ pub fn update(
     impulses
         .total_n_s
         .resize(colliders.len(), glam::DVec3::ZERO);
+    impulses.nodes.clear();
+    impulses.nodes.resize(colliders.len(), 0);
     for block in impulses.per_block.chunks(stride) {
-        for (total, j) in impulses.total_n_s.iter_mut().zip(block) {
+        for ((total, nodes), (j, n)) in impulses
+            .total_n_s
+            .iter_mut()
+            .zip(impulses.nodes.iter_mut())
+            .zip(block)
+        {
             *total += *j;
+            *nodes += u64::from(*n);
         }
     }
     (bad != usize::MAX).then_some(bad)

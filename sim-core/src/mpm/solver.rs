@@ -240,6 +240,12 @@ impl MpmSolver {
         &self.collider_impulses.total_n_s
     }
 
+    /// Grid nodes with mass inside each grid collider in the last update (one entry per
+    /// collider; empty before the first update): the material touching it.
+    pub fn collider_nodes(&self) -> &[u64] {
+        &self.collider_impulses.nodes
+    }
+
     /// The sparse grid for editing between [`Self::scatter_and_update`] and [`Self::gather`]
     /// (node velocities relative to [`Self::reference_velocity_m_s`]).
     pub fn grid_mut(&mut self) -> &mut SparseGrid {

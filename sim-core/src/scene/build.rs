@@ -133,6 +133,7 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
     )?;
     Ok(SimulationSettings {
         method: s.method,
+        device: s.device,
         duration_s: s.duration_s,
         frame_rate_hz: s.frame_rate_hz,
         grid_dx_m: s.grid_dx_m,

@@ -89,6 +89,13 @@ impl SceneBuilder {
         self
     }
 
+    /// Where deformable objects' MPM runs. Default [`super::Device::Cpu`]; `gpu` takes effect
+    /// once the world is given a device (`World::set_device`).
+    pub fn device(mut self, device: super::Device) -> Self {
+        self.file.simulation.device = device;
+        self
+    }
+
     /// Simulated time, s (> 0). Default 2.
     pub fn duration_s(mut self, duration_s: f64) -> Self {
         self.file.simulation.duration_s = duration_s;

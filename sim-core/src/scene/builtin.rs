@@ -95,6 +95,7 @@ impl Scene {
         Scene {
             simulation: SimulationSettings {
                 method: Method::Com,
+                device: super::model::Device::Cpu,
                 duration_s: 2.0,
                 frame_rate_hz: 30.0,
                 grid_dx_m: 0.01,

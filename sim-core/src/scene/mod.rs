@@ -32,8 +32,8 @@ pub use build::build_scene;
 pub use builder::{ObjectBuilder, SceneBuilder};
 pub use level_of_detail::LevelOfDetail;
 pub use model::{
-    CameraSpec, ColliderShape, ColliderSpec, Command, EventSpec, MaterialSpec, Method, ObjectKind,
-    Scene, SceneObject, SimulationSettings, Surface,
+    CameraSpec, ColliderShape, ColliderSpec, Command, Device, EventSpec, MaterialSpec, Method,
+    ObjectKind, Scene, SceneObject, SimulationSettings, Surface,
 };
 
 use crate::formats::FormatError;

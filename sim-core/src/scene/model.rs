@@ -56,6 +56,54 @@ impl std::str::FromStr for Method {
     }
 }
 
+/// Where deformable objects' MPM runs (`[simulation] device`; `--device` on the command line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Device {
+    /// On the CPU's threads.
+    #[default]
+    Cpu,
+    /// On a GPU where one is found and the object's situation allows (`splatphys-gpu`,
+    /// docs/guide/gpu.md); elsewhere on the CPU.
+    Gpu,
+}
+
+impl Device {
+    /// Every device, in the order the benchmarks chart them.
+    pub const ALL: [Self; 2] = [Self::Cpu, Self::Gpu];
+
+    /// The scene-file name (`cpu`, `gpu`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Cpu => "cpu",
+            Self::Gpu => "gpu",
+        }
+    }
+}
+
+impl std::fmt::Display for Device {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Device {
+    type Err = splatphys_types::UnknownName;
+
+    /// Parses a scene-file name (`cpu`, `gpu`), case-insensitively.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let key = s.trim().to_ascii_lowercase();
+        Self::ALL
+            .into_iter()
+            .find(|m| m.name() == key)
+            .ok_or_else(|| splatphys_types::UnknownName {
+                what: "device",
+                name: s.to_string(),
+                expected: Self::ALL.map(Self::name).join(", "),
+            })
+    }
+}
+
 pub use splatphys_types::ObjectKind;
 
 pub use crate::collider::Surface;
@@ -68,6 +116,8 @@ pub use crate::material::MaterialSpec;
 pub struct SimulationSettings {
     /// Method. Default [`Method::Com`].
     pub method: Method,
+    /// Where deformable objects' MPM runs. Default [`Device::Cpu`].
+    pub device: Device,
     /// Simulated time, s. Default 2.0.
     pub duration_s: f64,
     /// Published frames per simulated second, Hz. Default 30.

@@ -5,7 +5,7 @@ use serde::Deserialize;
 
 use crate::procedural::Shape;
 
-use super::model::{ContactSolver, Method, ObjectKind, Surface};
+use super::model::{ContactSolver, Device, Method, ObjectKind, Surface};
 
 fn default_one() -> f32 {
     1.0
@@ -57,6 +57,9 @@ pub struct SimulationToml {
     /// Method.
     #[serde(default)]
     pub method: Method,
+    /// Where deformable objects' MPM runs.
+    #[serde(default)]
+    pub device: Device,
     /// Simulated time, s.
     #[serde(default = "default_duration")]
     pub duration_s: f64,
@@ -117,6 +120,7 @@ impl Default for SimulationToml {
     fn default() -> Self {
         Self {
             method: Method::default(),
+            device: Device::default(),
             duration_s: default_duration(),
             frame_rate_hz: default_frame_rate(),
             grid_dx_m: default_dx(),

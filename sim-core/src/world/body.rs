@@ -138,6 +138,8 @@ pub struct Body {
     /// Object-level state of a static or sleeping object (it does not change until woken or
     /// edited); `None` while the object moves.
     pub(crate) state_cache: Option<BodyState>,
+    /// Its copy on the device its MPM may run on (`world/device.rs`).
+    pub(crate) device: super::device::DeviceSlot,
     /// Simulated time the body has been still (s).
     pub(crate) still_s: f64,
     /// Largest particle speed after the last substep (m/s).
@@ -231,6 +233,7 @@ impl Body {
             },
             sleeping: false,
             state_cache: None,
+            device: super::device::DeviceSlot::default(),
             still_s: 0.0,
             max_speed_m_s: v0.length(),
             stats: BodyStats::default(),
@@ -303,6 +306,7 @@ impl Body {
     /// written here is what the next substep starts from: keep it finite (NaN is refused only
     /// at the command boundary, not here) and call nothing but tests and tools with it.
     pub fn particles_mut(&mut self) -> &mut Particles {
+        self.leave_device();
         &mut self.particles
     }
 

@@ -94,6 +94,8 @@ impl World {
         j_n_s: Vec3A,
         point_m: Option<Vec3A>,
     ) -> Result<(), WorldError> {
+        // It reads and edits the particles on the host (`device.rs`).
+        self.sync_devices(true)?;
         self.movable(id)?;
         if self.bodies[id].kind == ObjectKind::Kinematic {
             return Err(WorldError::Refused {
@@ -151,6 +153,8 @@ impl World {
         v_m_s: Vec3A,
         omega_rad_s: Option<Vec3A>,
     ) -> Result<(), WorldError> {
+        // It reads and edits the particles on the host (`device.rs`).
+        self.sync_devices(true)?;
         self.movable(id)?;
         if !v_m_s.is_finite() || omega_rad_s.is_some_and(|w| !w.is_finite()) {
             return Err(WorldError::Refused {
@@ -194,6 +198,8 @@ impl World {
         restitution: Option<f32>,
         friction: Option<f32>,
     ) -> Result<(), WorldError> {
+        // It reads and edits the particles on the host (`device.rs`).
+        self.sync_devices(true)?;
         let name = &self
             .bodies
             .get(id)
@@ -262,6 +268,8 @@ impl World {
     /// # Errors
     /// Unknown object.
     pub fn set_kind(&mut self, id: usize, kind: ObjectKind) -> Result<(), WorldError> {
+        // It reads and edits the particles on the host (`device.rs`).
+        self.sync_devices(true)?;
         let b = self
             .bodies
             .get_mut(id)

@@ -4,8 +4,9 @@
 //! elasticity: an MPM jelly is nearly lossless, so without more it would bounce off a static
 //! table for ever whatever e says. The law is applied at the object level, as the paper does for
 //! object pairs:
-//! - when a deformable object starts touching a solid, its velocity relative to the solid is
-//!   recorded;
+//! - when the grid first gives a deformable object an impulse at a solid (more than
+//!   [`NEGLIGIBLE_TOUCH_M_S`] of velocity), its velocity relative to the solid is recorded; the
+//!   contact lasts while any of the object's grid nodes with mass lies inside the solid;
 //! - over the contact, the normal impulses the grid gives it (each node's Δp along the solid's
 //!   normal there) are summed; the direction of the sum is the contact normal n, from the solid
 //!   into the object. (The whole impulse leans with the friction of an oblique impact: taken
@@ -30,7 +31,6 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::body::Body;
-use super::measure::measure_bounds;
 use super::{Env, World};
 use crate::contact::mix_restitution;
 use crate::scene::ObjectKind;
@@ -63,6 +63,10 @@ pub struct Impact {
 /// softest jellies last about 0.1 s.
 pub const IMPACT_SETTLES_S: f64 = 0.5;
 
+/// A grid impulse that changes the object's velocity by less than this (m/s) does not open a
+/// contact.
+pub const NEGLIGIBLE_TOUCH_M_S: f64 = 1e-6;
+
 /// The velocity of `solid` (m/s): a rigid or kinematic object's COM velocity, a collider's.
 fn solid_velocity(env: &Env, bodies: &[Body], solid: SolidOf) -> DVec3 {
     match solid {
@@ -88,7 +92,6 @@ pub(super) fn boundary_restitution(
     touches: &[(usize, SolidOf, DVec3)],
 ) {
     for &(k, solid, j) in touches {
-        let dx = bodies[k].dx_m();
         if !j.is_finite() {
             continue;
         }
@@ -96,7 +99,14 @@ pub(super) fn boundary_restitution(
             open.impulse_n_s += j;
             continue;
         }
-        let v = measure_bounds(&bodies[k].particles, dx).velocity_m_s;
+        // A contact opens at its first impulse (the grid's nodes reach into the solid a cell
+        // or more before the material does; round-off of nodes the rule leaves as they were,
+        // ±1e-13 N s on a 0.27 kg ball, is none) and lasts while any of the object's nodes lies
+        // inside the solid.
+        if j.length() <= NEGLIGIBLE_TOUCH_M_S * bodies[k].rigid.mass_kg {
+            continue;
+        }
+        let v = bodies[k].measured_bounds().velocity_m_s;
         impacts.insert(
             (k, solid),
             Impact {
@@ -134,7 +144,7 @@ pub(super) fn boundary_restitution(
         };
         let touch = imp.touch_velocity_m_s.dot(normal);
         let approach = (-touch).max(0.0);
-        let s = measure_bounds(&b.particles, b.dx_m());
+        let s = b.measured_bounds();
         let separation = (s.velocity_m_s - solid_velocity(env, bodies, solid)).dot(normal);
         let e_solid = match solid {
             SolidOf::Object(o) => bodies[o].restitution,
@@ -158,8 +168,12 @@ pub(super) fn boundary_restitution(
         let j = excess / (1.0 / s.mass_kg + inverse_mass_solid);
         let dv = (normal * -(j / s.mass_kg)).as_vec3a();
         let b = &mut bodies[k];
-        b.particles.v.iter_mut().for_each(|v| *v += dv);
-        b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+        if b.on_device() {
+            b.device_rigid_field(dv.as_dvec3(), DVec3::ZERO, s.com_m);
+        } else {
+            b.particles.v.iter_mut().for_each(|v| *v += dv);
+            b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
+        }
         if let SolidOf::Object(o) = solid {
             let p = normal * j;
             let com = bodies[o].rigid.com_m;

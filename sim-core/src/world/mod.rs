@@ -39,6 +39,7 @@ pub(crate) mod coherence;
 mod commands;
 pub mod contact;
 mod deformable_pair;
+pub mod device;
 pub mod explain;
 mod impact;
 pub(crate) mod islands;
@@ -60,6 +61,7 @@ use glam::Vec3A;
 use background::Background;
 pub use background::{BACKGROUND_FRICTION, BackgroundReport};
 pub use body::{Body, BodyStats, RigidState};
+pub use device::{DeviceBackend, DeviceError, DeviceMpm};
 pub use measure::{BodyState, measure};
 pub use sleep::{SLEEP_AFTER_S, SLEEP_SPEED_M_S};
 use step::{ContactMemory, Env};
@@ -133,6 +135,14 @@ pub enum WorldError {
     Interrupted {
         /// Frame being computed.
         frame: u64,
+    },
+    /// The device an object's MPM ran on failed (`world/device.rs`).
+    #[error("object {object:?} on the device: {message}")]
+    Device {
+        /// Object name.
+        object: String,
+        /// What failed.
+        message: String,
     },
     /// A command or event named an object that does not exist.
     #[error("unknown object {0:?}")]
@@ -236,6 +246,8 @@ pub struct World {
     pub(crate) max_particle_substeps_per_frame: f64,
     /// While one island steps ([`islands`]): which objects are in it. `None`: every object steps.
     island: Option<Vec<bool>>,
+    /// The device deformable objects' MPM may run on ([`World::set_device`]).
+    device: Option<Arc<dyn DeviceBackend>>,
 }
 
 pub use splatphys_types::limits::MAX_STABLE_SPEED_M_S;
@@ -370,6 +382,7 @@ impl World {
             contacts: ContactMemory::default(),
             max_particle_substeps_per_frame: limits::DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME,
             island: None,
+            device: None,
         })
     }
 
@@ -519,6 +532,8 @@ impl World {
                 return Err(WorldError::Interrupted { frame: self.frame });
             }
         }
+        // What the frame publishes is read from the host.
+        self.sync_devices(false)?;
         self.time_s = end;
         self.frame += 1;
         Ok(substeps)

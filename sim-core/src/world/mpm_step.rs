@@ -7,6 +7,7 @@
 
 use glam::{DMat3, DVec3, Vec3A};
 
+use super::device;
 use super::measure::inverse_or_zero;
 use super::{Body, Env, WorldError, WorldStats};
 use crate::collider::Collider;
@@ -77,18 +78,20 @@ impl<'a> Step<'a> {
     }
 }
 
-/// Deformable `k`'s touches of grid colliders in its last grid update: (k, collider, normal
-/// impulse the collider gave it in N s), for the restitution law (`impact.rs`).
-fn collider_touches(
+/// Deformable `k`'s touches of grid colliders in its last grid update, from each collider's
+/// normal impulse on it (N s) and its grid nodes with mass inside the collider: (k, collider,
+/// impulse) where either is not zero, for the restitution law (`impact.rs`).
+fn collider_touches<'a>(
     k: usize,
-    solver: &MpmSolver,
-) -> impl Iterator<Item = (usize, ObstacleOf, DVec3)> + '_ {
-    solver
-        .collider_impulses_n_s()
+    impulses_n_s: &'a [DVec3],
+    nodes: &'a [u64],
+) -> impl Iterator<Item = Touch> + 'a {
+    impulses_n_s
         .iter()
+        .zip(nodes)
         .enumerate()
-        .filter(|(_, j)| **j != DVec3::ZERO)
-        .map(move |(c, j)| (k, ObstacleOf::Collider(c), *j))
+        .filter(|(_, (j, n))| **j != DVec3::ZERO || **n > 0)
+        .map(move |(c, (j, _))| (k, ObstacleOf::Collider(c), *j))
 }
 
 /// The box around `particles`' positions (m).
@@ -169,6 +172,9 @@ fn project_out_of_solids(
 
 /// Which solid an obstacle is.
 type ObstacleOf = super::impact::SolidOf;
+
+/// A grid contact: (deformable, solid, impulse the grid gave the deformable in N s).
+type Touch = (usize, ObstacleOf, DVec3);
 
 /// What the deformable objects' grids did to the solids in one substep: `reactions[k]` the
 /// impulse and angular impulse solid k received, `touches` each grid contact as (deformable,
@@ -268,8 +274,75 @@ fn obstacles_near<'a>(
     obstacles(env, bodies, received, bounds(particles), friction, dx_m)
 }
 
+/// Whether deformable `k` of `bodies` may step on the device this substep (`device.rs`): no box
+/// collider thinner than two of its cells, no solid, background or other deformable object
+/// within reach of its particles.
+fn device_may_step(env: &Env, bodies: &[Body], k: usize) -> bool {
+    let b = &bodies[k];
+    let dx = b.dx_m();
+    if b.device_refused().is_some() || !device::colliders_allow(env.colliders, dx) {
+        return false;
+    }
+    let s = b.measured_bounds();
+    let (lo, hi) = (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a());
+    if !obstacles(env, bodies, &[], (lo, hi), b.friction, dx)
+        .0
+        .is_empty()
+    {
+        return false;
+    }
+    // The pair law's broad phase reaches one cell; four leave room for a substep's motion.
+    let alone = |(j, o): (usize, &Body)| {
+        if j == k || o.kind != ObjectKind::Deformable || o.particles.is_empty() {
+            return true;
+        }
+        let margin = 4.0 * f64::from(dx.max(o.dx_m()));
+        let t = o.measured_bounds();
+        let m = glam::DVec3::splat(margin);
+        !((s.aabb_m.0 - m).cmple(t.aabb_m.1).all() && (t.aabb_m.0 - m).cmple(s.aabb_m.1).all())
+    };
+    bodies.iter().enumerate().all(alone)
+}
+
+/// Deformable `k`'s substep on the device (`device.rs`) when `env` has one and its situation
+/// allows: its collider touches, or `None` to step on the CPU (the device's copy, if any, is
+/// then brought back).
+fn device_substep(
+    env: &Env,
+    bodies: &mut [Body],
+    stats: &mut WorldStats,
+    k: usize,
+    dt_s: f32,
+) -> Result<Option<Vec<Touch>>, WorldError> {
+    if let Some(backend) = env.device
+        && device_may_step(env, bodies, k)
+    {
+        let started = std::time::Instant::now();
+        let b = &mut bodies[k];
+        let r = device::substep(
+            backend,
+            b,
+            (env.colliders, env.gravity_m_s2),
+            dt_s,
+            env.time_s,
+        );
+        let impulses = r.map_err(|e| WorldError::Device {
+            object: b.name.clone(),
+            message: e.to_string(),
+        })?;
+        if let Some((impulses, nodes)) = impulses {
+            b.stats.mpm_wall_s += started.elapsed().as_secs_f64();
+            stats.mpm_particle_substeps += b.particles.len() as u64;
+            return Ok(Some(collider_touches(k, &impulses, &nodes).collect()));
+        }
+    }
+    bodies[k].leave_device();
+    Ok(None)
+}
+
 /// Method `com`: every awake deformable object of `bodies` runs a whole substep of `dt_s` on its
-/// own grid, with the solids as boundaries.
+/// own grid, with the solids as boundaries; on the device where `env` has one and the object's
+/// situation allows ([`device_may_step`]).
 pub(super) fn per_object(
     env: &Env,
     bodies: &mut [Body],
@@ -286,6 +359,10 @@ pub(super) fn per_object(
             bodies[k].stats.substeps_skipped += 1;
             continue;
         }
+        if let Some(t) = device_substep(env, bodies, stats, k, dt_s)? {
+            touches.extend(t);
+            continue;
+        }
         let started = std::time::Instant::now();
         let b = &mut bodies[k];
         let dx = b.solver.dx_m;
@@ -297,7 +374,8 @@ pub(super) fn per_object(
         let mut solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx);
         let r = solver.scatter_and_update(&particles, &step.input(materials));
         if r.is_ok() {
-            touches.extend(collider_touches(k, &solver));
+            let (j, n) = (solver.collider_impulses_n_s(), solver.collider_nodes());
+            touches.extend(collider_touches(k, j, n));
             let t = apply_obstacles((&mut solver, &particles, dt_s), &mut solids, &mut reactions);
             touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         }

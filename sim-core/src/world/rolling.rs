@@ -31,7 +31,7 @@ use super::Env;
 use super::body::Body;
 use super::coherence;
 use super::impact::SolidOf;
-use super::measure::{inverse_or_zero, measure};
+use super::measure::inverse_or_zero;
 use crate::contact::boundary::Reaction;
 use crate::scene::ObjectKind;
 
@@ -86,7 +86,7 @@ pub(super) fn rolling_resistance(
         if !own.iter().any(|t| arm(t) > 0.0) {
             continue;
         }
-        let s = measure(&b.particles, b.dx_m());
+        let s = b.measured();
         if s.mass_kg <= 0.0 {
             continue;
         }
@@ -128,7 +128,11 @@ pub(super) fn rolling_resistance(
             }
         }
         if total != DVec3::ZERO {
-            coherence::spin(&mut bodies[k], total, s.com_m);
+            if bodies[k].on_device() {
+                bodies[k].device_rigid_field(DVec3::ZERO, total, s.com_m);
+            } else {
+                coherence::spin(&mut bodies[k], total, s.com_m);
+            }
         }
     }
 }

@@ -41,6 +41,7 @@ impl Body {
     }
 
     fn fall_asleep(&mut self) {
+        self.leave_device();
         self.sleeping = true;
         self.particles.v.iter_mut().for_each(|v| *v = Vec3A::ZERO);
         self.particles.c.iter_mut().for_each(|c| *c = Mat3A::ZERO);

@@ -39,6 +39,8 @@ pub(crate) struct Env<'a> {
     pub(crate) background: &'a Background,
     /// While one island steps (`islands.rs`): which objects are in it. `None`: every object.
     pub(crate) island: Option<&'a [bool]>,
+    /// The device deformable objects' MPM may run on (`device.rs`).
+    pub(crate) device: Option<&'a dyn super::device::DeviceBackend>,
 }
 
 impl Env<'_> {
@@ -111,6 +113,7 @@ impl World {
             colliders: &self.colliders,
             background: &self.background,
             island: self.island.as_deref(),
+            device: self.device.as_deref(),
         }
     }
 
@@ -132,6 +135,7 @@ impl World {
             contacts,
             stats,
             shared,
+            device,
             ..
         } = self;
         Parts {
@@ -142,6 +146,7 @@ impl World {
                 colliders,
                 background,
                 island: island.as_deref(),
+                device: device.as_deref(),
             },
             bodies,
             contacts,
@@ -220,6 +225,8 @@ impl World {
             }
         }
         self.time_s += dt_s;
+        // A read-back outside the MPM part (a law's rigid field, a command) that failed.
+        self.device_failure()?;
         Ok(dt_s)
     }
 

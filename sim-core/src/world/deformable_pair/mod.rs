@@ -43,7 +43,7 @@ use rayon::prelude::*;
 
 use super::body::Body;
 use super::coherence::{self, Kick};
-use super::measure::{BodyState, RigidFit, measure_bounds, measure_with_fit};
+use super::measure::{BodyState, RigidFit, measure_with_fit};
 use super::{Env, WorldStats};
 use crate::contact::SolverBody;
 use crate::contact::{mix_friction, mix_restitution};
@@ -116,6 +116,7 @@ fn kick_deformable(
     let Some(b) = bodies.get_mut(k) else {
         return;
     };
+    b.leave_device();
     let n = b.particles.len() as u32;
     if b.sleeping || kicks.is_empty() {
         return;
@@ -157,8 +158,19 @@ pub(in crate::world) fn resolve(
     // momentum) only for objects of a pair that passes it, once per substep.
     let bounds: Vec<BodyState> = ids
         .par_iter()
-        .map(|&k| measure_bounds(&bodies[k].particles, bodies[k].dx_m()))
+        .map(|&k| bodies[k].measured_bounds())
         .collect();
+    // The narrow phase and the impulses read the particles of both objects of a pair that
+    // passes the broad phase: from the host.
+    for x in 0..ids.len() {
+        for y in x + 1..ids.len() {
+            let dx = bodies[ids[x]].dx_m().max(bodies[ids[y]].dx_m());
+            if broad_phase(&bounds[x], &bounds[y], dx as f64) {
+                bodies[ids[x]].leave_device();
+                bodies[ids[y]].leave_device();
+            }
+        }
+    }
     let warm = std::mem::take(resting_patches);
     // Each object's state and rigid fit, as its particles are now (None once an impulse
     // changed them).

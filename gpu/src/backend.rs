@@ -1,0 +1,83 @@
+//! [`GpuBackend`]: the GPU as the device a `World` runs deformable objects' MPM on
+//! (`splatphys_core::world::device`).
+
+use glam::{DVec3, Vec3A};
+use splatphys_core::mpm::{MpmSystem, Particles};
+use splatphys_core::world::{BodyState, DeviceBackend, DeviceError, DeviceMpm};
+
+use crate::{GpuContext, GpuError, GpuMpm};
+
+/// A GPU for a `World` ([`splatphys_core::world::World::set_device`]); every object on it shares
+/// its device and compiled kernels.
+#[derive(Debug, Clone)]
+pub struct GpuBackend {
+    ctx: GpuContext,
+}
+
+impl GpuBackend {
+    /// The backend on `ctx`'s device.
+    pub fn new(ctx: GpuContext) -> Self {
+        Self { ctx }
+    }
+
+    /// The backend on the first adapter wgpu finds ([`GpuContext::new`]).
+    ///
+    /// # Errors
+    /// As [`GpuContext::new`].
+    pub fn open() -> Result<Self, GpuError> {
+        GpuContext::new().map(Self::new)
+    }
+}
+
+impl From<GpuError> for DeviceError {
+    fn from(e: GpuError) -> Self {
+        match e {
+            GpuError::Unsupported { what } => DeviceError::Unsupported(what),
+            other => DeviceError::Failed(other.to_string()),
+        }
+    }
+}
+
+impl DeviceBackend for GpuBackend {
+    fn name(&self) -> String {
+        self.ctx.name()
+    }
+
+    fn upload(
+        &self,
+        system: &MpmSystem,
+        extent_m: (Vec3A, Vec3A),
+    ) -> Result<Box<dyn DeviceMpm>, DeviceError> {
+        let mpm = GpuMpm::new_over(self.ctx.clone(), system, Some(extent_m))?;
+        Ok(Box::new(mpm))
+    }
+}
+
+impl DeviceMpm for GpuMpm {
+    fn write_particles(&mut self, particles: &Particles) -> Result<(), DeviceError> {
+        Ok(GpuMpm::write_particles(self, particles)?)
+    }
+
+    fn substep(&mut self, dt_s: f32, time_s: f64) -> Result<(), DeviceError> {
+        self.time_s = time_s;
+        GpuMpm::substep(self, dt_s);
+        self.check()?;
+        Ok(())
+    }
+
+    fn moments(&mut self, reference_m: Vec3A) -> Result<(BodyState, f32), DeviceError> {
+        Ok(GpuMpm::moments(self, reference_m)?)
+    }
+
+    fn collider_contacts(&mut self) -> Result<(Vec<DVec3>, Vec<u64>), DeviceError> {
+        Ok(GpuMpm::collider_contacts(self)?)
+    }
+
+    fn rigid_field(&mut self, dv: Vec3A, dw: Vec3A, about: Vec3A) {
+        GpuMpm::rigid_field(self, dv, dw, about);
+    }
+
+    fn read_particles(&mut self, into: &mut Particles) -> Result<(), DeviceError> {
+        Ok(GpuMpm::read_particles(self, into)?)
+    }
+}

@@ -1,0 +1,72 @@
+//! The particles' layout in the GPU's buffers, and writing a new state into them.
+
+use splatphys_core::mpm::Particles;
+
+use super::GpuMpm;
+use crate::GpuError;
+
+/// Particles as the shader stores them: `xv` (position and mass, velocity and rest volume: two
+/// vec4 per particle), `cf` (C's and F's columns: six vec4) and `plastic` (F_p's columns, the
+/// plastic scalar in the first one's w: three vec4).
+pub(crate) struct Packed {
+    pub(crate) xv: Vec<[f32; 4]>,
+    pub(crate) cf: Vec<[f32; 4]>,
+    pub(crate) plastic: Vec<[f32; 4]>,
+}
+
+/// `p` in the shader's layout.
+pub(crate) fn pack(p: &Particles) -> Packed {
+    let xv = (0..p.len())
+        .flat_map(|i| {
+            [
+                p.x[i].extend(p.mass_kg[i]).to_array(),
+                p.v[i].extend(p.volume0_m3[i]).to_array(),
+            ]
+        })
+        .collect();
+    let cf = (0..p.len())
+        .flat_map(|i| {
+            let (c, f) = (p.c[i], p.f[i]);
+            [c.x_axis, c.y_axis, c.z_axis, f.x_axis, f.y_axis, f.z_axis]
+                .map(|col| col.extend(0.0).to_array())
+        })
+        .collect();
+    let plastic = (0..p.len())
+        .flat_map(|i| {
+            let fp = p.f_plastic[i];
+            [
+                fp.x_axis.extend(p.plastic[i]).to_array(),
+                fp.y_axis.extend(0.0).to_array(),
+                fp.z_axis.extend(0.0).to_array(),
+            ]
+        })
+        .collect();
+    Packed { xv, cf, plastic }
+}
+
+impl GpuMpm {
+    /// Replaces the particles' positions, velocities, C, F, F_p and plastic state with
+    /// `particles`' (the uploaded count and order; their masses, volumes and materials are
+    /// taken as uploaded). Queued before the next substep; returns without waiting.
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`] for a count that does not match.
+    pub fn write_particles(&mut self, particles: &Particles) -> Result<(), GpuError> {
+        let n = self.params.n_particles as usize;
+        if particles.len() != n {
+            return Err(GpuError::Readback(format!(
+                "{} particles given, {n} on the GPU",
+                particles.len()
+            )));
+        }
+        if n == 0 {
+            return Ok(());
+        }
+        let Packed { xv, cf, plastic } = pack(particles);
+        let queue = &self.ctx.queue;
+        queue.write_buffer(&self.xv, 0, bytemuck::cast_slice(&xv));
+        queue.write_buffer(&self.cf, 0, bytemuck::cast_slice(&cf));
+        queue.write_buffer(&self.plastic, 0, bytemuck::cast_slice(&plastic));
+        Ok(())
+    }
+}

@@ -1,0 +1,394 @@
+//! A deformable object's MPM on a device (a GPU) under method `com`: the interface a backend
+//! implements ([`DeviceBackend`], [`DeviceMpm`]; `splatphys-gpu` is the one there is, given to
+//! the world with [`World::set_device`]), and where an object's particles live from substep to
+//! substep.
+//!
+//! An object steps on the device while nothing but grid colliders can reach it: no solid object
+//! and no captured background within two cells of its particles (they are level-set boundaries
+//! on its grid, `contact/boundary.rs`), no other deformable object within reach (the impulse law
+//! of deformable pairs needs its particles' surface every substep) and no box collider thinner
+//! than two cells (the particles' crossing check, `contact/crossing.rs`, runs on the CPU). Its
+//! particles then stay on the device; what the COM layer needs crosses back each substep: the
+//! object's moments ([`BodyState`] and its largest speed, one small read-back) and each
+//! collider's normal impulse (the restitution law's touches). The restitution law and rolling
+//! resistance change the object by a rigid field (v += δv + δω × r, C += \[δω\]×), applied on
+//! the device. Everything else (publishing, commands and events, sleep, another object coming
+//! near) first brings the particles back ([`Body::leave_device`]): at the end of every frame
+//! they are copied back, and the next substep on the device reuses its copy unless the host's
+//! changed.
+//!
+//! The CFL bound reads the object's plastic state (snow's hardening raises its wave speed) from
+//! the host copy, which is at most one frame old while the object is on the device.
+
+use std::fmt;
+
+use glam::{DVec3, Vec3A};
+
+use super::body::Body;
+use super::measure::{BodyState, measure, measure_bounds};
+use super::{World, WorldError};
+use crate::collider::{Collider, Shape};
+use crate::material::Material;
+use crate::mpm::{MpmSystem, Particles};
+
+/// What a device backend reported, in words.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DeviceError {
+    /// The backend does not run this object (a model, layout or size it lacks); it stays on
+    /// the CPU.
+    #[error("not on the device: {0}")]
+    Unsupported(String),
+    /// The device failed (a substep, a read-back).
+    #[error("{0}")]
+    Failed(String),
+}
+
+/// A device that runs deformable objects' MPM (a GPU through `splatphys-gpu`).
+pub trait DeviceBackend: Send + Sync + fmt::Debug {
+    /// The device's name, e.g. `"NVIDIA H100 (Vulkan)"`.
+    fn name(&self) -> String;
+
+    /// Uploads `system` (particles, materials, grid colliders, gravity, the cell of its solver
+    /// and its clock) onto a grid over `extent_m` (min, max corners in m; a domain bound among
+    /// the colliders bounds it instead).
+    ///
+    /// # Errors
+    /// [`DeviceError::Unsupported`] for what the device does not run,
+    /// [`DeviceError::Failed`].
+    fn upload(
+        &self,
+        system: &MpmSystem,
+        extent_m: (Vec3A, Vec3A),
+    ) -> Result<Box<dyn DeviceMpm>, DeviceError>;
+}
+
+/// One object's particles on a device.
+pub trait DeviceMpm: Send + Sync + fmt::Debug {
+    /// Replaces the particles' state with `particles` (the same count and order as uploaded).
+    ///
+    /// # Errors
+    /// [`DeviceError::Failed`] for another count.
+    fn write_particles(&mut self, particles: &Particles) -> Result<(), DeviceError>;
+
+    /// One substep of `dt_s` (s) starting at simulated time `time_s` (s): P2G, the grid update
+    /// with the colliders, G2P with the return mappings. Waits for the device.
+    ///
+    /// # Errors
+    /// [`DeviceError::Failed`] when a particle left the grid or a value was not finite.
+    fn substep(&mut self, dt_s: f32, time_s: f64) -> Result<(), DeviceError>;
+
+    /// The object's state (mass, COM, velocity, angular momentum, inertia, bounds) and its
+    /// largest particle speed (m/s), summed about `reference_m` (a point near the COM).
+    ///
+    /// # Errors
+    /// [`DeviceError::Failed`].
+    fn moments(&mut self, reference_m: Vec3A) -> Result<(BodyState, f32), DeviceError>;
+
+    /// The normal impulse each collider gave the particles in the last substep (N s; one per
+    /// collider in order, zero where none touched) and the grid nodes with mass inside each
+    /// (`MpmSolver::collider_impulses_n_s` and `MpmSolver::collider_nodes` on the CPU).
+    ///
+    /// # Errors
+    /// [`DeviceError::Failed`].
+    fn collider_contacts(&mut self) -> Result<(Vec<DVec3>, Vec<u64>), DeviceError>;
+
+    /// v += `dv` + `dw` × (x − `about`), C += \[`dw`\]× on every particle (m/s, rad/s, m).
+    fn rigid_field(&mut self, dv: Vec3A, dw: Vec3A, about: Vec3A);
+
+    /// Copies positions, velocities, C, F, F_p and the plastic state back into `into` (the
+    /// uploaded count and order).
+    ///
+    /// # Errors
+    /// [`DeviceError::Failed`].
+    fn read_particles(&mut self, into: &mut Particles) -> Result<(), DeviceError>;
+}
+
+/// Each grid collider's normal impulse on an object (N s) and its grid nodes inside the collider.
+pub(super) type ColliderContacts = (Vec<DVec3>, Vec<u64>);
+
+/// Where an object's current particles are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+enum Residence {
+    /// Only on the host (the device's copy, if any, is stale).
+    #[default]
+    Host,
+    /// Only on the device (the host's copy is stale).
+    Device,
+    /// The same on both.
+    Both,
+}
+
+/// What an upload depends on besides the particles' state: another value needs a new upload.
+#[derive(Debug, Clone, PartialEq)]
+struct Uploaded {
+    particles: usize,
+    dx_m: f32,
+    materials: Vec<Material>,
+    gravity_m_s2: Vec3A,
+    colliders: usize,
+}
+
+/// An object's copy on the device, if it has one. A clone (a checkpoint, a reset) has none: its
+/// particles are the host's.
+#[derive(Default)]
+pub(crate) struct DeviceSlot {
+    mpm: Option<Box<dyn DeviceMpm>>,
+    at: Residence,
+    /// The object's state from the device's last moments, while its particles are there.
+    state: Option<BodyState>,
+    /// The device grid's extent (m).
+    extent_m: (Vec3A, Vec3A),
+    uploaded: Option<Uploaded>,
+    /// Why the backend does not run this object (it stays on the CPU).
+    refused: Option<String>,
+    /// A device failure outside a substep (a read-back), reported at the substep's end.
+    failed: Option<String>,
+    /// Substeps it ran on the device.
+    pub(crate) substeps: u64,
+}
+
+impl Clone for DeviceSlot {
+    fn clone(&self) -> Self {
+        Self {
+            refused: self.refused.clone(),
+            ..Self::default()
+        }
+    }
+}
+
+impl fmt::Debug for DeviceSlot {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DeviceSlot")
+            .field("uploaded", &self.mpm.is_some())
+            .field("at", &self.at)
+            .field("refused", &self.refused)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Body {
+    /// Whether its current particles are on the device only.
+    pub(crate) fn on_device(&self) -> bool {
+        self.device.at == Residence::Device
+    }
+
+    /// Its state with bounds as its particles are now: the device's last moments while they are
+    /// there, else measured from the host's particles.
+    pub(crate) fn measured_bounds(&self) -> BodyState {
+        match self.device.state {
+            Some(s) if self.on_device() => s,
+            _ => measure_bounds(&self.particles, self.dx_m()),
+        }
+    }
+
+    /// Its whole state (angular momentum and inertia too, [`measure`]) as its particles are now:
+    /// the device's last moments (which have bounds as well) while they are there.
+    pub(crate) fn measured(&self) -> BodyState {
+        match self.device.state {
+            Some(s) if self.on_device() => s,
+            _ => measure(&self.particles, self.dx_m()),
+        }
+    }
+
+    /// Copies its particles back from the device if only the device has them; the device's copy
+    /// stays current. A failure is kept for [`World::substep`] to report.
+    pub(crate) fn sync_host(&mut self) {
+        if !self.on_device() {
+            return;
+        }
+        let Some(mpm) = self.device.mpm.as_mut() else {
+            return;
+        };
+        match mpm.read_particles(&mut self.particles) {
+            Ok(()) => self.device.at = Residence::Both,
+            Err(e) => self.device.failed = Some(e.to_string()),
+        }
+    }
+
+    /// Its host particles are about to change: brings them back ([`Body::sync_host`]), and the
+    /// device's copy is stale from here.
+    pub(crate) fn leave_device(&mut self) {
+        self.sync_host();
+        if self.device.failed.is_none() {
+            self.device.at = Residence::Host;
+            self.device.state = None;
+        }
+    }
+
+    /// v += `dv` + `dw` × (x − `about`), C += \[`dw`\]× on its particles on the device (m/s,
+    /// rad/s, m), and the state and largest speed measured again. Only while the particles are
+    /// on the device ([`Body::on_device`]).
+    pub(crate) fn device_rigid_field(&mut self, dv: DVec3, dw: DVec3, about: DVec3) {
+        let Some(mpm) = self.device.mpm.as_mut() else {
+            return;
+        };
+        mpm.rigid_field(dv.as_vec3a(), dw.as_vec3a(), about.as_vec3a());
+        let reference = self.device.state.map_or(about, |s| s.com_m).as_vec3a();
+        match mpm.moments(reference) {
+            Ok((state, speed)) => {
+                self.device.state = Some(state);
+                self.max_speed_m_s = speed;
+            }
+            Err(e) => self.device.failed = Some(e.to_string()),
+        }
+    }
+
+    /// Why the device backend does not run it, once it refused.
+    pub fn device_refused(&self) -> Option<&str> {
+        self.device.refused.as_deref()
+    }
+
+    /// Substeps its MPM ran on the device.
+    pub fn device_substeps(&self) -> u64 {
+        self.device.substeps
+    }
+}
+
+/// Whether `colliders` allow an object of cell `dx_m` to step on the device: every box is at
+/// least two cells thick (a thinner one needs the particles' crossing check).
+pub(super) fn colliders_allow(colliders: &[Collider], dx_m: f32) -> bool {
+    colliders.iter().all(|c| match c.shape {
+        Shape::Box(b) => (b.max_m - b.min_m).min_element() >= 2.0 * dx_m,
+        _ => true,
+    })
+}
+
+/// Cells of margin the device grid keeps around an object's particles at least; a new grid is
+/// laid out when they come within [`EDGE_CELLS`] of its edge.
+const MARGIN_CELLS: f32 = 16.0;
+/// See [`MARGIN_CELLS`].
+const EDGE_CELLS: f32 = 4.0;
+
+/// Body `b`'s particles on `backend` for a substep at `time_s` among `colliders` under
+/// `gravity_m_s2`: uploaded, or its copy there reused. `Ok(false)` when the backend refuses it.
+fn prepare(
+    backend: &dyn DeviceBackend,
+    b: &mut Body,
+    colliders: &[Collider],
+    gravity_m_s2: Vec3A,
+    time_s: f64,
+) -> Result<bool, DeviceError> {
+    let dx = b.dx_m();
+    let key = Uploaded {
+        particles: b.particles.len(),
+        dx_m: dx,
+        materials: b.materials.clone(),
+        gravity_m_s2,
+        colliders: colliders.len(),
+    };
+    let s = b.measured_bounds();
+    let (lo, hi) = (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a());
+    let edge = EDGE_CELLS * dx;
+    let inside = (lo - edge).cmpge(b.device.extent_m.0).all()
+        && (hi + edge).cmple(b.device.extent_m.1).all();
+    if b.device.mpm.is_some() && b.device.uploaded.as_ref() == Some(&key) && inside {
+        if b.device.at == Residence::Host
+            && let Some(mpm) = b.device.mpm.as_mut()
+        {
+            mpm.write_particles(&b.particles)?;
+            b.device.at = Residence::Both;
+        }
+        return Ok(true);
+    }
+    // A new upload over the particles' box, with room to move.
+    b.leave_device();
+    if let Some(e) = b.device.failed.take() {
+        return Err(DeviceError::Failed(e));
+    }
+    let margin = (0.5 * (hi - lo).max_element()).max(MARGIN_CELLS * dx);
+    let extent = (lo - margin, hi + margin);
+    let mut system = MpmSystem::new(b.particles.clone(), b.materials.clone(), dx);
+    system.colliders = colliders.to_vec();
+    system.gravity_m_s2 = gravity_m_s2;
+    system.time_s = time_s;
+    b.device.mpm = None;
+    match backend.upload(&system, extent) {
+        Ok(mpm) => {
+            b.device.mpm = Some(mpm);
+            b.device.extent_m = extent;
+            b.device.uploaded = Some(key);
+            b.device.at = Residence::Both;
+            Ok(true)
+        }
+        Err(DeviceError::Unsupported(why)) => {
+            b.device.refused = Some(why);
+            Ok(false)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Runs body `b`'s MPM substep of `dt_s` at `time_s` on `backend`; returns each collider's
+/// normal impulse on it (N s) and its grid nodes inside each ([`DeviceMpm::collider_contacts`]),
+/// or `None` when the backend refuses the object (it steps on the CPU from now on).
+///
+/// # Errors
+/// [`DeviceError::Failed`] when the device failed.
+pub(super) fn substep(
+    backend: &dyn DeviceBackend,
+    b: &mut Body,
+    (colliders, gravity_m_s2): (&[Collider], Vec3A),
+    dt_s: f32,
+    time_s: f64,
+) -> Result<Option<ColliderContacts>, DeviceError> {
+    if !prepare(backend, b, colliders, gravity_m_s2, time_s)? {
+        return Ok(None);
+    }
+    let reference = b.measured_bounds().com_m.as_vec3a();
+    let Some(mpm) = b.device.mpm.as_mut() else {
+        return Ok(None);
+    };
+    mpm.substep(dt_s, time_s)?;
+    let (state, speed) = mpm.moments(reference)?;
+    let contacts = mpm.collider_contacts()?;
+    b.device.at = Residence::Device;
+    b.device.state = Some(state);
+    b.device.substeps += 1;
+    b.max_speed_m_s = speed;
+    Ok(Some(contacts))
+}
+
+impl World {
+    /// Runs deformable objects' MPM on `backend` where their situation allows (module docs of
+    /// `world/device.rs`) when the scene's `[simulation] device` is `gpu`; `None`: on the CPU.
+    pub fn set_device(&mut self, backend: Option<std::sync::Arc<dyn DeviceBackend>>) {
+        for b in &mut self.bodies {
+            b.leave_device();
+            b.device = DeviceSlot::default();
+        }
+        self.device = backend;
+    }
+
+    /// The device deformable objects may run on, if any.
+    pub fn device(&self) -> Option<&dyn DeviceBackend> {
+        self.device.as_deref()
+    }
+
+    /// Brings every object's particles back from the device (the frame's end, a command).
+    ///
+    /// # Errors
+    /// [`WorldError::Device`] when a read-back failed.
+    pub(super) fn sync_devices(&mut self, leave: bool) -> Result<(), WorldError> {
+        for b in &mut self.bodies {
+            if leave {
+                b.leave_device();
+            } else {
+                b.sync_host();
+            }
+        }
+        self.device_failure()
+    }
+
+    /// The first device failure an object recorded outside a substep, as an error.
+    pub(super) fn device_failure(&mut self) -> Result<(), WorldError> {
+        for b in &mut self.bodies {
+            if let Some(message) = b.device.failed.take() {
+                return Err(WorldError::Device {
+                    object: b.name.clone(),
+                    message,
+                });
+            }
+        }
+        Ok(())
+    }
+}
