@@ -13,7 +13,7 @@
 //! collider's normal impulse (the restitution law's touches). The restitution law and rolling
 //! resistance change the object by a rigid field (v += δv + δω × r, C += \[δω\]×), applied on
 //! the device. Everything else (publishing, commands and events, sleep, another object coming
-//! near) first brings the particles back ([`Body::leave_device`]): at the end of every frame
+//! near) first brings the particles back (`Body::leave_device`): at the end of every frame
 //! they are copied back, and the next substep on the device reuses its copy unless the host's
 //! changed.
 //!
