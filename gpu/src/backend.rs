@@ -1,9 +1,9 @@
 //! [`GpuBackend`]: the GPU as the device a `World` runs deformable objects' MPM on
 //! (`splatphys_core::world::device`).
 
-use glam::{DVec3, Vec3A};
+use glam::Vec3A;
 use splatphys_core::mpm::{MpmSystem, Particles};
-use splatphys_core::world::{BodyState, DeviceBackend, DeviceError, DeviceMpm};
+use splatphys_core::world::{BodyState, DeviceBackend, DeviceError, DeviceMpm, DeviceReport};
 
 use crate::{GpuContext, GpuError, GpuMpm};
 
@@ -58,19 +58,25 @@ impl DeviceMpm for GpuMpm {
         Ok(GpuMpm::write_particles(self, particles)?)
     }
 
-    fn substep(&mut self, dt_s: f32, time_s: f64) -> Result<(), DeviceError> {
+    fn substep(
+        &mut self,
+        dt_s: f32,
+        time_s: f64,
+        reference_m: Vec3A,
+    ) -> Result<DeviceReport, DeviceError> {
         self.time_s = time_s;
         GpuMpm::substep(self, dt_s);
-        self.check()?;
-        Ok(())
+        let r = self.report(reference_m)?;
+        Ok(DeviceReport {
+            state: r.state,
+            max_speed_m_s: r.max_speed_m_s,
+            impulses_n_s: r.impulses_n_s,
+            nodes: r.nodes,
+        })
     }
 
     fn moments(&mut self, reference_m: Vec3A) -> Result<(BodyState, f32), DeviceError> {
         Ok(GpuMpm::moments(self, reference_m)?)
-    }
-
-    fn collider_contacts(&mut self) -> Result<(Vec<DVec3>, Vec<u64>), DeviceError> {
-        Ok(GpuMpm::collider_contacts(self)?)
     }
 
     fn rigid_field(&mut self, dv: Vec3A, dw: Vec3A, about: Vec3A) {

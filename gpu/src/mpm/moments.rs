@@ -10,6 +10,19 @@ use splatphys_core::world::measure::inertia_from_second_moments;
 use crate::mpm::{COLLIDER_WORDS, MOMENTS, NODE_WORDS, dispatch};
 use crate::{GpuError, GpuMpm};
 
+/// [`GpuMpm::report`]: what the COM layer takes back after a substep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectReport {
+    /// The object's state ([`GpuMpm::moments`]).
+    pub state: BodyState,
+    /// Its largest particle speed (m/s).
+    pub max_speed_m_s: f32,
+    /// Each collider's normal impulse in the last substep (N s).
+    pub impulses_n_s: Vec<DVec3>,
+    /// Each collider's grid nodes with mass inside it in the last substep.
+    pub nodes: Vec<u64>,
+}
+
 impl GpuMpm {
     /// The particles' state as `splatphys_core::world::measure` computes it from them on the
     /// CPU (mass, COM, velocity, angular momentum about the COM with the APIC spin term, inertia
@@ -31,7 +44,7 @@ impl GpuMpm {
                 (&self.kernels.moments_total, (1, 1)),
             ],
         );
-        let bytes = self.read_prefix(&self.moments, 4 * MOMENTS as u64)?;
+        let bytes = self.read_range(&self.moments, 0, 4 * MOMENTS as u64)?;
         let s: &[f32] = bytemuck::cast_slice(&bytes);
         Ok((self.state_of(s, reference), s[26]))
     }
@@ -54,19 +67,31 @@ impl GpuMpm {
     /// # Errors
     /// [`GpuError::Readback`].
     pub fn collider_contacts(&self) -> Result<(Vec<DVec3>, Vec<u64>), GpuError> {
-        let n = u64::from(self.params.n_colliders);
-        if n == 0 {
+        let (offset, size) = self.collider_range();
+        if size == 0 {
             return Ok((Vec::new(), Vec::new()));
         }
+        let bytes = self.read_range(&self.grid_sum, offset, size)?;
+        Ok(self.contacts_of(bytemuck::cast_slice(&bytes)))
+    }
+
+    /// The byte offset and size of the colliders' sums in `grid_sum`.
+    fn collider_range(&self) -> (u64, u64) {
         let offset = 4 * u64::from(self.n_nodes) * NODE_WORDS;
-        let bytes = self.read_range(&self.grid_sum, offset, 4 * COLLIDER_WORDS * n)?;
-        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        (
+            offset,
+            4 * COLLIDER_WORDS * u64::from(self.params.n_colliders),
+        )
+    }
+
+    /// The colliders' sums read back (`words`) as impulses (N s) and node counts.
+    fn contacts_of(&self, words: &[u32]) -> (Vec<DVec3>, Vec<u64>) {
         let scale = 1.0 / f64::from(self.params.scale_p);
         let value = |k: usize| {
             let bits = u64::from(words[k]) | (u64::from(words[k + 1]) << 32);
             bits as i64 as f64 * scale
         };
-        Ok((0..n as usize)
+        (0..self.params.n_colliders as usize)
             .map(|c| {
                 let k = c * COLLIDER_WORDS as usize;
                 (
@@ -74,7 +99,49 @@ impl GpuMpm {
                     u64::from(words[k + 6]),
                 )
             })
-            .unzip())
+            .unzip()
+    }
+
+    /// What a `World`'s substep takes back after the substeps queued, in one wait: the failure
+    /// check and largest speed ([`GpuMpm::check`]), the object's state about `reference`
+    /// ([`GpuMpm::moments`]) and each collider's impulse and nodes
+    /// ([`GpuMpm::collider_contacts`]).
+    ///
+    /// # Errors
+    /// As [`GpuMpm::check`].
+    pub fn report(&mut self, reference: Vec3A) -> Result<ObjectReport, GpuError> {
+        self.params.reference = reference.to_array();
+        self.write_params();
+        let groups = dispatch(self.params.n_particles);
+        self.submit_pass(
+            "moments",
+            &[
+                (&self.kernels.moments_per_group, groups),
+                (&self.kernels.moments_total, (1, 1)),
+            ],
+        );
+        let (offset, size) = self.collider_range();
+        let mut ranges = vec![
+            (&self.status, 0, 16),
+            (&self.moments, 0, 4 * u64::from(MOMENTS)),
+        ];
+        if size > 0 {
+            ranges.push((&self.grid_sum, offset, size));
+        }
+        let bytes = self.read_ranges(&ranges)?;
+        let s: &[f32] = bytemuck::cast_slice(&bytes[1]);
+        let (state, max_speed_m_s) = (self.state_of(s, reference), s[26]);
+        let (impulses_n_s, nodes) = match bytes.get(2) {
+            Some(b) => self.contacts_of(bytemuck::cast_slice(b)),
+            None => (Vec::new(), Vec::new()),
+        };
+        self.take_status(bytemuck::cast_slice(&bytes[0]))?;
+        Ok(ObjectReport {
+            state,
+            max_speed_m_s,
+            impulses_n_s,
+            nodes,
+        })
     }
 
     /// [`GpuMpm::moments`]'s sums `s` about `reference` as a [`BodyState`].

@@ -8,9 +8,9 @@
 //! on its grid, `contact/boundary.rs`), no other deformable object within reach (the impulse law
 //! of deformable pairs needs its particles' surface every substep) and no box collider thinner
 //! than two cells (the particles' crossing check, `contact/crossing.rs`, runs on the CPU). Its
-//! particles then stay on the device; what the COM layer needs crosses back each substep: the
-//! object's moments ([`BodyState`] and its largest speed, one small read-back) and each
-//! collider's normal impulse (the restitution law's touches). The restitution law and rolling
+//! particles then stay on the device; what the COM layer needs crosses back each substep in one
+//! small read-back ([`DeviceReport`]): the object's moments ([`BodyState`] and its largest
+//! speed) and each collider's normal impulse and nodes (the restitution law's touches). The restitution law and rolling
 //! resistance change the object by a rigid field (v += δv + δω × r, C += \[δω\]×), applied on
 //! the device. Everything else (publishing, commands and events, sleep, another object coming
 //! near) first brings the particles back (`Body::leave_device`): at the end of every frame
@@ -71,11 +71,17 @@ pub trait DeviceMpm: Send + Sync + fmt::Debug {
     fn write_particles(&mut self, particles: &Particles) -> Result<(), DeviceError>;
 
     /// One substep of `dt_s` (s) starting at simulated time `time_s` (s): P2G, the grid update
-    /// with the colliders, G2P with the return mappings. Waits for the device.
+    /// with the colliders, G2P with the return mappings; then what the COM layer takes back,
+    /// summed about `reference_m` (a point near the COM). Waits for the device once.
     ///
     /// # Errors
     /// [`DeviceError::Failed`] when a particle left the grid or a value was not finite.
-    fn substep(&mut self, dt_s: f32, time_s: f64) -> Result<(), DeviceError>;
+    fn substep(
+        &mut self,
+        dt_s: f32,
+        time_s: f64,
+        reference_m: Vec3A,
+    ) -> Result<DeviceReport, DeviceError>;
 
     /// The object's state (mass, COM, velocity, angular momentum, inertia, bounds) and its
     /// largest particle speed (m/s), summed about `reference_m` (a point near the COM).
@@ -83,14 +89,6 @@ pub trait DeviceMpm: Send + Sync + fmt::Debug {
     /// # Errors
     /// [`DeviceError::Failed`].
     fn moments(&mut self, reference_m: Vec3A) -> Result<(BodyState, f32), DeviceError>;
-
-    /// The normal impulse each collider gave the particles in the last substep (N s; one per
-    /// collider in order, zero where none touched) and the grid nodes with mass inside each
-    /// (`MpmSolver::collider_impulses_n_s` and `MpmSolver::collider_nodes` on the CPU).
-    ///
-    /// # Errors
-    /// [`DeviceError::Failed`].
-    fn collider_contacts(&mut self) -> Result<(Vec<DVec3>, Vec<u64>), DeviceError>;
 
     /// v += `dv` + `dw` × (x − `about`), C += \[`dw`\]× on every particle (m/s, rad/s, m).
     fn rigid_field(&mut self, dv: Vec3A, dw: Vec3A, about: Vec3A);
@@ -103,8 +101,19 @@ pub trait DeviceMpm: Send + Sync + fmt::Debug {
     fn read_particles(&mut self, into: &mut Particles) -> Result<(), DeviceError>;
 }
 
-/// Each grid collider's normal impulse on an object (N s) and its grid nodes inside the collider.
-pub(super) type ColliderContacts = (Vec<DVec3>, Vec<u64>);
+/// What the COM layer takes back after an object's substep on the device.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceReport {
+    /// The object's state (mass, COM, velocity, angular momentum, inertia, bounds).
+    pub state: BodyState,
+    /// Its largest particle speed (m/s).
+    pub max_speed_m_s: f32,
+    /// Each grid collider's normal impulse on it in the substep (N s), in order
+    /// (`MpmSolver::collider_impulses_n_s` on the CPU).
+    pub impulses_n_s: Vec<DVec3>,
+    /// Each grid collider's nodes with mass inside it (`MpmSolver::collider_nodes`).
+    pub nodes: Vec<u64>,
+}
 
 /// Where an object's current particles are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -318,9 +327,8 @@ fn prepare(
     }
 }
 
-/// Runs body `b`'s MPM substep of `dt_s` at `time_s` on `backend`; returns each collider's
-/// normal impulse on it (N s) and its grid nodes inside each ([`DeviceMpm::collider_contacts`]),
-/// or `None` when the backend refuses the object (it steps on the CPU from now on).
+/// Runs body `b`'s MPM substep of `dt_s` at `time_s` on `backend`; returns what the device
+/// reported, or `None` when the backend refuses the object (it steps on the CPU from now on).
 ///
 /// # Errors
 /// [`DeviceError::Failed`] when the device failed.
@@ -330,7 +338,7 @@ pub(super) fn substep(
     (colliders, gravity_m_s2): (&[Collider], Vec3A),
     dt_s: f32,
     time_s: f64,
-) -> Result<Option<ColliderContacts>, DeviceError> {
+) -> Result<Option<DeviceReport>, DeviceError> {
     if !prepare(backend, b, colliders, gravity_m_s2, time_s)? {
         return Ok(None);
     }
@@ -338,14 +346,12 @@ pub(super) fn substep(
     let Some(mpm) = b.device.mpm.as_mut() else {
         return Ok(None);
     };
-    mpm.substep(dt_s, time_s)?;
-    let (state, speed) = mpm.moments(reference)?;
-    let contacts = mpm.collider_contacts()?;
+    let report = mpm.substep(dt_s, time_s, reference)?;
     b.device.at = Residence::Device;
-    b.device.state = Some(state);
+    b.device.state = Some(report.state);
     b.device.substeps += 1;
-    b.max_speed_m_s = speed;
-    Ok(Some(contacts))
+    b.max_speed_m_s = report.max_speed_m_s;
+    Ok(Some(report))
 }
 
 impl World {

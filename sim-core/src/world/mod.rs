@@ -61,7 +61,7 @@ use glam::Vec3A;
 use background::Background;
 pub use background::{BACKGROUND_FRICTION, BackgroundReport};
 pub use body::{Body, BodyStats, RigidState};
-pub use device::{DeviceBackend, DeviceError, DeviceMpm};
+pub use device::{DeviceBackend, DeviceError, DeviceMpm, DeviceReport};
 pub use measure::{BodyState, measure};
 pub use sleep::{SLEEP_AFTER_S, SLEEP_SPEED_M_S};
 use step::{ContactMemory, Env};

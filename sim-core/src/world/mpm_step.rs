@@ -326,14 +326,15 @@ fn device_substep(
             dt_s,
             env.time_s,
         );
-        let impulses = r.map_err(|e| WorldError::Device {
+        let report = r.map_err(|e| WorldError::Device {
             object: b.name.clone(),
             message: e.to_string(),
         })?;
-        if let Some((impulses, nodes)) = impulses {
+        if let Some(report) = report {
             b.stats.mpm_wall_s += started.elapsed().as_secs_f64();
             stats.mpm_particle_substeps += b.particles.len() as u64;
-            return Ok(Some(collider_touches(k, &impulses, &nodes).collect()));
+            let (j, n) = (&report.impulses_n_s, &report.nodes);
+            return Ok(Some(collider_touches(k, j, n).collect()));
         }
     }
     bodies[k].leave_device();
