@@ -70,7 +70,16 @@ pub fn attach(world: &mut World, who: &str) {
 #[cfg(feature = "gpu")]
 fn open() -> Result<std::sync::Arc<dyn splatphys_core::world::DeviceBackend>, String> {
     match splatphys_gpu::GpuBackend::open() {
-        Ok(b) => Ok(std::sync::Arc::new(b)),
+        Ok(b) => {
+            if b.is_software() {
+                eprintln!(
+                    "warning: {} is a software adapter: slower than the CPU path, and its memory \
+                     grows with every substep (for checks, not for runs)",
+                    splatphys_core::world::DeviceBackend::name(&b)
+                );
+            }
+            Ok(std::sync::Arc::new(b))
+        }
         Err(e) => Err(e.to_string()),
     }
 }

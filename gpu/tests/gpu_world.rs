@@ -109,12 +109,16 @@ fn a_ball_bouncing_on_a_plane_follows_the_cpu_world_and_takes_a_command() {
     let b = &w.bodies()[0];
     let substeps = b.stats().substeps_taken;
     eprintln!(
-        "{} of {substeps} substeps on {}",
+        "{} of {substeps} substeps, {} upload(s), on {}",
         b.device_substeps(),
+        b.device_uploads(),
         w.device().map(|d| d.name()).unwrap_or_default()
     );
     assert_eq!(b.device_refused(), None);
     assert_eq!(b.device_substeps(), substeps, "every substep on the GPU");
+    // It travels 15 cm, past its grid's margin, and the command brings its particles back to
+    // the host: the grid moves and the particles are written back, with no new upload.
+    assert_eq!(b.device_uploads(), 1);
     for (f, (c, g)) in com_c.iter().zip(&com_g).enumerate() {
         let d = distance(*c, *g);
         eprintln!(

@@ -1,5 +1,6 @@
 //! The particles' layout in the GPU's buffers, and writing a new state into them.
 
+use glam::Vec3A;
 use splatphys_core::mpm::Particles;
 
 use super::GpuMpm;
@@ -68,5 +69,25 @@ impl GpuMpm {
         queue.write_buffer(&self.cf, 0, bytemuck::cast_slice(&cf));
         queue.write_buffer(&self.plastic, 0, bytemuck::cast_slice(&plastic));
         Ok(())
+    }
+
+    /// Moves the dense grid, keeping its size, so that it covers `extent` (min, max corners in m)
+    /// with the three cells a particle's stencil needs beyond it; `false` (and nothing changed)
+    /// when the extent does not fit in the grid, which then needs a new upload. The grid holds
+    /// nothing between substeps, so nothing else moves. Returns without waiting.
+    pub fn recentre(&mut self, extent: (Vec3A, Vec3A)) -> bool {
+        let dx = self.params.dx;
+        let first = (extent.0 / dx).floor() - Vec3A::splat(3.0);
+        let last = (extent.1 / dx).ceil() + Vec3A::splat(3.0);
+        let dims = Vec3A::from(self.params.grid_dims.map(|d| d as f32));
+        let spare = dims - (last - first + Vec3A::ONE);
+        if !(spare.cmpge(Vec3A::ZERO).all() && first.is_finite()) {
+            return false;
+        }
+        // The spare cells split evenly on both sides; nodes stay at integer multiples of dx.
+        let origin = first - (spare * 0.5).floor();
+        self.params.grid_origin = (origin * dx).to_array();
+        self.write_params();
+        true
     }
 }

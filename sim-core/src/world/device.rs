@@ -90,6 +90,10 @@ pub trait DeviceMpm: Send + Sync + fmt::Debug {
     /// [`DeviceError::Failed`].
     fn moments(&mut self, reference_m: Vec3A) -> Result<(BodyState, f32), DeviceError>;
 
+    /// Moves its grid to cover `extent_m` (min, max corners in m) without a new upload; `false`
+    /// when the extent does not fit in the grid uploaded.
+    fn recentre(&mut self, extent_m: (Vec3A, Vec3A)) -> bool;
+
     /// v += `dv` + `dw` × (x − `about`), C += \[`dw`\]× on every particle (m/s, rad/s, m).
     fn rigid_field(&mut self, dv: Vec3A, dw: Vec3A, about: Vec3A);
 
@@ -154,6 +158,9 @@ pub(crate) struct DeviceSlot {
     failed: Option<String>,
     /// Substeps it ran on the device.
     pub(crate) substeps: u64,
+    /// Uploads to the device (the first, and each for a grid that no longer fit or a changed
+    /// material, particle count or gravity).
+    uploads: u64,
 }
 
 impl Clone for DeviceSlot {
@@ -251,6 +258,12 @@ impl Body {
     pub fn device_substeps(&self) -> u64 {
         self.device.substeps
     }
+
+    /// Times its particles were uploaded to the device whole (a new grid, or a changed
+    /// material, particle count or gravity; not the copies written back after a command).
+    pub fn device_uploads(&self) -> u64 {
+        self.device.uploads
+    }
 }
 
 /// Whether `colliders` allow an object of cell `dx_m` to step on the device: every box is at
@@ -262,9 +275,10 @@ pub(super) fn colliders_allow(colliders: &[Collider], dx_m: f32) -> bool {
     })
 }
 
-/// Cells of margin the device grid keeps around an object's particles at least; a new grid is
-/// laid out when they come within [`EDGE_CELLS`] of its edge.
-const MARGIN_CELLS: f32 = 16.0;
+/// Cells of margin the device grid keeps around an object's particles when it is laid out; it
+/// moves ([`DeviceMpm::recentre`]) when they come within [`EDGE_CELLS`] of its edge (a particle
+/// moves less than a cell per substep), and a new one is uploaded only when they no longer fit.
+const MARGIN_CELLS: f32 = 8.0;
 /// See [`MARGIN_CELLS`].
 const EDGE_CELLS: f32 = 4.0;
 
@@ -290,10 +304,16 @@ fn prepare(
     let edge = EDGE_CELLS * dx;
     let inside = (lo - edge).cmpge(b.device.extent_m.0).all()
         && (hi + edge).cmple(b.device.extent_m.1).all();
-    if b.device.mpm.is_some() && b.device.uploaded.as_ref() == Some(&key) && inside {
-        if b.device.at == Residence::Host
-            && let Some(mpm) = b.device.mpm.as_mut()
-        {
+    let margin = MARGIN_CELLS * dx;
+    let extent = (lo - margin, hi + margin);
+    if let Some(mpm) = b.device.mpm.as_mut()
+        && b.device.uploaded.as_ref() == Some(&key)
+        && (inside || mpm.recentre(extent))
+    {
+        if !inside {
+            b.device.extent_m = extent;
+        }
+        if b.device.at == Residence::Host {
             mpm.write_particles(&b.particles)?;
             b.device.at = Residence::Both;
         }
@@ -304,13 +324,15 @@ fn prepare(
     if let Some(e) = b.device.failed.take() {
         return Err(DeviceError::Failed(e));
     }
-    let margin = (0.5 * (hi - lo).max_element()).max(MARGIN_CELLS * dx);
-    let extent = (lo - margin, hi + margin);
+    // Two cells more than a move asks for, so the grid still takes the same box wherever it
+    // lies against the nodes, and the object may swell a little.
+    let extent = (extent.0 - 2.0 * dx, extent.1 + 2.0 * dx);
     let mut system = MpmSystem::new(b.particles.clone(), b.materials.clone(), dx);
     system.colliders = colliders.to_vec();
     system.gravity_m_s2 = gravity_m_s2;
     system.time_s = time_s;
     b.device.mpm = None;
+    b.device.uploads += 1;
     match backend.upload(&system, extent) {
         Ok(mpm) => {
             b.device.mpm = Some(mpm);

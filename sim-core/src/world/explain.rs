@@ -111,6 +111,16 @@ impl World {
                     ObjectKind::Static => "static (never stepped)".to_string(),
                     ObjectKind::Kinematic => "kinematic (moves as commanded, no MPM)".to_string(),
                 };
+                if b.device_substeps() > 0 {
+                    modelled_as.push_str(&format!(
+                        "; {} substeps on the device ({} upload(s))",
+                        b.device_substeps(),
+                        b.device_uploads()
+                    ));
+                }
+                if let Some(why) = b.device_refused() {
+                    modelled_as.push_str(&format!("; on the CPU: {why}"));
+                }
                 if fill > 0 {
                     modelled_as.push_str(&format!(
                         "; {fill} of its Gaussians are interior fill (never published)"
