@@ -77,6 +77,7 @@ impl DeviceMpm for GpuMpm {
         Ok(DeviceReport {
             state: r.state,
             max_speed_m_s: r.max_speed_m_s,
+            min_plastic: r.min_plastic,
             impulses_n_s: r.impulses_n_s,
             nodes: r.nodes,
         })

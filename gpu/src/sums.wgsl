@@ -9,7 +9,8 @@
 //   [0] sum m, [1..4) sum m y, [4..7) sum m v, [7..10) sum m y x v,
 //   [10..13) sum m (C_zy - C_yz, C_xz - C_zx, C_yx - C_xy) (the APIC spin),
 //   [13..16) sum m (y_x^2, y_y^2, y_z^2), [16..19) sum m (y_x y_y, y_x y_z, y_y y_z),
-//   [19] sum m |v|^2, [20..23) min y, [23..26) max y, [26] max |v|, [27] unused.
+//   [19] sum m |v|^2, [20..23) min y, [23..26) max y, [26] max |v|, [27] max of minus the
+//   plastic scalar (its minimum, negated: snow's smallest Jp sets its CFL wave speed).
 
 const MOMENTS: u32 = 28u;
 const SUMS: u32 = 20u;
@@ -27,6 +28,7 @@ fn reset(base: u32) {
     for (var k = 23u; k < 26u; k++) {
         partial[base + k] = -3.0e38;
     }
+    partial[base + 27u] = -3.0e38;
 }
 
 // This work item's particle's moments (empty past the last particle).
@@ -55,6 +57,7 @@ fn particle_moments(p: u32, out_base: u32) {
         partial[out_base + 23u + k] = y[k];
     }
     partial[out_base + 26u] = length(v);
+    partial[out_base + 27u] = -plastic[3u * p].w;
 }
 
 // Folds thread `t + stride`'s moments into thread t's.
@@ -67,7 +70,7 @@ fn fold(t: u32, stride: u32) {
     for (var k = 20u; k < 23u; k++) {
         partial[a + k] = min(partial[a + k], partial[b + k]);
     }
-    for (var k = 23u; k < 27u; k++) {
+    for (var k = 23u; k < 28u; k++) {
         partial[a + k] = max(partial[a + k], partial[b + k]);
     }
 }
@@ -114,7 +117,7 @@ fn moments_total(@builtin(local_invocation_index) t: u32) {
         for (var k = 20u; k < 23u; k++) {
             partial[base + k] = min(partial[base + k], moments[src + k]);
         }
-        for (var k = 23u; k < 27u; k++) {
+        for (var k = 23u; k < 28u; k++) {
             partial[base + k] = max(partial[base + k], moments[src + k]);
         }
     }

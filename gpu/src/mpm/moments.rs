@@ -17,6 +17,8 @@ pub struct ObjectReport {
     pub state: BodyState,
     /// Its largest particle speed (m/s).
     pub max_speed_m_s: f32,
+    /// The smallest plastic scalar of its particles (snow's Jp: what its CFL wave speed takes).
+    pub min_plastic: f32,
     /// Each collider's normal impulse in the last substep (N s).
     pub impulses_n_s: Vec<DVec3>,
     /// Each collider's grid nodes with mass inside it in the last substep.
@@ -130,7 +132,7 @@ impl GpuMpm {
         }
         let bytes = self.read_ranges(&ranges)?;
         let s: &[f32] = bytemuck::cast_slice(&bytes[1]);
-        let (state, max_speed_m_s) = (self.state_of(s, reference), s[26]);
+        let (state, max_speed_m_s, min_plastic) = (self.state_of(s, reference), s[26], -s[27]);
         let (impulses_n_s, nodes) = match bytes.get(2) {
             Some(b) => self.contacts_of(bytemuck::cast_slice(b)),
             None => (Vec::new(), Vec::new()),
@@ -139,6 +141,7 @@ impl GpuMpm {
         Ok(ObjectReport {
             state,
             max_speed_m_s,
+            min_plastic,
             impulses_n_s,
             nodes,
         })

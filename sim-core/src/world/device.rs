@@ -18,7 +18,7 @@
 //! changed.
 //!
 //! The CFL bound reads the object's plastic state (snow's hardening raises its wave speed) from
-//! the host copy, which is at most one frame old while the object is on the device.
+//! the report too: its smallest plastic scalar.
 
 use std::fmt;
 
@@ -112,6 +112,9 @@ pub struct DeviceReport {
     pub state: BodyState,
     /// Its largest particle speed (m/s).
     pub max_speed_m_s: f32,
+    /// The smallest plastic scalar of its particles (snow's Jp, which sets its CFL wave speed:
+    /// `ConstitutiveModel::wave_speed_for_m_s`).
+    pub min_plastic: f32,
     /// Each grid collider's normal impulse on it in the substep (N s), in order
     /// (`MpmSolver::collider_impulses_n_s` on the CPU).
     pub impulses_n_s: Vec<DVec3>,
@@ -149,6 +152,8 @@ pub(crate) struct DeviceSlot {
     at: Residence,
     /// The object's state from the device's last moments, while its particles are there.
     state: Option<BodyState>,
+    /// The smallest plastic scalar from the device's last report.
+    min_plastic: f32,
     /// The device grid's extent (m).
     extent_m: (Vec3A, Vec3A),
     uploaded: Option<Uploaded>,
@@ -203,6 +208,16 @@ impl Body {
         match self.device.state {
             Some(s) if self.on_device() => s,
             _ => measure(&self.particles, self.dx_m()),
+        }
+    }
+
+    /// The plastic state its CFL wave speed reads (`ConstitutiveModel::wave_speed_for_m_s`):
+    /// the device's smallest value while the particles are there, else the host's.
+    pub(crate) fn plastic_for_cfl(&self) -> &[f32] {
+        if self.on_device() && self.device.state.is_some() {
+            std::slice::from_ref(&self.device.min_plastic)
+        } else {
+            &self.particles.plastic
         }
     }
 
@@ -371,6 +386,7 @@ pub(super) fn substep(
     let report = mpm.substep(dt_s, time_s, reference)?;
     b.device.at = Residence::Device;
     b.device.state = Some(report.state);
+    b.device.min_plastic = report.min_plastic;
     b.device.substeps += 1;
     b.max_speed_m_s = report.max_speed_m_s;
     Ok(Some(report))

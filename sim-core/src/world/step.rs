@@ -250,7 +250,7 @@ impl World {
                 let m = &b.materials[0];
                 let (dx_b, c_b) = (
                     b.solver.dx_m,
-                    m.wave_speed_for_m_s(&b.particles.plastic)
+                    m.wave_speed_for_m_s(b.plastic_for_cfl())
                         + m.elastic().damping_speed_m_s(b.solver.dx_m),
                 );
                 if dx_b / (c_b + vmax) < dx / (wave + vmax) {
