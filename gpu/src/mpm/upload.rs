@@ -46,9 +46,10 @@ pub(crate) fn pack(p: &Particles) -> Packed {
 }
 
 impl GpuMpm {
-    /// Replaces the particles' positions, velocities, C, F, F_p and plastic state with
-    /// `particles`' (the uploaded count and order; their masses, volumes and materials are
-    /// taken as uploaded). Queued before the next substep; returns without waiting.
+    /// Replaces the particles' positions, velocities, C, F, F_p and plastic state (and masses
+    /// and rest volumes) with `particles`' (the uploaded count and order; their materials, and
+    /// the fixed-point scale chosen from the uploaded total mass, stay as uploaded, so a changed
+    /// mass needs a new upload). Queued before the next substep; returns without waiting.
     ///
     /// # Errors
     /// [`GpuError::Readback`] for a count that does not match.
