@@ -73,14 +73,7 @@ impl DeviceMpm for GpuMpm {
     ) -> Result<DeviceReport, DeviceError> {
         self.time_s = time_s;
         GpuMpm::substep(self, dt_s);
-        let r = self.report(reference_m)?;
-        Ok(DeviceReport {
-            state: r.state,
-            max_speed_m_s: r.max_speed_m_s,
-            min_plastic: r.min_plastic,
-            impulses_n_s: r.impulses_n_s,
-            nodes: r.nodes,
-        })
+        Ok(self.report(reference_m)?)
     }
 
     fn moments(&mut self, reference_m: Vec3A) -> Result<(BodyState, f32), DeviceError> {

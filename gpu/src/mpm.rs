@@ -19,7 +19,6 @@ mod readback;
 mod upload;
 
 use kernels::Kernels;
-pub use moments::ObjectReport;
 
 /// f32 values per set of moments in the shader's `moments` buffer (`sums.wgsl`).
 const MOMENTS: u32 = 28;

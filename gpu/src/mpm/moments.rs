@@ -4,26 +4,11 @@
 //! field the COM layer's laws add to it.
 
 use glam::{DVec3, Vec3A};
-use splatphys_core::world::BodyState;
 use splatphys_core::world::measure::inertia_from_second_moments;
+use splatphys_core::world::{BodyState, DeviceReport};
 
 use crate::mpm::{COLLIDER_WORDS, MOMENTS, NODE_WORDS, dispatch};
 use crate::{GpuError, GpuMpm};
-
-/// [`GpuMpm::report`]: what the COM layer takes back after a substep.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ObjectReport {
-    /// The object's state ([`GpuMpm::moments`]).
-    pub state: BodyState,
-    /// Its largest particle speed (m/s).
-    pub max_speed_m_s: f32,
-    /// The smallest plastic scalar of its particles (snow's Jp: what its CFL wave speed takes).
-    pub min_plastic: f32,
-    /// Each collider's normal impulse in the last substep (N s).
-    pub impulses_n_s: Vec<DVec3>,
-    /// Each collider's grid nodes with mass inside it in the last substep.
-    pub nodes: Vec<u64>,
-}
 
 impl GpuMpm {
     /// The particles' state as `splatphys_core::world::measure` computes it from them on the
@@ -36,16 +21,7 @@ impl GpuMpm {
     /// # Errors
     /// [`GpuError::Readback`].
     pub fn moments(&mut self, reference: Vec3A) -> Result<(BodyState, f32), GpuError> {
-        self.params.reference = reference.to_array();
-        self.write_params();
-        let groups = dispatch(self.params.n_particles);
-        self.submit_pass(
-            "moments",
-            &[
-                (&self.kernels.moments_per_group, groups),
-                (&self.kernels.moments_total, (1, 1)),
-            ],
-        );
+        self.queue_moments(reference);
         let bytes = self.read_range(&self.moments, 0, 4 * MOMENTS as u64)?;
         let s: &[f32] = bytemuck::cast_slice(&bytes);
         Ok((self.state_of(s, reference), s[26]))
@@ -111,17 +87,8 @@ impl GpuMpm {
     ///
     /// # Errors
     /// As [`GpuMpm::check`].
-    pub fn report(&mut self, reference: Vec3A) -> Result<ObjectReport, GpuError> {
-        self.params.reference = reference.to_array();
-        self.write_params();
-        let groups = dispatch(self.params.n_particles);
-        self.submit_pass(
-            "moments",
-            &[
-                (&self.kernels.moments_per_group, groups),
-                (&self.kernels.moments_total, (1, 1)),
-            ],
-        );
+    pub fn report(&mut self, reference: Vec3A) -> Result<DeviceReport, GpuError> {
+        self.queue_moments(reference);
         let (offset, size) = self.collider_range();
         let mut ranges = vec![
             (&self.status, 0, 16),
@@ -138,13 +105,27 @@ impl GpuMpm {
             None => (Vec::new(), Vec::new()),
         };
         self.take_status(bytemuck::cast_slice(&bytes[0]))?;
-        Ok(ObjectReport {
+        Ok(DeviceReport {
             state,
             max_speed_m_s,
             min_plastic,
             impulses_n_s,
             nodes,
         })
+    }
+
+    /// Queues the moments about `reference` (m) into the `moments` buffer (`sums.wgsl`).
+    fn queue_moments(&mut self, reference: Vec3A) {
+        self.params.reference = reference.to_array();
+        self.write_params();
+        let groups = dispatch(self.params.n_particles);
+        self.submit_pass(
+            "moments",
+            &[
+                (&self.kernels.moments_per_group, groups),
+                (&self.kernels.moments_total, (1, 1)),
+            ],
+        );
     }
 
     /// [`GpuMpm::moments`]'s sums `s` about `reference` as a [`BodyState`].

@@ -6,6 +6,25 @@ pub use splatphys_types::Command;
 
 use crate::gaussians::GaussianCloud;
 
+/// The one of `all` whose `name` is `s` (trimmed, any case), or an error naming `what` and the
+/// names expected.
+fn from_name<T: Copy>(
+    all: &[T],
+    name: fn(T) -> &'static str,
+    what: &'static str,
+    s: &str,
+) -> Result<T, splatphys_types::UnknownName> {
+    let key = s.trim().to_ascii_lowercase();
+    all.iter()
+        .copied()
+        .find(|&m| name(m) == key)
+        .ok_or_else(|| splatphys_types::UnknownName {
+            what,
+            name: s.to_string(),
+            expected: all.iter().map(|&m| name(m)).collect::<Vec<_>>().join(", "),
+        })
+}
+
 /// Simulation method (docs/design/com-layer.md, "One substep" and "Baselines").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -44,15 +63,7 @@ impl std::str::FromStr for Method {
 
     /// Parses a scene-file name (`com`, `mpm`, `multi-field`), case-insensitively.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let key = s.trim().to_ascii_lowercase();
-        Self::ALL
-            .into_iter()
-            .find(|m| m.name() == key)
-            .ok_or_else(|| splatphys_types::UnknownName {
-                what: "method",
-                name: s.to_string(),
-                expected: Self::ALL.map(Self::name).join(", "),
-            })
+        from_name(&Self::ALL, Self::name, "method", s)
     }
 }
 
@@ -92,15 +103,7 @@ impl std::str::FromStr for Device {
 
     /// Parses a scene-file name (`cpu`, `gpu`), case-insensitively.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let key = s.trim().to_ascii_lowercase();
-        Self::ALL
-            .into_iter()
-            .find(|m| m.name() == key)
-            .ok_or_else(|| splatphys_types::UnknownName {
-                what: "device",
-                name: s.to_string(),
-                expected: Self::ALL.map(Self::name).join(", "),
-            })
+        from_name(&Self::ALL, Self::name, "device", s)
     }
 }
 

@@ -144,6 +144,18 @@ struct Uploaded {
     colliders: usize,
 }
 
+impl Uploaded {
+    /// Whether body `b` under `gravity_m_s2` among `colliders` is what was uploaded (compared
+    /// in place: this runs every substep).
+    fn matches(&self, b: &Body, gravity_m_s2: Vec3A, colliders: &[Collider]) -> bool {
+        self.particles == b.particles.len()
+            && self.dx_m == b.dx_m()
+            && self.materials == b.materials
+            && self.gravity_m_s2 == gravity_m_s2
+            && self.colliders == colliders.len()
+    }
+}
+
 /// An object's copy on the device, if it has one. A clone (a checkpoint, a reset) has none: its
 /// particles are the host's.
 #[derive(Default)]
@@ -307,13 +319,6 @@ fn prepare(
     time_s: f64,
 ) -> Result<bool, DeviceError> {
     let dx = b.dx_m();
-    let key = Uploaded {
-        particles: b.particles.len(),
-        dx_m: dx,
-        materials: b.materials.clone(),
-        gravity_m_s2,
-        colliders: colliders.len(),
-    };
     let s = b.measured_bounds();
     let (lo, hi) = (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a());
     let edge = EDGE_CELLS * dx;
@@ -321,8 +326,9 @@ fn prepare(
         && (hi + edge).cmple(b.device.extent_m.1).all();
     let margin = MARGIN_CELLS * dx;
     let extent = (lo - margin, hi + margin);
-    if let Some(mpm) = b.device.mpm.as_mut()
-        && b.device.uploaded.as_ref() == Some(&key)
+    let same = (b.device.uploaded.as_ref()).is_some_and(|u| u.matches(b, gravity_m_s2, colliders));
+    if same
+        && let Some(mpm) = b.device.mpm.as_mut()
         && (inside || mpm.recentre(extent))
     {
         if !inside {
@@ -352,7 +358,13 @@ fn prepare(
         Ok(mpm) => {
             b.device.mpm = Some(mpm);
             b.device.extent_m = extent;
-            b.device.uploaded = Some(key);
+            b.device.uploaded = Some(Uploaded {
+                particles: b.particles.len(),
+                dx_m: dx,
+                materials: b.materials.clone(),
+                gravity_m_s2,
+                colliders: colliders.len(),
+            });
             b.device.at = Residence::Both;
             Ok(true)
         }
