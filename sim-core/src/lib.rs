@@ -24,7 +24,7 @@ pub use splatphys_formats::gaussians;
 /// `use splatphys_core::prelude::*;` (the runnable example is `cargo run --release -p
 /// splatphys-core --example step_scene`).
 pub mod prelude {
-    pub use crate::contact::ContactSolver;
+    pub use crate::contact::{ContactSolver, SurfaceContact};
     pub use crate::formats::read_gaussians;
     pub use crate::gaussians::GaussianCloud;
     pub use crate::kinematics::GaussianState;

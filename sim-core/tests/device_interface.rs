@@ -69,6 +69,7 @@ impl DeviceMpm for OnStandIn {
             gravity_m_s2: self.sys.gravity_m_s2,
             dt_s,
             time_s,
+            barrier: false,
         };
         self.sys
             .solver

@@ -5,9 +5,12 @@
 //! velocity); in a third of them a kinematic pusher drives into the pair at constant velocity,
 //! low or high, smooth or rough.
 //! Over every frame without a command the total energy (kinetic, gravitational above the floor
-//! and strain, Σ V₀ ψ(F)) must not grow by more than 1 % beyond the work the pusher did (its
+//! and strain, Σ V₀ ψ(F), and the particle barrier's at the floor) must not grow by more than 1 % beyond the work the pusher did (its
 //! velocity against the contact force it reports, which is the frame's mean), and every state
 //! must stay finite.
+//!
+//! Every other scene meets "separate" surfaces through the particle barrier
+//! (`surface_contact = "barrier"`), whose stored energy counts.
 //!
 //! `SPLATPHYS_PHYSICS_FUZZ_CASES` sets the number of scenes (default 1,000).
 
@@ -18,7 +21,9 @@ use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use rayon::prelude::*;
 use splatphys_core::material::MaterialSpec;
 use splatphys_core::mpm::Diagnostics;
-use splatphys_core::scene::{ColliderSpec, ObjectKind, Scene, SceneObject, Surface};
+use splatphys_core::scene::{
+    ColliderSpec, ObjectKind, Scene, SceneObject, Surface, SurfaceContact,
+};
 use splatphys_core::world::World;
 use splatphys_types::MaterialEdit;
 
@@ -133,12 +138,17 @@ fn case() -> impl Strategy<Value = Case> {
 
 /// The case's world: a 6 cm jelly cube (object 0) and a 5 cm rigid box (object 1) stacked on a
 /// floor at z = 0, on a 2 cm grid, 6 frames at 60 Hz; the pusher, if any, is the last object.
-fn world(c: &Case) -> World {
+fn world(c: &Case, barrier: bool) -> World {
     let mut b = Scene::builder()
         .grid_dx_m(0.02)
         .duration_s(0.1)
         .frame_rate_hz(60.0)
-        .sleep(false);
+        .sleep(false)
+        .surface_contact(if barrier {
+            SurfaceContact::Barrier
+        } else {
+            SurfaceContact::Grid
+        });
     // The lower object rests on the floor, the upper one `gap_m` above it.
     let (jelly_z, box_z) = if c.box_on_top {
         (0.0, 0.06 + c.gap_m)
@@ -207,12 +217,14 @@ fn pusher_work(c: &Case, w: &World) -> f64 {
     -felt[0] * speed as f64 * w.frame_dt_s()
 }
 
-/// Kinetic + gravitational (above z = 0) + strain energy of objects 0 and 1 (J).
+/// Kinetic + gravitational (above z = 0) + strain energy of objects 0 and 1, with what the
+/// particle barrier holds at the floor (J).
 fn energy(w: &World) -> f64 {
     w.bodies()
         .iter()
         .take(2)
-        .map(|b| match b.kind() {
+        .enumerate()
+        .map(|(k, b)| match b.kind() {
             ObjectKind::Deformable => {
                 let d = Diagnostics::measure(
                     b.particles(),
@@ -220,7 +232,7 @@ fn energy(w: &World) -> f64 {
                     Vec3A::new(0.0, 0.0, -GRAVITY_M_S2 as f32),
                     b.dx_m(),
                 );
-                d.total_energy_j()
+                d.total_energy_j() + w.barrier_energy_j(k)
             }
             ObjectKind::Rigid => {
                 let r = b.rigid();
@@ -235,8 +247,8 @@ fn energy(w: &World) -> f64 {
 }
 
 /// Runs case `c`; `Err` names the first frame that gained energy or went non-finite.
-fn run(c: &Case) -> Result<(), TestCaseError> {
-    let mut w = world(c);
+fn run(c: &Case, barrier: bool) -> Result<(), TestCaseError> {
+    let mut w = world(c, barrier);
     let mut before = energy(&w);
     for frame in 0..6 {
         let commanded = frame == c.event_frame;
@@ -293,7 +305,12 @@ fn no_frame_without_a_command_gains_energy() {
     let failed: Vec<String> = drawn
         .par_iter()
         .enumerate()
-        .filter_map(|(i, c)| run(c).err().map(|e| format!("case {i}: {e}\n  {c:?}")))
+        .filter_map(|(i, c)| {
+            let barrier = i % 2 == 1;
+            run(c, barrier)
+                .err()
+                .map(|e| format!("case {i} (barrier {barrier}): {e}\n  {c:?}"))
+        })
         .collect();
     println!(
         "{cases} physics cases in {:.1} s, {} failed",

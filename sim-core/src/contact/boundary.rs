@@ -38,13 +38,14 @@
 use glam::{DMat3, DVec3, IVec3, Vec3A};
 use rayon::prelude::*;
 
+use super::barrier::{BARRIER_REACH, Wall};
 use super::coupling::{COUPLING_SWEEPS, SolidShare, node_impulse};
 use super::geometry::Placed;
 use crate::collider::{Surface, apply_surface};
 use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};
 use crate::mpm::grid::SparseGrid;
-use crate::mpm::reach::NodeGaps;
+use crate::mpm::reach::{NODE_REACH, NodeGaps};
 
 /// A solid as a grid boundary.
 #[derive(Debug, Clone, Copy)]
@@ -232,12 +233,15 @@ pub fn apply(
 
 /// The node gaps ([`NodeGaps`]) of `particles` on `grid` (cell `dx_m`) against those of
 /// `obstacles` whose nodes take the rule only where material reaches them (immovable, exact,
-/// not sticky); `None` when there is none.
+/// not sticky); `None` when there is none. With `barrier`, the particles met the obstacles that
+/// take it through the particle barrier first ([`super::barrier`]), and those obstacles' nodes
+/// wait until particle centres reach them.
 pub fn gaps(
     grid: &SparseGrid,
     dx_m: f32,
     particles: &Particles,
     obstacles: &[Obstacle],
+    barrier: bool,
 ) -> Option<NodeGaps> {
     if !obstacles.iter().any(gated) {
         return None;
@@ -252,7 +256,13 @@ pub fn gaps(
                 if !(x.cmpge(lo - margin).all() && x.cmple(hi + margin).all()) {
                     return None;
                 }
-                Some(o.placed.surface_at(x))
+                let (phi, n) = o.placed.surface_at(x);
+                let reach = if barrier && Wall::takes_obstacle(o) {
+                    BARRIER_REACH
+                } else {
+                    NODE_REACH
+                };
+                Some((phi, n, reach))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0))
     }))

@@ -18,6 +18,7 @@
 //! object as friction [`STICKY_FRICTION`] (as on deformable material, `collider::surface`), and
 //! so does a clamp (the rigid solver has no glue).
 
+pub mod barrier;
 pub mod block;
 pub mod boundary;
 pub mod coupling;
@@ -35,7 +36,7 @@ pub mod solver;
 pub use geometry::{Collision, Geometry, Pose};
 pub use level_set::LevelSet;
 pub use rows::{ContactPoint, SolverBody};
-pub use settings::{ContactSolver, SolverSettings};
+pub use settings::{ContactSolver, SolverSettings, SurfaceContact};
 
 /// The friction μ a sticky collider has against a solid: large, far above any real pair, but
 /// finite, so its grip is bounded by μ times the normal impulse like any friction: nothing

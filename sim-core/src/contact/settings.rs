@@ -24,6 +24,31 @@ impl ContactSolver {
     }
 }
 
+/// How deformable material meets an immovable solid whose rule lets it leave: a "separate"
+/// plane or box collider, a static or kinematic procedural object (scene file:
+/// `[simulation] surface_contact`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SurfaceContact {
+    /// The rule at every grid node that material reaches (Hu et al. 2018): inelastic, node by
+    /// node; a rolling object slows.
+    #[default]
+    Grid,
+    /// The particle barrier ([`super::barrier`]): elastic within the contact patch, friction on
+    /// the patch; a rolling object rolls on. Host only.
+    Barrier,
+}
+
+impl SurfaceContact {
+    /// The scene-file name (`grid`, `barrier`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Grid => "grid",
+            Self::Barrier => "barrier",
+        }
+    }
+}
+
 /// Solver settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolverSettings {

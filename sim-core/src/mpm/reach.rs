@@ -37,6 +37,11 @@ const CHUNK: usize = 4096;
 /// 0.18 m/s by 0.2 s (0.22 with 0.25), as the band of nodes ahead of its contact grew back.
 const REACH_TOLERANCE: f32 = 0.25;
 
+/// How far a particle reaches towards a surface for the grid rule, in particle sizes V₀^⅓: its
+/// half size and [`REACH_TOLERANCE`] (module docs). A surface with a particle barrier
+/// (`contact::barrier`) gives its own, smaller reach.
+pub const NODE_REACH: f32 = 0.5 + REACH_TOLERANCE;
+
 /// Per grid node, the smallest gap (m) between a particle whose column holds the node and the
 /// solid (+∞ where none does): module docs.
 #[derive(Debug, Clone, Default)]
@@ -46,14 +51,15 @@ pub struct NodeGaps {
 }
 
 impl NodeGaps {
-    /// The gaps of `particles` on `grid` (cell `dx_m`), for solids whose signed distance and
-    /// outward normal at a point `surface(x)` returns (`None` where the point is far from every
-    /// solid of interest: more than two cells out).
+    /// The gaps of `particles` on `grid` (cell `dx_m`), for solids whose signed distance,
+    /// outward normal and particle reach (in particle sizes: [`NODE_REACH`], or a barrier's)
+    /// at a point `surface(x)` returns (`None` where the point is far from every solid of
+    /// interest: more than two cells out).
     pub fn new(
         grid: &SparseGrid,
         dx_m: f32,
         particles: &Particles,
-        surface: impl Fn(Vec3A) -> Option<(f32, Vec3A)> + Sync,
+        surface: impl Fn(Vec3A) -> Option<(f32, Vec3A, f32)> + Sync,
     ) -> Self {
         let inv_dx = 1.0 / dx_m;
         // (node, gap) for every node in a near particle's column, found in parallel; the
@@ -65,11 +71,12 @@ impl NodeGaps {
             .flat_map_iter(|(x, v0)| {
                 let mut out = Vec::new();
                 for (&x, &v0) in x.iter().zip(v0) {
-                    let Some((phi, n)) = surface(x).filter(|(phi, _)| *phi < 3.0 * dx_m) else {
+                    let Some((phi, n, reach)) = surface(x).filter(|(phi, ..)| *phi < 3.0 * dx_m)
+                    else {
                         continue;
                     };
                     let size = v0.cbrt();
-                    let gap = phi - (0.5 + REACH_TOLERANCE) * size;
+                    let gap = phi - reach * size;
                     if !(gap.is_finite() && gap < 2.0 * dx_m && n.is_finite()) {
                         continue;
                     }

@@ -15,8 +15,9 @@ use super::grid::SparseGrid;
 use super::grid_update;
 use super::p2g::{self, Region};
 use super::particles::Particles;
-use super::reach::NodeGaps;
+use super::reach::{NODE_REACH, NodeGaps};
 use crate::collider::Collider;
+use crate::contact::barrier::{BARRIER_REACH, Wall};
 use crate::material::Material;
 
 /// Why a substep failed. The particle state holds no NaN afterwards.
@@ -69,6 +70,10 @@ pub struct SubstepInput<'a> {
     pub dt_s: f32,
     /// Simulated time at the start of the substep (s), for moving colliders.
     pub time_s: f64,
+    /// Whether "separate" plane and box colliders met the particles through the particle
+    /// barrier before this substep (`contact::barrier`, as the world does): their grid rule then
+    /// waits until particle centres reach the surface.
+    pub barrier: bool,
 }
 
 /// What one substep did.
@@ -272,7 +277,11 @@ fn collider_gaps(
             .colliders
             .iter()
             .filter(|c| c.is_gated())
-            .filter_map(|c| c.signed_distance(x, input.time_s))
+            .filter_map(|c| {
+                let (phi, n) = c.signed_distance(x, input.time_s)?;
+                let barrier = input.barrier && Wall::takes_collider(c);
+                Some((phi, n, if barrier { BARRIER_REACH } else { NODE_REACH }))
+            })
             .min_by(|a, b| a.0.total_cmp(&b.0))
     })
 }

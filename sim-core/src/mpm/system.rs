@@ -124,6 +124,7 @@ impl MpmSystem {
             gravity_m_s2: self.gravity_m_s2,
             dt_s,
             time_s: self.time_s,
+            barrier: false,
         };
         let report = self
             .solver

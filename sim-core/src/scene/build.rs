@@ -151,6 +151,7 @@ fn settings(ctx: &Ctx, f: &SceneFile) -> Result<SimulationSettings, SceneError> 
         collision_dx_m: s.collision_dx_m,
         budget_fps: s.budget_fps,
         contact_solver: s.contact_solver,
+        surface_contact: s.surface_contact,
     })
 }
 

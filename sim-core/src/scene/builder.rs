@@ -172,6 +172,13 @@ impl SceneBuilder {
         self
     }
 
+    /// How deformable material meets "separate" colliders and static and kinematic procedural
+    /// objects. Default [`crate::contact::SurfaceContact::Grid`].
+    pub fn surface_contact(mut self, contact: crate::contact::SurfaceContact) -> Self {
+        self.file.simulation.surface_contact = contact;
+        self
+    }
+
     /// How contacts between solids are solved. Default sequential impulses.
     pub fn contact_solver(mut self, solver: crate::contact::ContactSolver) -> Self {
         self.file.simulation.contact_solver = solver;

@@ -113,6 +113,7 @@ impl Scene {
                 collision_dx_m: None,
                 budget_fps: None,
                 contact_solver: Default::default(),
+                surface_contact: Default::default(),
             },
             objects,
             background: Default::default(),

@@ -33,7 +33,7 @@ pub use builder::{ObjectBuilder, SceneBuilder};
 pub use level_of_detail::LevelOfDetail;
 pub use model::{
     CameraSpec, ColliderShape, ColliderSpec, Command, Device, EventSpec, MaterialSpec, Method,
-    ObjectKind, Scene, SceneObject, SimulationSettings, Surface,
+    ObjectKind, Scene, SceneObject, SimulationSettings, Surface, SurfaceContact,
 };
 
 use crate::formats::FormatError;

@@ -111,7 +111,7 @@ pub use splatphys_types::ObjectKind;
 
 pub use crate::collider::Surface;
 
-pub use crate::contact::ContactSolver;
+pub use crate::contact::{ContactSolver, SurfaceContact};
 pub use crate::material::MaterialSpec;
 
 /// Simulation settings.
@@ -163,6 +163,9 @@ pub struct SimulationSettings {
     /// How contacts between solids are solved. Default
     /// [`ContactSolver::SequentialImpulses`].
     pub contact_solver: ContactSolver,
+    /// How deformable material meets "separate" colliders and static and kinematic procedural
+    /// objects. Default [`SurfaceContact::Grid`].
+    pub surface_contact: SurfaceContact,
 }
 
 impl SceneObject {

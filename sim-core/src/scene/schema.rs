@@ -5,7 +5,7 @@ use serde::Deserialize;
 
 use crate::procedural::Shape;
 
-use super::model::{ContactSolver, Device, Method, ObjectKind, Surface};
+use super::model::{ContactSolver, Device, Method, ObjectKind, Surface, SurfaceContact};
 
 fn default_one() -> f32 {
     1.0
@@ -106,6 +106,9 @@ pub struct SimulationToml {
     /// How contacts between solids are solved.
     #[serde(default)]
     pub contact_solver: ContactSolver,
+    /// How deformable material meets "separate" surfaces of immovable solids.
+    #[serde(default)]
+    pub surface_contact: SurfaceContact,
 }
 
 fn default_true() -> bool {
@@ -138,6 +141,7 @@ impl Default for SimulationToml {
             collision_dx_m: None,
             budget_fps: None,
             contact_solver: ContactSolver::default(),
+            surface_contact: SurfaceContact::default(),
         }
     }
 }

@@ -294,11 +294,17 @@ impl Body {
 }
 
 /// Whether `colliders` allow an object of cell `dx_m` to step on the device: every box is at
-/// least two cells thick (a thinner one needs the particles' crossing check).
-pub(super) fn colliders_allow(colliders: &[Collider], dx_m: f32) -> bool {
-    colliders.iter().all(|c| match c.shape {
-        Shape::Box(b) => (b.max_m - b.min_m).min_element() >= 2.0 * dx_m,
-        _ => true,
+/// least two cells thick (a thinner one needs the particles' crossing check) and, with `barrier`
+/// (`[simulation] surface_contact = "barrier"`), none meets the material through the particle
+/// barrier (`contact::barrier`, host only).
+pub(super) fn colliders_allow(colliders: &[Collider], dx_m: f32, barrier: bool) -> bool {
+    colliders.iter().all(|c| {
+        let thick = match c.shape {
+            Shape::Box(b) => (b.max_m - b.min_m).min_element() >= 2.0 * dx_m,
+            _ => true,
+        };
+        // The particle barrier at "separate" surfaces runs on the host only.
+        thick && !(barrier && crate::contact::barrier::Wall::takes_collider(c))
     })
 }
 

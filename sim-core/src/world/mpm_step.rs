@@ -11,6 +11,8 @@ use super::device;
 use super::measure::inverse_or_zero;
 use super::{Body, Env, WorldError, WorldStats};
 use crate::collider::Collider;
+use crate::contact::SurfaceContact;
+use crate::contact::barrier::{self, Wall};
 use crate::contact::boundary::{self, Obstacle, Reaction};
 use crate::contact::crossing;
 use crate::contact::mix_friction;
@@ -31,15 +33,19 @@ struct Step<'a> {
     gravity_m_s2: Vec3A,
     dt_s: f32,
     time_s: f64,
+    /// Whether "separate" surfaces meet the material through the particle barrier
+    /// ([`barrier`], `[simulation] surface_contact`).
+    barrier: bool,
 }
 
 impl<'a> Step<'a> {
-    fn new(colliders: &'a [Collider], gravity_m_s2: Vec3A, dt_s: f32, time_s: f64) -> Self {
+    fn new(env: &Env<'a>, dt_s: f32) -> Self {
         Self {
-            colliders,
-            gravity_m_s2,
+            colliders: env.colliders,
+            gravity_m_s2: env.gravity_m_s2,
             dt_s,
-            time_s,
+            time_s: env.time_s,
+            barrier: env.settings.surface_contact == SurfaceContact::Barrier,
         }
     }
 
@@ -51,6 +57,7 @@ impl<'a> Step<'a> {
             gravity_m_s2: self.gravity_m_s2,
             dt_s: self.dt_s,
             time_s: self.time_s,
+            barrier: self.barrier,
         }
     }
 
@@ -103,11 +110,12 @@ fn bounds(particles: &Particles) -> (Vec3A, Vec3A) {
 }
 
 /// Applies `solids` (obstacles and which solid each is) as boundaries on `solver`'s grid of
-/// `particles` in a substep of `dt_s`, adds their reactions to `reactions`, moves the movable
+/// `particles` in a substep of `dt_s` (with `barrier`: after the particle barrier, [`barrier`]),
+/// adds their reactions to `reactions`, moves the movable
 /// ones by theirs (for the particle push-out after G2P) and returns the solids touched with the
 /// normal impulse the grid gave the deformable there (N s).
 fn apply_obstacles(
-    (solver, particles, dt_s): (&mut MpmSolver, &Particles, f32),
+    (solver, particles, dt_s, barrier): (&mut MpmSolver, &Particles, f32, bool),
     (obstacles, of): &mut (Vec<Obstacle<'_>>, Vec<ObstacleOf>),
     reactions: &mut [Reaction],
 ) -> Vec<(ObstacleOf, DVec3)> {
@@ -116,7 +124,7 @@ fn apply_obstacles(
     }
     let v_ref = solver.reference_velocity_m_s();
     let dx = solver.dx_m;
-    let gaps = boundary::gaps(solver.grid(), dx, particles, obstacles);
+    let gaps = boundary::gaps(solver.grid(), dx, particles, obstacles, barrier);
     let reach = gaps.as_ref().map(|g| (g, dt_s));
     let r = boundary::apply(solver.grid_mut(), dx, v_ref, obstacles, reach);
     let mut touched = Vec::new();
@@ -130,6 +138,77 @@ fn apply_obstacles(
             reactions[k].impulse_n_s += r.impulse_n_s;
             reactions[k].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
             reactions[k].nodes += r.nodes;
+        }
+    }
+    touched
+}
+
+/// The walls of the particle barrier ([`barrier`]) at time `time_s` among `colliders` and
+/// `obstacles`, with which solid each is.
+fn walls<'a>(
+    colliders: &'a [Collider],
+    time_s: f64,
+    (obstacles, of): &'a (Vec<Obstacle<'a>>, Vec<ObstacleOf>),
+) -> (Vec<Wall<'a>>, Vec<ObstacleOf>) {
+    let mut walls = Vec::new();
+    let mut which = Vec::new();
+    for (c, collider) in colliders.iter().enumerate() {
+        if Wall::takes_collider(collider) && collider.is_active(time_s) {
+            walls.push(Wall::Collider(collider, time_s));
+            which.push(ObstacleOf::Collider(c));
+        }
+    }
+    for (o, &solid) in obstacles.iter().zip(of) {
+        if Wall::takes_obstacle(o) {
+            walls.push(Wall::Obstacle(o));
+            which.push(solid);
+        }
+    }
+    (walls, which)
+}
+
+/// The energy the particle barrier holds in deformable `k` of `bodies` now (J; [`barrier::energy_j`]).
+pub(super) fn barrier_energy_j(env: &Env, bodies: &[Body], k: usize) -> f64 {
+    let b = &bodies[k];
+    let on = env.settings.surface_contact == SurfaceContact::Barrier;
+    if !on || b.kind != ObjectKind::Deformable || b.particles.is_empty() {
+        return 0.0;
+    }
+    let dx = b.dx_m();
+    let solids = obstacles_near(env, bodies, &[], &b.particles, b.friction, dx);
+    let (walls, _) = walls(env.colliders, env.time_s, &solids);
+    barrier::energy_j(&b.particles, &b.materials, &walls, dx)
+}
+
+/// Before P2G of `step`: pushes deformable `k`'s `particles` (cell `dx_m`) out of the
+/// colliders and `solids` that meet it at its surface ([`barrier`]), adds the momentum this
+/// takes to the solids' `reactions`, and returns the touches for the restitution law and
+/// rolling resistance (deformable, solid, normal impulse the deformable received in N s).
+fn push_at_surfaces(
+    step: Step<'_>,
+    k: usize,
+    particles: &mut Particles,
+    materials: &[Material],
+    dx_m: f32,
+    solids: &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
+    reactions: &mut [Reaction],
+) -> Vec<Touch> {
+    if !step.barrier {
+        return Vec::new();
+    }
+    let (walls, which) = walls(step.colliders, step.time_s, solids);
+    if walls.is_empty() {
+        return Vec::new();
+    }
+    let (r, normal) = barrier::push(particles, materials, &walls, dx_m, step.dt_s, None);
+    let mut touched = Vec::new();
+    for ((r, j), &solid) in r.iter().zip(&normal).zip(&which) {
+        if *j != DVec3::ZERO {
+            touched.push((k, solid, *j));
+        }
+        if let ObstacleOf::Object(s) = solid {
+            reactions[s].impulse_n_s += r.impulse_n_s;
+            reactions[s].angular_impulse_n_m_s += r.angular_impulse_n_m_s;
         }
     }
     touched
@@ -280,7 +359,8 @@ fn obstacles_near<'a>(
 fn device_may_step(env: &Env, bodies: &[Body], k: usize) -> bool {
     let b = &bodies[k];
     let dx = b.dx_m();
-    if b.device_refused().is_some() || !device::colliders_allow(env.colliders, dx) {
+    let barrier = env.settings.surface_contact == SurfaceContact::Barrier;
+    if b.device_refused().is_some() || !device::colliders_allow(env.colliders, dx, barrier) {
         return false;
     }
     let s = b.measured_bounds();
@@ -370,14 +450,27 @@ pub(super) fn per_object(
         let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx));
         let mut particles = std::mem::take(&mut b.particles);
         let friction = b.friction;
-        let step = Step::new(env.colliders, env.gravity_m_s2, dt_s, env.time_s);
+        let step = Step::new(env, dt_s);
         let materials = &bodies[k].materials;
         let mut solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx);
+        touches.extend(push_at_surfaces(
+            step,
+            k,
+            &mut particles,
+            materials,
+            dx,
+            &solids,
+            &mut reactions,
+        ));
         let r = solver.scatter_and_update(&particles, &step.input(materials));
         if r.is_ok() {
             let (j, n) = (solver.collider_impulses_n_s(), solver.collider_nodes());
             touches.extend(collider_touches(k, j, n));
-            let t = apply_obstacles((&mut solver, &particles, dt_s), &mut solids, &mut reactions);
+            let t = apply_obstacles(
+                (&mut solver, &particles, dt_s, step.barrier),
+                &mut solids,
+                &mut reactions,
+            );
             touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         }
         let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
@@ -405,12 +498,35 @@ pub(super) fn multi_field(
     let dx_m = env.dx_m();
     let mut reactions = vec![Reaction::default(); bodies.len()];
     let mut touches = Vec::new();
-    let step = Step::new(env.colliders, env.gravity_m_s2, dt_s, env.time_s);
-    for b in bodies.iter_mut() {
-        if !simulated(b) {
-            b.stats.substeps_skipped += 1;
+    let step = Step::new(env, dt_s);
+    for k in 0..bodies.len() {
+        if !simulated(&bodies[k]) {
+            bodies[k].stats.substeps_skipped += 1;
             continue;
         }
+        let mut particles = std::mem::take(&mut bodies[k].particles);
+        let solids = obstacles_near(
+            env,
+            bodies,
+            &reactions,
+            &particles,
+            bodies[k].friction,
+            dx_m,
+        );
+        let materials = &bodies[k].materials;
+        let t = push_at_surfaces(
+            step,
+            k,
+            &mut particles,
+            materials,
+            dx_m,
+            &solids,
+            &mut reactions,
+        );
+        touches.extend(t);
+        drop(solids);
+        let b = &mut bodies[k];
+        b.particles = particles;
         let input = step.input(&b.materials);
         if let Err(e) = b.solver.scatter_and_update(&b.particles, &input) {
             return Err(step.error(stats, &b.name, e));
@@ -440,7 +556,11 @@ pub(super) fn multi_field(
         let friction = b.friction;
         let particles = std::mem::take(&mut b.particles);
         let mut solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx_m);
-        let t = apply_obstacles((&mut solver, &particles, dt_s), &mut solids, &mut reactions);
+        let t = apply_obstacles(
+            (&mut solver, &particles, dt_s, step.barrier),
+            &mut solids,
+            &mut reactions,
+        );
         touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         let b = &mut bodies[k];
         b.solver = solver;
@@ -488,13 +608,17 @@ pub(super) fn shared_grid(
         materials.push(b.materials[0].clone());
         friction = friction.max(b.friction);
     }
-    let step = Step::new(env.colliders, env.gravity_m_s2, dt_s, env.time_s);
+    // The paper's shared grid keeps the grid rule at every surface.
+    let step = Step {
+        barrier: false,
+        ..Step::new(env, dt_s)
+    };
     let dx = env.dx_m();
     let r = shared.scatter_and_update(&all, &step.input(&materials));
     if r.is_ok() {
         // One grid for every object: no per-object impacts to follow.
         let mut solids = obstacles_near(env, bodies, &reactions, &all, friction, dx);
-        let _ = apply_obstacles((shared, &all, dt_s), &mut solids, &mut reactions);
+        let _ = apply_obstacles((shared, &all, dt_s, false), &mut solids, &mut reactions);
     }
     let r = r.and_then(|()| shared.gather(&mut all, &step.input(&materials)));
     let r = r.map_err(|e| step.error(stats, "shared grid", e))?;

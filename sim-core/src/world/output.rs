@@ -61,6 +61,16 @@ impl World {
         rest[..n].copy_from_slice(&self.background.state[..n]);
     }
 
+    /// The elastic energy the particle barrier at "separate" surfaces holds in deformable
+    /// object `id` now (J; `contact::barrier`): part of its mechanical energy, like its strain
+    /// energy. Zero for other kinds and unknown ids.
+    pub fn barrier_energy_j(&self, id: usize) -> f64 {
+        if id >= self.bodies.len() {
+            return 0.0;
+        }
+        super::mpm_step::barrier_energy_j(&self.env(), &self.bodies, id)
+    }
+
     /// Per-object summaries (COM, velocity, orientation, spin, mass, contacts).
     pub fn objects(&self) -> Vec<ObjectSummary> {
         let per_s = 1.0 / self.frame_dt_s();
