@@ -38,7 +38,7 @@ const CHUNK: usize = 4096;
 const REACH_TOLERANCE: f32 = 0.25;
 
 /// How far a particle reaches towards a surface for the grid rule, in particle sizes V₀^⅓: its
-/// half size and [`REACH_TOLERANCE`] (module docs). A surface with a particle barrier
+/// half size and `REACH_TOLERANCE` (module docs). A surface with a particle barrier
 /// (`contact::barrier`) gives its own, smaller reach.
 pub const NODE_REACH: f32 = 0.5 + REACH_TOLERANCE;
 

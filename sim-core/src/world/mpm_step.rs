@@ -581,6 +581,9 @@ pub(super) fn multi_field(
         }
         step.finish(stats, &mut bodies[k], r)?;
     }
+    // Each object's touches together (rolling resistance takes them object by object): the
+    // passes above list all objects' barrier touches, then their grid's, then their crossings'.
+    touches.sort_by_key(|t| t.0);
     Ok(GridContacts { reactions, touches })
 }
 
