@@ -15,8 +15,9 @@
 //! φ < s/4) is pushed out by a stiff linear spring, the gradient of the potential
 //! ½ m ω_b² (s/4 − φ)² (a penalty barrier; the IPC barrier of Li et al. 2020, "Incremental
 //! potential contact", is its smooth relative): a velocity change dt ω_b² (s/4 − φ) along the
-//! outward normal, before P2G, so that what it stores on the way in it gives back on the way
-//! out. Its rest lies a quarter of a particle above the surface, not at the particle's face
+//! patch's normal (the touches' outward normals weighted by their push: at a solid's edge each
+//! particle's nearest feature turns its own sideways), before P2G, so that what it stores on
+//! the way in it gives back on the way out. Its rest lies a quarter of a particle above the surface, not at the particle's face
 //! (s/2): particles sampled on a lattice jittered by ±s/4 ([`crate::procedural::JITTER`]) and
 //! laid on a surface then start outside it, where at s/2 half of them started inside it and
 //! sprang the object off (a jelly slab on a plane left it at 0.8 m/s). ω_b =
@@ -31,9 +32,11 @@
 //! deformable-pair law does): the object's fitted rigid motion v + ω × r at the patch's
 //! centre of pressure slides on the solid at u_t; the friction impulse stops it with the
 //! object's effective mass there, 1/M + (r × t)·I⁻¹(r × t), up to μ times the patch's normal
-//! impulse, and is spread over the touching particles by their share of the normal impulse. A
-//! rolling object does not slide at its contact and takes no friction; a sliding one takes
-//! μ N.
+//! impulse, and is spread over the touching particles by their share of the normal impulse;
+//! with several patches each stops the slip with its share of the object's mass (mass
+//! splitting, as in [`super::coupling`]). What is left of μ times each particle's own normal
+//! impulse then stops that particle's own slip (a sheared base holds). A rolling object does
+//! not slide at its contact and takes no friction; a sliding one takes μ N.
 //!
 //! The grid rule stays as the backstop: a node inside the solid takes it only where particle
 //! centres pass a quarter of their size inside the surface within the substep
@@ -50,11 +53,13 @@ use crate::material::{ConstitutiveModel, Material};
 use crate::mpm::Particles;
 use crate::world::measure::{BodyState, inverse_or_zero};
 
-/// ω_b s / c_p (module docs): the barrier's stiffness against the material's. Measured on a
-/// jelly ball (R 4 cm, E 2e5 Pa, 1 cm cells, particles 5 mm) thrown at 0.4 m/s along a plane
-/// at μ = 0.5 (rest at s/2): at 0.6 (ω_b ≈ 2,000 /s) it rolled at 0.250–0.276 m/s from 0.2 s
-/// to 0.8 s, at 0.9 0.244–0.275 (a stiffer barrier acts more like the impact it replaces), at
-/// 0.45 and 0.3 it slowed to 0.19 and 0.03 m/s (the material sank through to the grid rule).
+/// ω_b s / c_p (module docs): the barrier's stiffness against the material's. Measured on the
+/// jelly ball of `tests/contact_rolling.rs` (R 4 cm, E 2e5 Pa, 1 cm cells, particles 5 mm): at
+/// 0.6 (ω_b ≈ 2,000 /s) it rolls on at a mean 0.254–0.264 m/s (5/7 of its throw: 0.286) and,
+/// set spinning at ω R = 0.4 m/s on a frictionless plane, keeps 0.27 m/s over 0.8 s; at 1.2 it
+/// rolls about as well but keeps 0.15 m/s of that spin (a stiffer barrier acts more like the
+/// impact it replaces) while a slab under a load compresses less (1.6 against 2.3 mm); softer
+/// ones (0.3, 0.45) let the material through to the grid rule, which brakes it again.
 pub const BARRIER_STIFFNESS: f32 = 0.6;
 
 /// Where the barrier's push starts, in particle sizes from the surface (module docs).
