@@ -86,6 +86,13 @@ impl Collider {
             && !matches!(self.surface, Surface::Clamp | Surface::Sticky)
     }
 
+    /// Whether it meets deformable material through the particle barrier when the scene asks
+    /// for it (`[simulation] surface_contact = "barrier"`, `contact::barrier`): a plane or a box
+    /// whose rule lets the material leave and does not glue it ("separate").
+    pub fn takes_barrier(&self) -> bool {
+        self.is_gated() && matches!(self.surface, Surface::Separate)
+    }
+
     /// Outward normal if grid node position `x` is inside the collider at time `t_s`.
     #[inline]
     pub fn contact_normal(&self, x: Vec3A, t_s: f64) -> Option<Vec3A> {

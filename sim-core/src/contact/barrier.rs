@@ -17,10 +17,11 @@
 //! potential contact", is its smooth relative): a velocity change dt ω_b² (s/4 − φ) along the
 //! patch's normal (the touches' outward normals weighted by their push: at a solid's edge each
 //! particle's nearest feature turns its own sideways), before P2G, so that what it stores on
-//! the way in it gives back on the way out. Its rest lies a quarter of a particle above the surface, not at the particle's face
-//! (s/2): particles sampled on a lattice jittered by ±s/4 ([`crate::procedural::JITTER`]) and
-//! laid on a surface then start outside it, where at s/2 half of them started inside it and
-//! sprang the object off (a jelly slab on a plane left it at 0.8 m/s). ω_b =
+//! the way in it gives back on the way out. Its rest lies a quarter of a particle above the
+//! surface, not at the particle's face (s/2): particles sampled on a lattice jittered by ±s/4
+//! ([`crate::procedural::JITTER`]) and laid on a surface then start outside it, where at s/2
+//! half of them started inside it and sprang the object off (a jelly slab on a plane left it at
+//! 0.8 m/s). ω_b =
 //! [`BARRIER_STIFFNESS`] c_p / s, c_p the material's dilational wave speed: the particle on
 //! the barrier rings at about the frequency of the material's own cell, which the CFL substep
 //! resolves (ω_b dt ≤ 0.3 dx / s, and s is taken no smaller than dx/4).
@@ -40,18 +41,17 @@
 //!
 //! The grid rule stays as the backstop: a node inside the solid takes it only where particle
 //! centres pass a quarter of their size inside the surface within the substep
-//! ([`crate::mpm::reach`], [`BARRIER_REACH`]), and
+//! ([`crate::mpm::reach::BARRIER_REACH`]), and
 //! the particles' sweep and push-out after G2P stay ([`super::crossing`],
 //! [`super::boundary::project_particles`]).
 
-use glam::{DVec3, Vec3A};
+use glam::{DMat3, DVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::boundary::{Obstacle, Reaction};
 use crate::collider::{Collider, Surface};
 use crate::material::{ConstitutiveModel, Material};
 use crate::mpm::Particles;
-use crate::world::measure::{BodyState, inverse_or_zero};
 
 /// ω_b s / c_p (module docs): the barrier's stiffness against the material's. Measured on the
 /// jelly ball of `tests/contact_rolling.rs` (R 4 cm, E 2e5 Pa, 1 cm cells, particles 5 mm): at
@@ -65,14 +65,24 @@ pub const BARRIER_STIFFNESS: f32 = 0.6;
 /// Where the barrier's push starts, in particle sizes from the surface (module docs).
 pub const BARRIER_REST: f32 = 0.25;
 
-/// The node gap's reach for surfaces with a barrier, in particle sizes ([`crate::mpm::reach`]):
-/// the grid rule waits until a particle's centre is a quarter of its size inside the surface,
-/// as far below it as the barrier's rest lies above.
-pub const BARRIER_REACH: f32 = -0.25;
-
 /// Particles per parallel chunk when finding the touching ones (fixed: the order of the
 /// touches does not depend on the thread count).
 const CHUNK: usize = 4096;
+
+/// An object's rigid motion, what the patch friction needs of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    /// Mass (kg).
+    pub mass_kg: f64,
+    /// Centre of mass (m).
+    pub com_m: DVec3,
+    /// COM velocity (m/s).
+    pub velocity_m_s: DVec3,
+    /// Angular velocity about the COM (rad/s).
+    pub omega_rad_s: DVec3,
+    /// Inverse inertia about the COM, world frame (1/(kg m²)); zero when singular.
+    pub inverse_inertia: DMat3,
+}
 
 /// A solid surface the barrier acts at.
 #[derive(Debug, Clone, Copy)]
@@ -87,7 +97,7 @@ impl Wall<'_> {
     /// Whether a collider meets deformable material through the barrier: a plane or a box whose
     /// rule lets the material leave and does not glue it ("separate").
     pub fn takes_collider(c: &Collider) -> bool {
-        c.is_gated() && matches!(c.surface, Surface::Separate)
+        c.takes_barrier()
     }
 
     /// Whether an obstacle does: immovable, exact, "separate".
@@ -165,18 +175,18 @@ struct Touch {
 }
 
 /// Pushes the particles of one deformable object (cell `dx_m`, materials `materials`) that
-/// touch `walls` (φ < s/4) out by the barrier, with the patch damping and friction of the module docs,
-/// for a substep of `dt_s`. `state` is the object's measured state (mass, COM, velocity,
-/// angular momentum, inertia) or `None` to measure it here when needed. Returns each wall's
-/// reaction (the impulse the solid received, N s; its angular impulse about the solid's COM;
-/// its normal part) and the normal impulse the object received from each (N s).
+/// touch `walls` (φ < s/4) out by the barrier, with the patch's stop and friction of the module
+/// docs, for a substep of `dt_s`. `motion` measures the object's rigid motion from its
+/// particles, called only when a particle touches. Returns each wall's reaction (the impulse
+/// the solid received, N s; its angular impulse about the solid's COM; its normal part) and the
+/// normal impulse the object received from each (N s).
 pub fn push(
     particles: &mut Particles,
     materials: &[Material],
     walls: &[Wall],
     dx_m: f32,
     dt_s: f32,
-    state: Option<&BodyState>,
+    motion: impl FnOnce(&Particles) -> Motion,
 ) -> (Vec<Reaction>, Vec<DVec3>) {
     let mut reactions = vec![Reaction::default(); walls.len()];
     let mut normal = vec![DVec3::ZERO; walls.len()];
@@ -187,18 +197,11 @@ pub fn push(
     if touches.is_empty() {
         return (reactions, normal);
     }
-    let measured;
-    let state = match state {
-        Some(s) => s,
-        None => {
-            measured = crate::world::measure::measure(particles, dx_m);
-            &measured
-        }
-    };
+    let state = motion(particles);
     if state.mass_kg.is_nan() || state.mass_kg <= 0.0 {
         return (reactions, normal);
     }
-    let inverse_inertia = inverse_or_zero(state.inertia);
+    let inverse_inertia = state.inverse_inertia;
     // The normal pass, wall by wall: the barrier, and each patch's normal impulse, centre of
     // pressure and depth there.
     let mut patches = Vec::new();
@@ -266,7 +269,7 @@ pub fn push(
     // pressure with its share of the object's mass (its share of the normal impulse: mass
     // splitting, as in [`super::coupling`]), so two supports do not each stop the whole object;
     // then each touching particle's own slip, with what is left of μ times its normal impulse.
-    let omega = inverse_inertia * state.angular_momentum;
+    let omega = state.omega_rad_s;
     let total_n_s: f64 = patches.iter().map(|(p, _)| p.normal_n_s).sum();
     let Particles { x, v, mass_kg, .. } = &mut *particles;
     for (patch, n) in &patches {

@@ -38,14 +38,14 @@
 use glam::{DMat3, DVec3, IVec3, Vec3A};
 use rayon::prelude::*;
 
-use super::barrier::{BARRIER_REACH, Wall};
+use super::barrier::Wall;
 use super::coupling::{COUPLING_SWEEPS, SolidShare, node_impulse};
 use super::geometry::Placed;
 use crate::collider::{Surface, apply_surface};
 use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};
 use crate::mpm::grid::SparseGrid;
-use crate::mpm::reach::{NODE_REACH, NodeGaps};
+use crate::mpm::reach::{BARRIER_REACH, NODE_REACH, NodeGaps};
 
 /// A solid as a grid boundary.
 #[derive(Debug, Clone, Copy)]
@@ -235,7 +235,7 @@ pub fn apply(
 /// `obstacles` whose nodes take the rule only where material reaches them (immovable, exact,
 /// not sticky); `None` when there is none. With `barrier`, the particles met the obstacles that
 /// take it through the particle barrier first ([`super::barrier`]), and those obstacles' nodes
-/// wait until particle centres reach them.
+/// wait until particle centres pass a quarter of their size inside them.
 pub fn gaps(
     grid: &SparseGrid,
     dx_m: f32,

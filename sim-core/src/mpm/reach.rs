@@ -42,6 +42,11 @@ const REACH_TOLERANCE: f32 = 0.25;
 /// (`contact::barrier`) gives its own, smaller reach.
 pub const NODE_REACH: f32 = 0.5 + REACH_TOLERANCE;
 
+/// The reach at a surface with the particle barrier (`contact::barrier`), in particle sizes: the
+/// grid rule waits until a particle's centre is a quarter of its size inside the surface, as far
+/// below it as the barrier's rest lies above.
+pub const BARRIER_REACH: f32 = -0.25;
+
 /// Per grid node, the smallest gap (m) between a particle whose column holds the node and the
 /// solid (+∞ where none does): module docs.
 #[derive(Debug, Clone, Default)]

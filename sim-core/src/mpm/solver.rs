@@ -15,9 +15,8 @@ use super::grid::SparseGrid;
 use super::grid_update;
 use super::p2g::{self, Region};
 use super::particles::Particles;
-use super::reach::{NODE_REACH, NodeGaps};
+use super::reach::{BARRIER_REACH, NODE_REACH, NodeGaps};
 use crate::collider::Collider;
-use crate::contact::barrier::{BARRIER_REACH, Wall};
 use crate::material::Material;
 
 /// Why a substep failed. The particle state holds no NaN afterwards.
@@ -72,7 +71,7 @@ pub struct SubstepInput<'a> {
     pub time_s: f64,
     /// Whether "separate" plane and box colliders met the particles through the particle
     /// barrier before this substep (`contact::barrier`, as the world does): their grid rule then
-    /// waits until particle centres reach the surface.
+    /// waits until particle centres pass a quarter of their size inside the surface.
     pub barrier: bool,
 }
 
@@ -279,7 +278,7 @@ fn collider_gaps(
             .filter(|c| c.is_gated())
             .filter_map(|c| {
                 let (phi, n) = c.signed_distance(x, input.time_s)?;
-                let barrier = input.barrier && Wall::takes_collider(c);
+                let barrier = input.barrier && c.takes_barrier();
                 Some((phi, n, if barrier { BARRIER_REACH } else { NODE_REACH }))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0))

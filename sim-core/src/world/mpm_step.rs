@@ -167,7 +167,8 @@ fn walls<'a>(
     (walls, which)
 }
 
-/// The energy the particle barrier holds in deformable `k` of `bodies` now (J; [`barrier::energy_j`]).
+/// The energy the particle barrier holds in deformable `k` of `bodies` now (J;
+/// [`barrier::energy_j`]).
 pub(super) fn barrier_energy_j(env: &Env, bodies: &[Body], k: usize) -> f64 {
     let b = &bodies[k];
     let on = env.settings.surface_contact == SurfaceContact::Barrier;
@@ -200,7 +201,18 @@ fn push_at_surfaces(
     if walls.is_empty() {
         return Vec::new();
     }
-    let (r, normal) = barrier::push(particles, materials, &walls, dx_m, step.dt_s, None);
+    let motion = |p: &Particles| {
+        let s = super::measure::measure(p, dx_m);
+        let inverse_inertia = inverse_or_zero(s.inertia);
+        barrier::Motion {
+            mass_kg: s.mass_kg,
+            com_m: s.com_m,
+            velocity_m_s: s.velocity_m_s,
+            omega_rad_s: inverse_inertia * s.angular_momentum,
+            inverse_inertia,
+        }
+    };
+    let (r, normal) = barrier::push(particles, materials, &walls, dx_m, step.dt_s, motion);
     let mut touched = Vec::new();
     for ((r, j), &solid) in r.iter().zip(&normal).zip(&which) {
         if *j != DVec3::ZERO {
