@@ -355,6 +355,7 @@ fn touching(
         x,
         volume0_m3,
         material,
+        mass_kg,
         ..
     } = particles;
     x.par_chunks(CHUNK)
@@ -363,6 +364,11 @@ fn touching(
             let mut out = Vec::new();
             for (l, &xp) in xs.iter().enumerate() {
                 let i = c * CHUNK + l;
+                // A particle without mass takes no push (its velocity change would not be
+                // finite).
+                if !(mass_kg[i] > 0.0 && mass_kg[i].is_finite()) {
+                    continue;
+                }
                 let size = volume0_m3[i].cbrt();
                 let reach = BARRIER_REST * size;
                 for (w, wall) in walls.iter().enumerate() {
