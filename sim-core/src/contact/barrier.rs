@@ -94,13 +94,8 @@ pub enum Wall<'a> {
 }
 
 impl Wall<'_> {
-    /// Whether a collider meets deformable material through the barrier: a plane or a box whose
-    /// rule lets the material leave and does not glue it ("separate").
-    pub fn takes_collider(c: &Collider) -> bool {
-        c.takes_barrier()
-    }
-
-    /// Whether an obstacle does: immovable, exact, "separate".
+    /// Whether an obstacle meets deformable material through the barrier (as a collider does,
+    /// [`Collider::takes_barrier`]): immovable, exact, "separate".
     pub fn takes_obstacle(o: &Obstacle) -> bool {
         o.placed.geometry.is_exact() && !o.is_movable() && matches!(o.surface, Surface::Separate)
     }
@@ -177,9 +172,9 @@ struct Touch {
 /// Pushes the particles of one deformable object (cell `dx_m`, materials `materials`) that
 /// touch `walls` (φ < s/4) out by the barrier, with the patch's stop and friction of the module
 /// docs, for a substep of `dt_s`. `motion` measures the object's rigid motion from its
-/// particles, called only when a particle touches. Returns each wall's reaction (the impulse
-/// the solid received, N s; its angular impulse about the solid's COM; its normal part) and the
-/// normal impulse the object received from each (N s).
+/// particles, called only when a particle touches. Returns each wall's reaction: the impulse
+/// the solid received (N s), its angular impulse about the solid's COM and its normal part (the
+/// object's normal impulse, reversed: friction acts across the normal).
 pub fn push(
     particles: &mut Particles,
     materials: &[Material],
@@ -187,19 +182,18 @@ pub fn push(
     dx_m: f32,
     dt_s: f32,
     motion: impl FnOnce(&Particles) -> Motion,
-) -> (Vec<Reaction>, Vec<DVec3>) {
+) -> Vec<Reaction> {
     let mut reactions = vec![Reaction::default(); walls.len()];
-    let mut normal = vec![DVec3::ZERO; walls.len()];
     if walls.is_empty() || particles.is_empty() || dt_s.is_nan() || dt_s <= 0.0 {
-        return (reactions, normal);
+        return reactions;
     }
     let touches = touching(particles, materials, walls, dx_m);
     if touches.is_empty() {
-        return (reactions, normal);
+        return reactions;
     }
     let state = motion(particles);
     if state.mass_kg.is_nan() || state.mass_kg <= 0.0 {
-        return (reactions, normal);
+        return reactions;
     }
     let inverse_inertia = state.inverse_inertia;
     // The normal pass, wall by wall: the barrier, and each patch's normal impulse, centre of
@@ -255,7 +249,6 @@ pub fn push(
             depth += f64::from(t.phi_m) * j;
             let dp = (n * dv * mass_kg[i]).as_dvec3();
             reactions[w].receive(dp, x[i] - wall.centre_m(), n);
-            normal[w] += dp;
         }
         if patch.normal_n_s > 0.0 {
             // On the surface: the touching particles' centres lie about a quarter of their
@@ -323,7 +316,7 @@ pub fn push(
             reactions[patch.wall].receive(dp, x[i] - wall.centre_m(), n.as_vec3a());
         }
     }
-    (reactions, normal)
+    reactions
 }
 
 /// The energy the barrier holds in `particles` (cell `dx_m`, materials `materials`) at `walls`:

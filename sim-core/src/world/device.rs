@@ -304,7 +304,7 @@ pub(super) fn colliders_allow(colliders: &[Collider], dx_m: f32, barrier: bool) 
             _ => true,
         };
         // The particle barrier at "separate" surfaces runs on the host only.
-        thick && !(barrier && crate::contact::barrier::Wall::takes_collider(c))
+        thick && !(barrier && c.takes_barrier())
     })
 }
 

@@ -153,7 +153,7 @@ fn walls<'a>(
     let mut walls = Vec::new();
     let mut which = Vec::new();
     for (c, collider) in colliders.iter().enumerate() {
-        if Wall::takes_collider(collider) && collider.is_active(time_s) {
+        if collider.takes_barrier() && collider.is_active(time_s) {
             walls.push(Wall::Collider(collider, time_s));
             which.push(ObstacleOf::Collider(c));
         }
@@ -212,11 +212,12 @@ fn push_at_surfaces(
             inverse_inertia,
         }
     };
-    let (r, normal) = barrier::push(particles, materials, &walls, dx_m, step.dt_s, motion);
+    let r = barrier::push(particles, materials, &walls, dx_m, step.dt_s, motion);
     let mut touched = Vec::new();
-    for ((r, j), &solid) in r.iter().zip(&normal).zip(&which) {
-        if *j != DVec3::ZERO {
-            touched.push((k, solid, *j));
+    for (r, &solid) in r.iter().zip(&which) {
+        // The solid's normal impulse is the deformable's reversed.
+        if r.normal_impulse_n_s != DVec3::ZERO {
+            touched.push((k, solid, -r.normal_impulse_n_s));
         }
         if let ObstacleOf::Object(s) = solid {
             reactions[s].impulse_n_s += r.impulse_n_s;
@@ -516,29 +517,17 @@ pub(super) fn multi_field(
             bodies[k].stats.substeps_skipped += 1;
             continue;
         }
-        let mut particles = std::mem::take(&mut bodies[k].particles);
-        let solids = obstacles_near(
-            env,
-            bodies,
-            &reactions,
-            &particles,
-            bodies[k].friction,
-            dx_m,
-        );
-        let materials = &bodies[k].materials;
-        let t = push_at_surfaces(
-            step,
-            k,
-            &mut particles,
-            materials,
-            dx_m,
-            &solids,
-            &mut reactions,
-        );
-        touches.extend(t);
-        drop(solids);
+        if step.barrier {
+            let mut particles = std::mem::take(&mut bodies[k].particles);
+            let b = &bodies[k];
+            let solids = obstacles_near(env, bodies, &reactions, &particles, b.friction, dx_m);
+            let (materials, r) = (&b.materials, &mut reactions);
+            let t = push_at_surfaces(step, k, &mut particles, materials, dx_m, &solids, r);
+            touches.extend(t);
+            drop(solids);
+            bodies[k].particles = particles;
+        }
         let b = &mut bodies[k];
-        b.particles = particles;
         let input = step.input(&b.materials);
         if let Err(e) = b.solver.scatter_and_update(&b.particles, &input) {
             return Err(step.error(stats, &b.name, e));
