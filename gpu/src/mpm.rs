@@ -238,6 +238,8 @@ pub struct GpuMpm {
     status: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     kernels: Kernels,
+    /// The read-back staging buffers, small and large, kept between reads (`mpm/readback.rs`).
+    staging: std::sync::Mutex<[Option<wgpu::Buffer>; 2]>,
     /// Substeps run.
     pub substeps: u64,
     /// Simulated time (s).
@@ -411,6 +413,7 @@ impl GpuMpm {
             status,
             bind_group,
             kernels,
+            staging: std::sync::Mutex::new([None, None]),
             substeps: 0,
             time_s: sys.time_s,
             ctx,
@@ -440,8 +443,6 @@ impl GpuMpm {
         self.ctx
             .queue
             .write_buffer(&self.status, 12, bytemuck::bytes_of(&0u32));
-        let particles = dispatch(self.params.n_particles);
-        let nodes = dispatch(self.n_nodes);
         // Submitted in batches, at most two in flight: one command buffer of thousands of
         // substeps held gigabytes on lavapipe.
         let mut in_flight = None;
@@ -454,24 +455,7 @@ impl GpuMpm {
                 .device
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("mpm") });
             for _ in 0..batch {
-                encoder.clear_buffer(&self.grid_sum, 0, None);
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("substep"),
-                    timestamp_writes: None,
-                });
-                pass.set_bind_group(0, &self.bind_group, &[]);
-                if self.params.n_particles > 0 {
-                    pass.set_pipeline(&self.kernels.p2g);
-                    pass.dispatch_workgroups(particles.0, particles.1, 1);
-                }
-                pass.set_pipeline(&self.kernels.grid_update);
-                pass.dispatch_workgroups(nodes.0, nodes.1, 1);
-                if self.params.n_particles > 0 {
-                    pass.set_pipeline(&self.kernels.g2p);
-                    pass.dispatch_workgroups(particles.0, particles.1, 1);
-                }
-                pass.set_pipeline(&self.kernels.tick);
-                pass.dispatch_workgroups(1, 1, 1);
+                self.encode_substep(&mut encoder);
             }
             let submitted = self.ctx.queue.submit([encoder.finish()]);
             if let Some(previous) = in_flight.replace(submitted) {
@@ -489,6 +473,31 @@ impl GpuMpm {
     /// Queues one substep of `dt_s` seconds.
     pub fn substep(&mut self, dt_s: f32) {
         self.substeps(1, dt_s);
+    }
+
+    /// Records one substep (P2G, grid update, G2P and the substep counter) into `encoder`,
+    /// with the parameters last written.
+    fn encode_substep(&self, encoder: &mut wgpu::CommandEncoder) {
+        let particles = dispatch(self.params.n_particles);
+        let nodes = dispatch(self.n_nodes);
+        encoder.clear_buffer(&self.grid_sum, 0, None);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("substep"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        if self.params.n_particles > 0 {
+            pass.set_pipeline(&self.kernels.p2g);
+            pass.dispatch_workgroups(particles.0, particles.1, 1);
+        }
+        pass.set_pipeline(&self.kernels.grid_update);
+        pass.dispatch_workgroups(nodes.0, nodes.1, 1);
+        if self.params.n_particles > 0 {
+            pass.set_pipeline(&self.kernels.g2p);
+            pass.dispatch_workgroups(particles.0, particles.1, 1);
+        }
+        pass.set_pipeline(&self.kernels.tick);
+        pass.dispatch_workgroups(1, 1, 1);
     }
 
     /// Queues the upload of the parameters (before the next submission's work).

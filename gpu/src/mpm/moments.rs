@@ -88,7 +88,20 @@ impl GpuMpm {
     /// # Errors
     /// As [`GpuMpm::check`].
     pub fn report(&mut self, reference: Vec3A) -> Result<DeviceReport, GpuError> {
-        self.queue_moments(reference);
+        self.params.reference = reference.to_array();
+        self.write_params();
+        let encoder = self.encoder("report");
+        self.report_after(encoder)
+    }
+
+    /// The report ([`GpuMpm::report`]) after the work in `encoder`, with the parameters last
+    /// written, submitted together.
+    fn report_after(
+        &mut self,
+        mut encoder: wgpu::CommandEncoder,
+    ) -> Result<DeviceReport, GpuError> {
+        let reference = Vec3A::from_array(self.params.reference);
+        self.encode_moments(&mut encoder);
         let (offset, size) = self.collider_range();
         let mut ranges = vec![
             (&self.status, 0, 16),
@@ -97,35 +110,53 @@ impl GpuMpm {
         if size > 0 {
             ranges.push((&self.grid_sum, offset, size));
         }
-        let bytes = self.read_ranges(&ranges)?;
-        let s: &[f32] = bytemuck::cast_slice(&bytes[1]);
-        let (state, max_speed_m_s, min_plastic) = (self.state_of(s, reference), s[26], -s[27]);
-        let (impulses_n_s, nodes) = match bytes.get(2) {
-            Some(b) => self.contacts_of(bytemuck::cast_slice(b)),
-            None => (Vec::new(), Vec::new()),
-        };
-        self.take_status(bytemuck::cast_slice(&bytes[0]))?;
-        Ok(DeviceReport {
-            state,
-            max_speed_m_s,
-            min_plastic,
-            impulses_n_s,
-            nodes,
-        })
+        let (status, report) = self.read_after(encoder, &ranges, |bytes| {
+            let s: &[f32] = bytemuck::cast_slice(bytes[1]);
+            let (impulses_n_s, nodes) = match bytes.get(2) {
+                Some(b) => self.contacts_of(bytemuck::cast_slice(b)),
+                None => (Vec::new(), Vec::new()),
+            };
+            let report = DeviceReport {
+                state: self.state_of(s, reference),
+                max_speed_m_s: s[26],
+                min_plastic: -s[27],
+                impulses_n_s,
+                nodes,
+            };
+            (bytemuck::cast_slice::<u8, u32>(bytes[0]).to_vec(), report)
+        })?;
+        self.take_status(&status)?;
+        Ok(report)
     }
 
     /// Queues the moments about `reference` (m) into the `moments` buffer (`sums.wgsl`).
     fn queue_moments(&mut self, reference: Vec3A) {
         self.params.reference = reference.to_array();
         self.write_params();
+        let mut encoder = self.encoder("moments");
+        self.encode_moments(&mut encoder);
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// Records the moments about the parameters' reference (`sums.wgsl`) into `encoder`.
+    fn encode_moments(&self, encoder: &mut wgpu::CommandEncoder) {
         let groups = dispatch(self.params.n_particles);
-        self.submit_pass(
+        encode_pass(
+            encoder,
+            &self.bind_group,
             "moments",
             &[
                 (&self.kernels.moments_per_group, groups),
                 (&self.kernels.moments_total, (1, 1)),
             ],
         );
+    }
+
+    /// A new command encoder.
+    fn encoder(&self, label: &str) -> wgpu::CommandEncoder {
+        self.ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) })
     }
 
     /// [`GpuMpm::moments`]'s sums `s` about `reference` as a [`BodyState`].
@@ -171,21 +202,26 @@ impl GpuMpm {
 
     /// Submits one compute pass that runs `kernels` (pipeline, (x, y) workgroups) in order.
     fn submit_pass(&self, label: &str, kernels: &[(&wgpu::ComputePipeline, (u32, u32))]) {
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(label),
-                timestamp_writes: None,
-            });
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            for (pipeline, (x, y)) in kernels {
-                pass.set_pipeline(pipeline);
-                pass.dispatch_workgroups(*x, *y, 1);
-            }
-        }
+        let mut encoder = self.encoder(label);
+        encode_pass(&mut encoder, &self.bind_group, label, kernels);
         self.ctx.queue.submit([encoder.finish()]);
+    }
+}
+
+/// Records one compute pass of `kernels` (each with its workgroup counts) over `bind_group`.
+fn encode_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    bind_group: &wgpu::BindGroup,
+    label: &str,
+    kernels: &[(&wgpu::ComputePipeline, (u32, u32))],
+) {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: None,
+    });
+    pass.set_bind_group(0, bind_group, &[]);
+    for (pipeline, (x, y)) in kernels {
+        pass.set_pipeline(pipeline);
+        pass.dispatch_workgroups(*x, *y, 1);
     }
 }

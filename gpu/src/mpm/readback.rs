@@ -2,9 +2,13 @@
 //! each read is one wait for the GPU.
 
 use glam::{Mat3A, Vec3A};
+use rayon::prelude::*;
 use splatphys_core::mpm::Particles;
 
 use crate::{GpuError, GpuMpm};
+
+/// The largest read (bytes) that takes the small staging buffer.
+const SMALL_READ_BYTES: u64 = 64 * 1024;
 
 impl GpuMpm {
     /// Waits for the GPU and copies `buffer` back.
@@ -28,27 +32,63 @@ impl GpuMpm {
         &self,
         ranges: &[(&wgpu::Buffer, u64, u64)],
     ) -> Result<Vec<Vec<u8>>, GpuError> {
-        let total: u64 = ranges.iter().map(|r| r.2).sum();
-        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: total.max(4),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = self
+        self.read_with(ranges, |slices| slices.iter().map(|s| s.to_vec()).collect())
+    }
+
+    /// Copies each (buffer, byte offset, size) into the staging buffer after the work queued
+    /// so far, waits for the GPU once, and hands `f` the bytes of each range, in order, where
+    /// they are mapped (no copy).
+    pub(crate) fn read_with<R>(
+        &self,
+        ranges: &[(&wgpu::Buffer, u64, u64)],
+        f: impl FnOnce(&[&[u8]]) -> R,
+    ) -> Result<R, GpuError> {
+        let encoder = self
             .ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("readback"),
             });
+        self.read_after(encoder, ranges, f)
+    }
+
+    /// [`GpuMpm::read_with`] after the work in `encoder`, submitted together: one submission
+    /// and one wait.
+    pub(crate) fn read_after<R>(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        ranges: &[(&wgpu::Buffer, u64, u64)],
+        f: impl FnOnce(&[&[u8]]) -> R,
+    ) -> Result<R, GpuError> {
+        let total: u64 = ranges.iter().map(|r| r.2).sum::<u64>().max(4);
+        // Staging buffers kept and grown as needed: creating host-visible memory for a frame's
+        // particles costs more than their copy on a GPU. Small reads (a substep's report) have
+        // their own: mapping part of a large buffer every substep cost more than a new small
+        // buffer did.
+        let mut kept = self
+            .staging
+            .lock()
+            .map_err(|_| GpuError::Readback("staging buffer lock poisoned".into()))?;
+        let cached = &mut kept[usize::from(total > SMALL_READ_BYTES)];
+        if cached.as_ref().is_none_or(|b| b.size() < total) {
+            *cached = Some(self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: total.next_power_of_two().max(256),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        let Some(staging) = cached.as_ref() else {
+            return Err(GpuError::Readback("no staging buffer".into()));
+        };
         let mut at = 0;
         for &(buffer, offset, size) in ranges {
-            encoder.copy_buffer_to_buffer(buffer, offset, &staging, at, size);
+            encoder.copy_buffer_to_buffer(buffer, offset, staging, at, size);
             at += size;
         }
         self.ctx.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
-        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        staging.map_async(wgpu::MapMode::Read, ..total, move |r| {
             let _ = tx.send(r);
         });
         self.ctx
@@ -58,17 +98,19 @@ impl GpuMpm {
         rx.recv()
             .map_err(|e| GpuError::Readback(e.to_string()))?
             .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let bytes = staging
-            .get_mapped_range(..)
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .to_vec();
+        let out = {
+            let bytes = staging
+                .get_mapped_range(..total)
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            let mut slices = Vec::with_capacity(ranges.len());
+            let mut at = 0;
+            for &(_, _, size) in ranges {
+                slices.push(&bytes[at..at + size as usize]);
+                at += size as usize;
+            }
+            f(&slices)
+        };
         staging.unmap();
-        let mut out = Vec::with_capacity(ranges.len());
-        let mut at = 0;
-        for &(_, _, size) in ranges {
-            out.push(bytes[at..at + size as usize].to_vec());
-            at += size as usize;
-        }
         Ok(out)
     }
 
@@ -115,23 +157,53 @@ impl GpuMpm {
         if n == 0 {
             return Ok(());
         }
-        let xv = self.read(&self.xv)?;
-        let cf = self.read(&self.cf)?;
-        let plastic = self.read(&self.plastic)?;
-        let xv: &[[f32; 4]] = bytemuck::cast_slice(&xv);
-        let cf: &[[f32; 4]] = bytemuck::cast_slice(&cf);
-        let plastic: &[[f32; 4]] = bytemuck::cast_slice(&plastic);
-        let v3 = |a: [f32; 4]| Vec3A::new(a[0], a[1], a[2]);
-        for i in 0..n {
-            into.x[i] = v3(xv[2 * i]);
-            into.v[i] = v3(xv[2 * i + 1]);
-            let col = |k: usize| v3(cf[6 * i + k]);
-            into.c[i] = Mat3A::from_cols(col(0), col(1), col(2));
-            into.f[i] = Mat3A::from_cols(col(3), col(4), col(5));
-            let fp = |k: usize| v3(plastic[3 * i + k]);
-            into.f_plastic[i] = Mat3A::from_cols(fp(0), fp(1), fp(2));
-            into.plastic[i] = plastic[3 * i][3];
-        }
+        let ranges = [
+            (&self.xv, 0, self.xv.size()),
+            (&self.cf, 0, self.cf.size()),
+            (&self.plastic, 0, self.plastic.size()),
+        ];
+        self.read_with(&ranges, |bytes| -> Result<(), GpuError> {
+            unpack(into, cast4(bytes[0])?, cast4(bytes[1])?, cast4(bytes[2])?);
+            Ok(())
+        })??;
         Ok(())
     }
+}
+
+/// `bytes` as vec4s of f32.
+fn cast4(bytes: &[u8]) -> Result<&[[f32; 4]], GpuError> {
+    bytemuck::try_cast_slice(bytes)
+        .map_err(|e| GpuError::Readback(format!("particle read-back: {e}")))
+}
+
+/// The GPU's particle layout (`upload::pack`: x and v in `xv`, C and F by columns in `cf`, F_p
+/// by columns with the plastic scalar in its first column's w in `plastic`) into `into`, in
+/// parallel (a copy: the result does not depend on the thread count).
+fn unpack(into: &mut Particles, xv: &[[f32; 4]], cf: &[[f32; 4]], plastic: &[[f32; 4]]) {
+    let v3 = |a: [f32; 4]| Vec3A::new(a[0], a[1], a[2]);
+    let m3 = |cols: &[[f32; 4]]| Mat3A::from_cols(v3(cols[0]), v3(cols[1]), v3(cols[2]));
+    into.x
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(i, x)| *x = v3(xv[2 * i]));
+    into.v
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(i, v)| *v = v3(xv[2 * i + 1]));
+    into.c
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(i, c)| *c = m3(&cf[6 * i..6 * i + 3]));
+    into.f
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(i, f)| *f = m3(&cf[6 * i + 3..6 * i + 6]));
+    into.f_plastic
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(i, f)| *f = m3(&plastic[3 * i..3 * i + 3]));
+    into.plastic
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(i, p)| *p = plastic[3 * i][3]);
 }

@@ -431,6 +431,7 @@ impl World {
     /// # Errors
     /// [`WorldError::Device`] when a read-back failed.
     pub(super) fn sync_devices(&mut self, leave: bool) -> Result<(), WorldError> {
+        let started = std::time::Instant::now();
         for b in &mut self.bodies {
             if leave {
                 b.leave_device();
@@ -438,6 +439,7 @@ impl World {
                 b.sync_host();
             }
         }
+        self.stats.device_read_wall_s += started.elapsed().as_secs_f64();
         self.device_failure()
     }
 

@@ -180,6 +180,10 @@ pub struct WorldStats {
     /// zero unless something moved faster than the plan allowed for.
     #[serde(default)]
     pub island_escapes: u64,
+    /// Wall time copying objects' particles back from the device (`[simulation] device =
+    /// "gpu"`) for the frames and commands (s).
+    #[serde(default)]
+    pub device_read_wall_s: f64,
 }
 
 /// Per-object summary published every frame.
