@@ -25,16 +25,21 @@ const MOMENTS: u32 = 28;
 /// u32 words per collider after the nodes in the shader's `grid_sum` (its impulse: three 64-bit
 /// sums; the nodes with mass inside it).
 pub(crate) const COLLIDER_WORDS: u64 = 7;
-/// u32 words per grid node in the shader's `grid_sum` (four 64-bit sums and the node gap).
-pub(crate) const NODE_WORDS: u64 = 9;
+/// u32 words per grid node in the shader's `grid_sum` (the mass and each momentum component's
+/// positive and negative parts as 64-bit sums, and the node gap).
+pub(crate) const NODE_WORDS: u64 = 15;
 /// Work items per workgroup (`@workgroup_size(64)` in the shader).
 const WORKGROUP: u32 = 64;
 /// Workgroups per dispatch row (the per-dimension limit); the shader's `ROW`.
 const ROW: u32 = 65_535;
+/// At most this many workgroups sum an object's moments (`sums.wgsl`), each over every
+/// (groups × 64)-th particle: the second pass, one workgroup, then reads at most this many.
+const MOMENT_GROUPS: u32 = 1024;
 /// Substeps per command buffer that [`GpuMpm::substeps`] submits.
 const SUBMIT_BATCH: u32 = 64;
-/// Momentum's fixed-point scale is the mass scale over this: a node's momentum may reach this
-/// many m/s times the system's mass before its sum could overflow.
+/// Momentum's fixed-point scale is 2^61 over the system's mass (rounded to a power of two) and
+/// over this: a node's momentum may reach this many m/s times the system's mass before its sum
+/// could overflow.
 const MOMENTUM_HEADROOM: f32 = 4096.0;
 
 /// The shader's `Params` (uniform).
@@ -101,6 +106,22 @@ const MODEL_NEO_HOOKEAN: u32 = 1;
 const MODEL_SNOW: u32 = 2;
 const MODEL_SAND: u32 = 3;
 const MODEL_VON_MISES: u32 = 4;
+
+/// P2G's fixed-point scales for mass and momentum (units per kg and per kg m/s), powers of two.
+/// Momentum: every node's sum stays below 2^61 / [`MOMENTUM_HEADROOM`] (the total mass at that
+/// speed does), as fine as that allows. Mass: one particle's whole mass below 2^31, so its
+/// contribution to a node is one 32-bit atomic add (the total stays below 2^63 for fewer than
+/// 2^32 particles); a unit is then 2^-31 of the heaviest particle, far finer than f32's rounding
+/// of a node's mass.
+fn fixed_point_scales(total_mass_kg: f64, largest_mass_kg: f32) -> (f32, f32) {
+    let exponent = |m: f64| m.max(1e-30).log2().ceil() as i32;
+    let s_p = 61 - exponent(total_mass_kg);
+    let s_m = (31 - exponent(f64::from(largest_mass_kg))).min(61 - exponent(total_mass_kg));
+    (
+        2f32.powi(s_m.clamp(-100, 100)),
+        2f32.powi(s_p.clamp(-100, 100)) / MOMENTUM_HEADROOM,
+    )
+}
 
 /// The GPU form of `materials`: every model of splatphys-core runs there.
 fn materials(materials: &[Material]) -> Vec<GpuMaterial> {
@@ -283,10 +304,8 @@ impl GpuMpm {
         let n_nodes =
             u32::try_from(n_nodes).map_err(|_| unsupported("a grid of more than 2^32 nodes"))?;
         let total_mass: f64 = p.mass_kg.iter().map(|&m| f64::from(m)).sum();
-        // Every node's mass sum stays below 2^61 in fixed point (the total mass does).
-        let s_m = 61 - total_mass.max(1e-30).log2().ceil() as i32;
-        let scale_m = 2f32.powi(s_m.clamp(-100, 100));
-        let scale_p = scale_m / MOMENTUM_HEADROOM;
+        let largest_mass = p.mass_kg.iter().fold(0f32, |a, &m| a.max(m));
+        let (scale_m, scale_p) = fixed_point_scales(total_mass, largest_mass);
         let params = Params {
             grid_dims: dims.to_array(),
             n_particles: n,
@@ -303,7 +322,7 @@ impl GpuMpm {
             n_gated: sys.colliders.iter().filter(|c| c.is_gated()).count() as u32,
             t0: 0.0,
             reference: [0.0; 3],
-            n_groups: n.div_ceil(WORKGROUP).max(1),
+            n_groups: n.div_ceil(WORKGROUP).clamp(1, MOMENT_GROUPS),
             field_dv: [0.0; 3],
             _pad0: 0.0,
             field_dw: [0.0; 3],

@@ -79,9 +79,11 @@ struct Collider {
 @group(0) @binding(3) var<storage, read> particle_material: array<u32>;
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var<storage, read> colliders: array<Collider>;
-// Per node 9 words: mass, px, py, pz, each as (low u32, high u32) of a 64-bit fixed-point sum,
-// then the node's gap to the gated colliders (the bitwise NOT of an order-preserving u32 form of
-// the f32, so that 0 is "no particle's column reaches it" and atomicMax takes the smallest gap).
+// Per node 15 words: the mass as (low u32, high u32) of an unsigned 64-bit fixed-point sum; px,
+// py, pz each as two such sums, of the positive terms and of the negative terms' magnitudes
+// (read as their difference); then the node's gap to the gated colliders (the bitwise NOT of an
+// order-preserving u32 form of the f32, so that 0 is "no particle's column reaches it" and
+// atomicMax takes the smallest gap).
 // After the nodes, per collider 7 words: the normal impulse it gave the grid in the substep,
 // n n·Δp summed over its nodes (grid_update.rs's collider impulses), as three 64-bit sums at the
 // momentum scale, then the count of nodes with mass inside it (whether or not they took its
@@ -99,7 +101,10 @@ struct Collider {
 @group(0) @binding(10) var<storage, read_write> moments: array<f32>;
 
 const TWO_32: f32 = 4294967296.0;
-const NODE_WORDS: u32 = 9u;
+// Per node: the mass (2 words), each momentum component as positive and negative sums (4 words
+// each), the gap (1 word).
+const NODE_WORDS: u32 = 15u;
+const NODE_GAP: u32 = 14u;
 const COLLIDER_WORDS: u32 = 7u;
 // A node counts as reached when the gap is within this fraction of the particle's size
 // (mpm/reach.rs REACH_TOLERANCE).
@@ -112,7 +117,8 @@ fn flat_index(gid: vec3<u32>) -> u32 {
     return gid.x + gid.y * ROW * 64u;
 }
 
-// Adds `value` (already scaled; |value| < 2^62) to the 64-bit fixed-point sum at `slot`.
+// Adds `value` (already scaled; |value| < 2^62) to the 64-bit two's-complement fixed-point sum
+// at `slot` (a collider's impulse).
 fn add_fixed(slot: u32, value: f32) {
     let a = abs(value);
     let hi_f = floor(a / TWO_32);
@@ -130,10 +136,28 @@ fn add_fixed(slot: u32, value: f32) {
     }
 }
 
-// The 64-bit fixed-point sum at `slot` as f32 (still scaled).
-fn read_fixed(slot: u32) -> f32 {
-    let lo = atomicLoad(&grid_sum[slot]);
-    let hi = atomicLoad(&grid_sum[slot + 1u]);
+// Adds `a` >= 0 (already scaled, < 2^63) to the unsigned 64-bit fixed-point sum at `slot`: one
+// atomic where `a` is below 2^32 and the low word does not wrap.
+fn add_magnitude(slot: u32, a: f32) {
+    let hi_f = floor(a / TWO_32);
+    let hi = u32(hi_f);
+    let lo = u32(round(a - hi_f * TWO_32));
+    let old = atomicAdd(&grid_sum[slot], lo);
+    let carry = select(0u, 1u, old + lo < old);
+    if hi + carry != 0u {
+        atomicAdd(&grid_sum[slot + 1u], hi + carry);
+    }
+}
+
+// Adds `value` (already scaled) to the signed sum kept as two unsigned ones at `slot` (the
+// positive terms) and `slot + 2` (the magnitudes of the negative ones): a negative term costs
+// one atomic as a positive one does, where a two's-complement sum would take two.
+fn add_split(slot: u32, value: f32) {
+    add_magnitude(slot + select(0u, 2u, value < 0.0), abs(value));
+}
+
+// A 64-bit two's-complement value (lo, hi) as f32.
+fn fixed_to_f32(lo: u32, hi: u32) -> f32 {
     let negative = (hi & 0x80000000u) != 0u;
     var l = lo;
     var h = hi;
@@ -143,6 +167,23 @@ fn read_fixed(slot: u32) -> f32 {
     }
     let magnitude = f32(h) * TWO_32 + f32(l);
     return select(magnitude, -magnitude, negative);
+}
+
+// The 64-bit fixed-point sum at `slot` as f32 (still scaled).
+fn read_fixed(slot: u32) -> f32 {
+    return fixed_to_f32(atomicLoad(&grid_sum[slot]), atomicLoad(&grid_sum[slot + 1u]));
+}
+
+// The split sum at `slot` ([`add_split`]) as f32 (still scaled): positive minus negative, exact
+// in 64 bits before the one rounding.
+fn read_split(slot: u32) -> f32 {
+    let pl = atomicLoad(&grid_sum[slot]);
+    let ph = atomicLoad(&grid_sum[slot + 1u]);
+    let nl = atomicLoad(&grid_sum[slot + 2u]);
+    let nh = atomicLoad(&grid_sum[slot + 3u]);
+    let lo = pl - nl;
+    let hi = ph - nh - select(0u, 1u, pl < nl);
+    return fixed_to_f32(lo, hi);
 }
 
 // Time at the start of the current substep (s).
@@ -277,7 +318,7 @@ fn encode_gap(gap: f32) -> u32 {
 
 // The smallest gap of a node (m), or a huge value where no column reached it.
 fn node_gap(slot: u32) -> f32 {
-    let stored = atomicLoad(&grid_sum[slot + 8u]);
+    let stored = atomicLoad(&grid_sum[slot + NODE_GAP]);
     if stored == 0u {
         return 3.0e38;
     }
@@ -354,7 +395,7 @@ fn scatter_gaps(x: vec3<f32>, volume0: f32, s: Stencil) {
                 }
                 let index = node_index(node);
                 if index >= 0 {
-                    atomicMax(&grid_sum[u32(index) * NODE_WORDS + 8u], encoded);
+                    atomicMax(&grid_sum[u32(index) * NODE_WORDS + NODE_GAP], encoded);
                 }
             }
         }
@@ -393,10 +434,10 @@ fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
                 }
                 let mom = (q + a * vec3<f32>(f32(i), f32(j), f32(k))) * w;
                 let slot = u32(node) * NODE_WORDS;
-                add_fixed(slot, mass * w * params.scale_m);
-                add_fixed(slot + 2u, mom.x * params.scale_p);
-                add_fixed(slot + 4u, mom.y * params.scale_p);
-                add_fixed(slot + 6u, mom.z * params.scale_p);
+                add_magnitude(slot, mass * w * params.scale_m);
+                add_split(slot + 2u, mom.x * params.scale_p);
+                add_split(slot + 6u, mom.y * params.scale_p);
+                add_split(slot + 10u, mom.z * params.scale_p);
             }
         }
     }
@@ -484,7 +525,7 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
         grid_v[i] = vec4<f32>(0.0);
         return;
     }
-    let p = vec3<f32>(read_fixed(slot + 2u), read_fixed(slot + 4u), read_fixed(slot + 6u)) * params.inv_scale_p;
+    let p = vec3<f32>(read_split(slot + 2u), read_split(slot + 6u), read_split(slot + 10u)) * params.inv_scale_p;
     var v = p / m + params.gravity * params.dt;
     let node = vec3<i32>(i32(i) % d.x, (i32(i) / d.x) % d.y, i32(i) / (d.x * d.y));
     let x = params.grid_origin + vec3<f32>(node) * params.dx;

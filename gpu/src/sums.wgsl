@@ -31,12 +31,8 @@ fn reset(base: u32) {
     partial[base + 27u] = -3.0e38;
 }
 
-// This work item's particle's moments (empty past the last particle).
-fn particle_moments(p: u32, out_base: u32) {
-    reset(out_base);
-    if p >= params.n_particles {
-        return;
-    }
+// Particle p's moments.
+fn particle_moments(p: u32) -> array<f32, 28> {
     let xm = xv[2u * p];
     let v = xv[2u * p + 1u].xyz;
     let m = xm.w;
@@ -44,20 +40,25 @@ fn particle_moments(p: u32, out_base: u32) {
     let c = mat3x3<f32>(cf[6u * p].xyz, cf[6u * p + 1u].xyz, cf[6u * p + 2u].xyz);
     let l = cross(y, v) * m;
     let spin = vec3<f32>(c[1].z - c[2].y, c[2].x - c[0].z, c[0].y - c[1].x) * m;
-    let values = array<f32, 20>(
+    return array<f32, 28>(
         m, m * y.x, m * y.y, m * y.z, m * v.x, m * v.y, m * v.z, l.x, l.y, l.z,
         spin.x, spin.y, spin.z, m * y.x * y.x, m * y.y * y.y, m * y.z * y.z,
         m * y.x * y.y, m * y.x * y.z, m * y.y * y.z, m * dot(v, v),
+        y.x, y.y, y.z, y.x, y.y, y.z, length(v), -plastic[3u * p].w,
     );
+}
+
+// Folds moments `values` into those at `base`.
+fn accumulate(base: u32, values: array<f32, 28>) {
     for (var k = 0u; k < SUMS; k++) {
-        partial[out_base + k] = values[k];
+        partial[base + k] += values[k];
     }
-    for (var k = 0u; k < 3u; k++) {
-        partial[out_base + 20u + k] = y[k];
-        partial[out_base + 23u + k] = y[k];
+    for (var k = 20u; k < 23u; k++) {
+        partial[base + k] = min(partial[base + k], values[k]);
     }
-    partial[out_base + 26u] = length(v);
-    partial[out_base + 27u] = -plastic[3u * p].w;
+    for (var k = 23u; k < 28u; k++) {
+        partial[base + k] = max(partial[base + k], values[k]);
+    }
 }
 
 // Folds thread `t + stride`'s moments into thread t's.
@@ -86,19 +87,23 @@ fn reduce_workgroup(t: u32) {
     workgroupBarrier();
 }
 
-// Pass 1: each workgroup's moments into moments[MOMENTS * (1 + group)].
+// Pass 1: workgroup g of params.n_groups (a one-row dispatch) takes particles g * 64 + t, then
+// every params.n_groups * 64 after, in order; its moments into moments[MOMENTS * (1 + g)].
 @compute @workgroup_size(64)
 fn moments_per_group(
-    @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_index) t: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    particle_moments(flat_index(gid), t * MOMENTS);
+    let base = t * MOMENTS;
+    reset(base);
+    let stride = params.n_groups * 64u;
+    for (var p = wid.x * 64u + t; p < params.n_particles; p += stride) {
+        accumulate(base, particle_moments(p));
+    }
     reduce_workgroup(t);
     if t == 0u {
-        let group = wid.x + wid.y * ROW;
         for (var k = 0u; k < MOMENTS; k++) {
-            moments[MOMENTS * (1u + group) + k] = partial[k];
+            moments[MOMENTS * (1u + wid.x) + k] = partial[k];
         }
     }
 }

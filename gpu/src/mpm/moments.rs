@@ -140,13 +140,12 @@ impl GpuMpm {
 
     /// Records the moments about the parameters' reference (`sums.wgsl`) into `encoder`.
     fn encode_moments(&self, encoder: &mut wgpu::CommandEncoder) {
-        let groups = dispatch(self.params.n_particles);
         encode_pass(
             encoder,
             &self.bind_group,
             "moments",
             &[
-                (&self.kernels.moments_per_group, groups),
+                (&self.kernels.moments_per_group, (self.params.n_groups, 1)),
                 (&self.kernels.moments_total, (1, 1)),
             ],
         );
