@@ -146,11 +146,13 @@ fn every_file_in_scenes_loads() {
             t.elapsed().as_secs_f64()
         );
         assert!(!s.objects.is_empty());
+        // Scenes for the CPU stay light; a scene written for the GPU may be large.
+        let light = s.simulation.device == scene::Device::Cpu;
         for o in &s.objects {
             assert_eq!(o.visible.len(), o.gaussians.len());
             assert!(
-                o.gaussians.len() < 60_000,
-                "{} has {} particles",
+                !light || o.gaussians.len() < 60_000,
+                "{} has {} particles in a CPU scene",
                 o.name,
                 o.gaussians.len()
             );
