@@ -5,6 +5,7 @@
 //! (MLS-MPM, per object or shared) with [`material`] and [`collider`] -> [`world`] (the COM object
 //! layer, stage 2) -> [`kinematics`] (particle state back to Gaussians).
 
+mod clone_reusing;
 pub mod collider;
 pub mod contact;
 pub mod fill;

@@ -9,7 +9,7 @@ pub const PLASTIC_STRETCH_MIN: f32 = 0.25;
 pub const PLASTIC_STRETCH_MAX: f32 = 4.0;
 
 /// MPM particles. Every array has length `N`; index i is one particle throughout a run.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Default, PartialEq)]
 pub struct Particles {
     /// `[N]` positions (m, world frame, z up).
     pub x: Vec<Vec3A>,
@@ -35,6 +35,19 @@ pub struct Particles {
     /// `[N]` object index (which simulated object the particle belongs to).
     pub object: Vec<u32>,
 }
+
+crate::clone_reusing::clone_reusing!(Particles {
+    x,
+    v,
+    c,
+    f,
+    f_plastic,
+    plastic,
+    mass_kg,
+    volume0_m3,
+    material,
+    object,
+});
 
 impl Particles {
     /// Number of particles.

@@ -86,7 +86,7 @@ impl BodyStats {
 }
 
 /// A simulated or static object.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Body {
     /// Name from the scene.
     pub(crate) name: String,
@@ -158,6 +158,38 @@ pub struct Body {
     /// Counters of its run so far and of the current frame.
     pub(crate) stats: BodyStats,
 }
+
+crate::clone_reusing::clone_reusing!(Body {
+    name,
+    kind,
+    restitution,
+    friction,
+    rolling_resistance_m,
+    particles,
+    template,
+    gaussian_offsets,
+    materials,
+    solver,
+    gaussians,
+    sigma0,
+    rest_offsets,
+    rest_arm_m,
+    visible,
+    carry,
+    gaussian_particle,
+    rigid,
+    sleeping,
+    state_cache,
+    device,
+    still_s,
+    max_speed_m_s,
+    surface,
+    collision,
+    collision_cell_m,
+    push,
+    drive,
+    stats,
+});
 
 /// Most cells of an object's sampled surface before its cell size grows.
 pub const MAX_SURFACE_CELLS: usize = 8_000_000;

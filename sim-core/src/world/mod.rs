@@ -216,7 +216,7 @@ pub struct ObjectSummary {
 }
 
 /// All objects of a scene and their clock.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct World {
     /// Scene settings.
     pub(crate) settings: scene::SimulationSettings,
@@ -253,6 +253,27 @@ pub struct World {
     /// The device deformable objects' MPM may run on ([`World::set_device`]).
     device: Option<Arc<dyn DeviceBackend>>,
 }
+
+crate::clone_reusing::clone_reusing!(World {
+    settings,
+    bodies,
+    initial,
+    background,
+    colliders,
+    gravity_m_s2,
+    policy,
+    events,
+    next_event,
+    time_s,
+    frame,
+    generation,
+    shared,
+    stats,
+    contacts,
+    max_particle_substeps_per_frame,
+    island,
+    device,
+});
 
 pub use splatphys_types::limits::MAX_STABLE_SPEED_M_S;
 
