@@ -12,7 +12,8 @@
 //! Every other scene meets "separate" surfaces through the particle barrier
 //! (`surface_contact = "barrier"`), whose stored energy counts.
 //!
-//! `SPLATPHYS_PHYSICS_FUZZ_CASES` sets the number of scenes (default 1,000).
+//! `SPLATPHYS_PHYSICS_FUZZ_CASES` sets the number of scenes (default 1,000);
+//! `SPLATPHYS_PHYSICS_FUZZ_ONLY=i` runs only scene `i` of them (to look at one that failed).
 
 use glam::Vec3A;
 use proptest::prelude::*;
@@ -301,10 +302,14 @@ fn no_frame_without_a_command_gains_energy() {
     let drawn: Vec<Case> = (0..cases)
         .map(|_| case().new_tree(&mut runner).expect("a case").current())
         .collect();
+    let only: Option<usize> = std::env::var("SPLATPHYS_PHYSICS_FUZZ_ONLY")
+        .ok()
+        .and_then(|s| s.parse().ok());
     let started = std::time::Instant::now();
     let failed: Vec<String> = drawn
         .par_iter()
         .enumerate()
+        .filter(|(i, _)| only.is_none_or(|k| k == *i))
         .filter_map(|(i, c)| {
             let barrier = i % 2 == 1;
             run(c, barrier)
