@@ -473,7 +473,7 @@ fn multi_process(args: &RunArgs) -> Result<()> {
     let mut server = Proc::spawn("server", server_cmd, &logs.join("server.log"), args.threads)?;
     let viewer = if args.view.view {
         let v = Viewer::start(&args.view, &plan.prefix, &plan.camera_args())?;
-        eprintln!("splatphys run: watch it live at {}", v.url);
+        v.announce("splatphys run");
         Some(v)
     } else {
         None

@@ -107,7 +107,7 @@ fn viewer(
         .clone()
         .unwrap_or_else(|| ServiceNames::default_prefix(name));
     let v = Viewer::start(&args.view, &prefix, &camera_args(camera))?;
-    eprintln!("splatphys serve: watch it live at {}", v.url);
+    v.announce("splatphys serve");
     Ok(Some(v))
 }
 

@@ -37,6 +37,14 @@ pub struct Viewer {
 }
 
 impl Viewer {
+    /// Prints "`who`: watch it live at URL" on stderr in one write, so that the viewer's own
+    /// lines on the same stream cannot land inside it (a reader takes the URL from its end).
+    pub fn announce(&self, who: &str) {
+        use std::io::Write;
+        let line = format!("{who}: watch it live at {}\n", self.url);
+        let _ = std::io::stderr().lock().write_all(line.as_bytes());
+    }
+
     /// Starts `splatphys-web` (next to this executable) for `prefix` with the scene's camera
     /// flags, and waits for its URL.
     ///

@@ -48,11 +48,13 @@ fn main() -> Result<()> {
     let stats = serve(cfg, stop, |addr| {
         // The one line on stdout: scripts and `splatphys run --view` read the URL from it.
         println!("{}", url_cfg.url(addr));
-        eprintln!(
-            "splatphys-web: showing `{}` at {} (Ctrl-C to stop)",
+        // One write: a parent that shares this stream cannot split the line.
+        let line = format!(
+            "splatphys-web: showing `{}` at {} (Ctrl-C to stop)\n",
             url_cfg.prefix,
             url_cfg.url(addr)
         );
+        let _ = std::io::Write::write_all(&mut std::io::stderr().lock(), line.as_bytes());
     })?;
     eprintln!("splatphys-web: stopped; {}", stats.summary());
     Ok(())
