@@ -117,6 +117,16 @@ fn flat_index(gid: vec3<u32>) -> u32 {
     return gid.x + gid.y * ROW * 64u;
 }
 
+// Adds the 64-bit word pair (lo, hi) to the sum at `slot`: one atomic unless hi or the carry
+// out of the low word is non-zero.
+fn add_words(slot: u32, lo: u32, hi: u32) {
+    let old = atomicAdd(&grid_sum[slot], lo);
+    let carry = select(0u, 1u, old + lo < old);
+    if hi + carry != 0u {
+        atomicAdd(&grid_sum[slot + 1u], hi + carry);
+    }
+}
+
 // Adds `value` (already scaled; |value| < 2^62) to the 64-bit two's-complement fixed-point sum
 // at `slot` (a collider's impulse).
 fn add_fixed(slot: u32, value: f32) {
@@ -128,25 +138,14 @@ fn add_fixed(slot: u32, value: f32) {
         lo = ~lo + 1u;
         hi = ~hi + select(0u, 1u, lo == 0u);
     }
-    let old = atomicAdd(&grid_sum[slot], lo);
-    let carry = select(0u, 1u, old + lo < old);
-    // Adding zero changes nothing: most small positive contributions carry nothing upward.
-    if hi + carry != 0u {
-        atomicAdd(&grid_sum[slot + 1u], hi + carry);
-    }
+    add_words(slot, lo, hi);
 }
 
 // Adds `a` >= 0 (already scaled, < 2^63) to the unsigned 64-bit fixed-point sum at `slot`: one
 // atomic where `a` is below 2^32 and the low word does not wrap.
 fn add_magnitude(slot: u32, a: f32) {
     let hi_f = floor(a / TWO_32);
-    let hi = u32(hi_f);
-    let lo = u32(round(a - hi_f * TWO_32));
-    let old = atomicAdd(&grid_sum[slot], lo);
-    let carry = select(0u, 1u, old + lo < old);
-    if hi + carry != 0u {
-        atomicAdd(&grid_sum[slot + 1u], hi + carry);
-    }
+    add_words(slot, u32(round(a - hi_f * TWO_32)), u32(hi_f));
 }
 
 // Adds `value` (already scaled) to the signed sum kept as two unsigned ones at `slot` (the

@@ -61,19 +61,18 @@ fn accumulate(base: u32, values: array<f32, 28>) {
     }
 }
 
+// The moments at `base` (in `partial`) as an array.
+fn moments_at(base: u32) -> array<f32, 28> {
+    var out: array<f32, 28>;
+    for (var k = 0u; k < MOMENTS; k++) {
+        out[k] = partial[base + k];
+    }
+    return out;
+}
+
 // Folds thread `t + stride`'s moments into thread t's.
 fn fold(t: u32, stride: u32) {
-    let a = t * MOMENTS;
-    let b = (t + stride) * MOMENTS;
-    for (var k = 0u; k < SUMS; k++) {
-        partial[a + k] += partial[b + k];
-    }
-    for (var k = 20u; k < 23u; k++) {
-        partial[a + k] = min(partial[a + k], partial[b + k]);
-    }
-    for (var k = 23u; k < 28u; k++) {
-        partial[a + k] = max(partial[a + k], partial[b + k]);
-    }
+    accumulate(t * MOMENTS, moments_at((t + stride) * MOMENTS));
 }
 
 // The tree over the workgroup's 64 threads; thread 0 ends with the total.
@@ -115,16 +114,11 @@ fn moments_total(@builtin(local_invocation_index) t: u32) {
     let base = t * MOMENTS;
     reset(base);
     for (var g = t; g < params.n_groups; g += 64u) {
-        let src = MOMENTS * (1u + g);
-        for (var k = 0u; k < SUMS; k++) {
-            partial[base + k] += moments[src + k];
+        var values: array<f32, 28>;
+        for (var k = 0u; k < MOMENTS; k++) {
+            values[k] = moments[MOMENTS * (1u + g) + k];
         }
-        for (var k = 20u; k < 23u; k++) {
-            partial[base + k] = min(partial[base + k], moments[src + k]);
-        }
-        for (var k = 23u; k < 28u; k++) {
-            partial[base + k] = max(partial[base + k], moments[src + k]);
-        }
+        accumulate(base, values);
     }
     reduce_workgroup(t);
     if t == 0u {

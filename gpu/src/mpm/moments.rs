@@ -90,17 +90,7 @@ impl GpuMpm {
     pub fn report(&mut self, reference: Vec3A) -> Result<DeviceReport, GpuError> {
         self.params.reference = reference.to_array();
         self.write_params();
-        let encoder = self.encoder("report");
-        self.report_after(encoder)
-    }
-
-    /// The report ([`GpuMpm::report`]) after the work in `encoder`, with the parameters last
-    /// written, submitted together.
-    fn report_after(
-        &mut self,
-        mut encoder: wgpu::CommandEncoder,
-    ) -> Result<DeviceReport, GpuError> {
-        let reference = Vec3A::from_array(self.params.reference);
+        let mut encoder = self.encoder("report");
         self.encode_moments(&mut encoder);
         let (offset, size) = self.collider_range();
         let mut ranges = vec![
@@ -123,7 +113,7 @@ impl GpuMpm {
                 impulses_n_s,
                 nodes,
             };
-            (bytemuck::cast_slice::<u8, u32>(bytes[0]).to_vec(), report)
+            (bytemuck::pod_read_unaligned::<[u32; 4]>(bytes[0]), report)
         })?;
         self.take_status(&status)?;
         Ok(report)
