@@ -5,9 +5,9 @@
 //! velocity); in a third of them a kinematic pusher drives into the pair at constant velocity,
 //! low or high, smooth or rough.
 //! Over every frame without a command the total energy (kinetic, gravitational above the floor
-//! and strain, Σ V₀ ψ(F), and the particle barrier's at the floor) must not grow by more than 1 % beyond the work the pusher did (its
-//! velocity against the contact force it reports, which is the frame's mean), and every state
-//! must stay finite.
+//! and strain, Σ V₀ ψ(F), and what the particle barrier holds) must not grow by more than 1 %
+//! beyond the work the pusher did (its velocity against the contact force it reports, which is
+//! the frame's mean), and every state must stay finite.
 //!
 //! Every other scene meets "separate" surfaces through the particle barrier
 //! (`surface_contact = "barrier"`), whose stored energy counts.
@@ -219,7 +219,7 @@ fn pusher_work(c: &Case, w: &World) -> f64 {
 }
 
 /// Kinetic + gravitational (above z = 0) + strain energy of objects 0 and 1, with what the
-/// particle barrier holds at the floor (J).
+/// particle barrier holds at the solids' surfaces (J).
 fn energy(w: &World) -> f64 {
     w.bodies()
         .iter()

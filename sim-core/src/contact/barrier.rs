@@ -15,9 +15,10 @@
 //! φ < s/4) is pushed out by a stiff linear spring, the gradient of the potential
 //! ½ m ω_b² (s/4 − φ)² (a penalty barrier; the IPC barrier of Li et al. 2020, "Incremental
 //! potential contact", is its smooth relative): a velocity change dt ω_b² (s/4 − φ) along the
-//! patch's normal (the touches' outward normals weighted by their push: at a solid's edge each
-//! particle's nearest feature turns its own sideways), before P2G, so that what it stores on
-//! the way in it gives back on the way out. Its rest lies a quarter of a particle above the
+//! normal of the face it touches (the face's touches' outward normals weighted by their push: at
+//! a solid's edge each particle's nearest feature turns its own sideways; a solid's faces are
+//! told apart by their normals, [`faces`]), before P2G, so that what it stores on the way in it
+//! gives back on the way out. Its rest lies a quarter of a particle above the
 //! surface, not at the particle's face (s/2): particles sampled on a lattice jittered by ±s/4
 //! ([`crate::procedural::JITTER`]) and laid on a surface then start outside it, where at s/2
 //! half of them started inside it and sprang the object off (a jelly slab on a plane left it at
@@ -201,61 +202,11 @@ pub fn push(
     let mut patches = Vec::new();
     for (w, wall) in walls.iter().enumerate() {
         let own: Vec<&Touch> = touches.iter().filter(|t| t.wall == w).collect();
-        if own.is_empty() {
-            continue;
-        }
-        let Particles { x, v, mass_kg, .. } = &mut *particles;
-        // One normal for the patch, the touches' normals weighted by their push: at a solid's
-        // edge the nearest feature turns the normals sideways, and a lattice of particles
-        // jittered unevenly over two edges pushed a block landing on two supports sideways.
-        let n = own
-            .iter()
-            .map(|t| {
-                let push = f64::from((t.reach_m - t.phi_m) * mass_kg[t.particle] * t.stiffness_s2);
-                t.normal.as_dvec3() * push
-            })
-            .sum::<DVec3>()
-            .normalize_or_zero()
-            .as_vec3a();
-        if n == Vec3A::ZERO {
-            continue;
-        }
-        // The patch's mean approach, stopped in this substep (inelastic: the restitution law
-        // gives the rebound).
-        let (mut momentum, mut mass) = (0.0f64, 0.0f64);
-        for t in &own {
-            let i = t.particle;
-            let v_n = (v[i] - wall.velocity_at(x[i])).dot(n);
-            momentum += f64::from(v_n * mass_kg[i]);
-            mass += f64::from(mass_kg[i]);
-        }
-        let stop = (-(momentum / mass) as f32).max(0.0);
-        let mut patch = Patch {
-            wall: w,
-            touches: own,
-            shares: Vec::new(),
-            normal_n_s: 0.0,
-            centre_m: DVec3::ZERO,
-        };
-        let mut depth = 0.0;
-        for t in &patch.touches {
-            let i = t.particle;
-            let dv = dt_s * t.stiffness_s2 * (t.reach_m - t.phi_m) + stop;
-            let j = f64::from(dv * mass_kg[i]);
-            v[i] += n * dv;
-            patch.shares.push(j);
-            patch.normal_n_s += j;
-            patch.centre_m += x[i].as_dvec3() * j;
-            depth += f64::from(t.phi_m) * j;
-            let dp = (n * dv * mass_kg[i]).as_dvec3();
-            reactions[w].receive(dp, x[i] - wall.centre_m(), n);
-        }
-        if patch.normal_n_s > 0.0 {
-            // On the surface: the touching particles' centres lie about a quarter of their
-            // size above it.
-            let n = n.as_dvec3();
-            patch.centre_m = patch.centre_m / patch.normal_n_s - n * (depth / patch.normal_n_s);
-            patches.push((patch, n));
+        for face in faces(own, &particles.mass_kg) {
+            let Some(patch) = press(particles, wall, w, face, dt_s, &mut reactions[w]) else {
+                continue;
+            };
+            patches.push(patch);
         }
     }
     // The friction pass: each patch stops the fitted rigid motion's slip at its centre of
@@ -319,15 +270,165 @@ pub fn push(
     reactions
 }
 
-/// The energy the barrier holds in `particles` (cell `dx_m`, materials `materials`) at `walls`:
-/// Σ ½ m ω_b² (s/4 − φ)² over the touching particles (J). It belongs to a frame's mechanical
-/// energy as the strain energy does: it is given back as they leave.
-pub fn energy_j(particles: &Particles, materials: &[Material], walls: &[Wall], dx_m: f32) -> f64 {
+/// The cosine of the largest angle between a face's normal and the normals of the touches it
+/// takes (60°): the faces of a box meet at 90°, and a touch near their edge, whose nearest
+/// feature is the edge, joins the face it leans towards.
+const FACE_COS: f32 = 0.5;
+
+/// The share of a wall's push below which a face joins the main one ([`faces`]).
+const MINOR_FACE: f32 = 0.1;
+
+/// Splits one wall's touches into faces: the touch with the strongest push (then the lowest
+/// particle index) starts a face that takes every remaining touch within 60° of its normal;
+/// what is left starts the next. Each face then pushes along one normal (module docs), and the
+/// push stays the gradient of the barrier's potential on each flat face: one normal over two
+/// faces (a pusher driving into a jelly's side while the jelly lies on its top) pushed each
+/// face's particles partly along the other's and gave a dense jelly 5 % more energy in a frame
+/// than the pusher's work.
+fn faces<'a>(mut touches: Vec<&'a Touch>, mass_kg: &[f32]) -> Vec<Vec<&'a Touch>> {
+    let push = |t: &Touch| (t.reach_m - t.phi_m) * mass_kg[t.particle] * t.stiffness_s2;
+    touches.sort_by(|a, b| {
+        push(b)
+            .total_cmp(&push(a))
+            .then(a.particle.cmp(&b.particle))
+    });
+    let mut faces: Vec<Vec<&Touch>> = Vec::new();
+    while let Some(seed) = touches.first().map(|t| t.normal) {
+        let (face, rest) = touches
+            .into_iter()
+            .partition(|t| t.normal.dot(seed) >= FACE_COS);
+        faces.push(face);
+        touches = rest;
+    }
+    if faces.len() < 2 {
+        return faces;
+    }
+    // A face that carries under a tenth of the wall's push is a few particles around an edge
+    // (a block over a support's edge, sagging beside it): it joins the face that carries most.
+    // Apart, the jittered lattice over two supports' edges pushed a symmetric block sideways
+    // (1.8 % of its impact speed).
+    let totals: Vec<f32> = faces
+        .iter()
+        .map(|f| f.iter().map(|t| push(t)).sum())
+        .collect();
+    let all: f32 = totals.iter().sum();
+    let main = (0..faces.len())
+        .max_by(|&a, &b| totals[a].total_cmp(&totals[b]).then(b.cmp(&a)))
+        .unwrap_or(0);
+    let mut kept = vec![std::mem::take(&mut faces[main])];
+    for (k, face) in faces.into_iter().enumerate() {
+        if k == main {
+            continue;
+        }
+        if totals[k] < MINOR_FACE * all {
+            kept[0].extend(face);
+        } else {
+            kept.push(face);
+        }
+    }
+    kept
+}
+
+/// The normal pass over one face of wall `w` (its touches `face`, in any order): the barrier's
+/// push and the stop of the face's mean approach, for a substep of `dt_s`, added to the wall's
+/// `reaction`. Returns the face's patch and normal; `None` when it pushes nothing.
+fn press<'a>(
+    particles: &mut Particles,
+    wall: &Wall,
+    w: usize,
+    face: Vec<&'a Touch>,
+    dt_s: f32,
+    reaction: &mut Reaction,
+) -> Option<(Patch<'a>, DVec3)> {
+    let Particles { x, v, mass_kg, .. } = particles;
+    // One normal for the face, the touches' normals weighted by their push: at a solid's edge
+    // the nearest feature turns the normals sideways, and a lattice of particles jittered
+    // unevenly over two edges pushed a block landing on two supports sideways.
+    let n = face
+        .iter()
+        .map(|t| {
+            let push = f64::from((t.reach_m - t.phi_m) * mass_kg[t.particle] * t.stiffness_s2);
+            t.normal.as_dvec3() * push
+        })
+        .sum::<DVec3>()
+        .normalize_or_zero()
+        .as_vec3a();
+    if n == Vec3A::ZERO {
+        return None;
+    }
+    // The face's mean approach, stopped in this substep (inelastic: the restitution law gives
+    // the rebound).
+    let (mut momentum, mut mass) = (0.0f64, 0.0f64);
+    for t in &face {
+        let i = t.particle;
+        let v_n = (v[i] - wall.velocity_at(x[i])).dot(n);
+        momentum += f64::from(v_n * mass_kg[i]);
+        mass += f64::from(mass_kg[i]);
+    }
+    let stop = (-(momentum / mass) as f32).max(0.0);
+    let mut patch = Patch {
+        wall: w,
+        touches: face,
+        shares: Vec::new(),
+        normal_n_s: 0.0,
+        centre_m: DVec3::ZERO,
+    };
+    let mut depth = 0.0;
+    for t in &patch.touches {
+        let i = t.particle;
+        let dv = dt_s * t.stiffness_s2 * (t.reach_m - t.phi_m) + stop;
+        let j = f64::from(dv * mass_kg[i]);
+        v[i] += n * dv;
+        patch.shares.push(j);
+        patch.normal_n_s += j;
+        patch.centre_m += x[i].as_dvec3() * j;
+        depth += f64::from(t.phi_m) * j;
+        let dp = (n * dv * mass_kg[i]).as_dvec3();
+        reaction.receive(dp, x[i] - wall.centre_m(), n);
+    }
+    if patch.normal_n_s <= 0.0 {
+        return None;
+    }
+    // On the surface: the touching particles' centres lie about a quarter of their size above
+    // it.
+    let n = n.as_dvec3();
+    patch.centre_m = patch.centre_m / patch.normal_n_s - n * (depth / patch.normal_n_s);
+    Some((patch, n))
+}
+
+/// The energy the barrier holds in `particles` (cell `dx_m`, materials `materials`) at `walls`
+/// before a substep of `dt_s` (J). It belongs to a frame's mechanical energy as the strain
+/// energy does: it is given back as they leave.
+///
+/// The barrier's kick at the particle's position followed by the drift with the new velocity
+/// is symplectic Euler, which does not conserve ½ m v² + ½ m ω_b² d² (d = s/4 − φ, the
+/// penetration) but the modified energy ½ m v² + ½ m ω_b² (d² + dt d v_n), v_n the particle's
+/// normal velocity relative to the wall (Hairer, Lubich & Wanner 2006, "Geometric Numerical
+/// Integration", section IX.1; exact for one particle on a flat wall). So each touching
+/// particle counts ½ m ω_b² d (d + dt v_n): on the way in (v_n < 0) the plain spring energy
+/// overstates what the step will give back by up to ω_b dt of it, and understates it on the
+/// way out. Against a wall driven into the object that overstatement is energy the object
+/// seems to gain within a frame.
+pub fn energy_j(
+    particles: &Particles,
+    materials: &[Material],
+    walls: &[Wall],
+    dx_m: f32,
+    dt_s: f32,
+) -> f64 {
+    let dt = if dt_s.is_finite() && dt_s > 0.0 {
+        f64::from(dt_s)
+    } else {
+        0.0
+    };
     touching(particles, materials, walls, dx_m)
         .iter()
         .map(|t| {
-            let s = f64::from(t.reach_m - t.phi_m);
-            0.5 * f64::from(particles.mass_kg[t.particle] * t.stiffness_s2) * s * s
+            let i = t.particle;
+            let wall = &walls[t.wall];
+            let d = f64::from(t.reach_m - t.phi_m);
+            let v_n = f64::from((particles.v[i] - wall.velocity_at(particles.x[i])).dot(t.normal));
+            0.5 * f64::from(particles.mass_kg[i] * t.stiffness_s2) * d * (d + dt * v_n)
         })
         .sum()
 }

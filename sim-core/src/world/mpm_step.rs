@@ -167,9 +167,9 @@ fn walls<'a>(
     (walls, which)
 }
 
-/// The energy the particle barrier holds in deformable `k` of `bodies` now (J;
-/// [`barrier::energy_j`]).
-pub(super) fn barrier_energy_j(env: &Env, bodies: &[Body], k: usize) -> f64 {
+/// The energy the particle barrier holds in deformable `k` of `bodies` now, before a substep of
+/// `dt_s` (J; [`barrier::energy_j`]).
+pub(super) fn barrier_energy_j(env: &Env, bodies: &[Body], k: usize, dt_s: f32) -> f64 {
     let b = &bodies[k];
     let on = env.settings.surface_contact == SurfaceContact::Barrier;
     if !on || b.kind != ObjectKind::Deformable || b.particles.is_empty() {
@@ -178,7 +178,7 @@ pub(super) fn barrier_energy_j(env: &Env, bodies: &[Body], k: usize) -> f64 {
     let dx = b.dx_m();
     let solids = obstacles_near(env, bodies, &[], &b.particles, b.friction, dx);
     let (walls, _) = walls(env.colliders, env.time_s, &solids);
-    barrier::energy_j(&b.particles, &b.materials, &walls, dx)
+    barrier::energy_j(&b.particles, &b.materials, &walls, dx, dt_s)
 }
 
 /// Before P2G of `step`: pushes deformable `k`'s `particles` (cell `dx_m`) out of the

@@ -62,13 +62,15 @@ impl World {
     }
 
     /// The elastic energy the particle barrier at "separate" surfaces holds in deformable
-    /// object `id` now (J; `contact::barrier`): part of its mechanical energy, like its strain
-    /// energy. Zero for other kinds and unknown ids.
+    /// object `id` now (J; `contact::barrier::energy_j`): part of its mechanical energy, like
+    /// its strain energy; the explicit step's modified energy, for the substep the world would
+    /// take next. Zero for other kinds and unknown ids.
     pub fn barrier_energy_j(&self, id: usize) -> f64 {
         if id >= self.bodies.len() {
             return 0.0;
         }
-        super::mpm_step::barrier_energy_j(&self.env(), &self.bodies, id)
+        let dt_s = self.time_step(f64::INFINITY).unwrap_or(0.0);
+        super::mpm_step::barrier_energy_j(&self.env(), &self.bodies, id, dt_s)
     }
 
     /// Per-object summaries (COM, velocity, orientation, spin, mass, contacts).

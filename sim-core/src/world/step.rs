@@ -234,7 +234,7 @@ impl World {
     /// smallest C dx / (c_p + |v|max) of any of them, with |v|max over all of them and the
     /// active colliders (c_p includes the speed that stands for a damped material's viscous
     /// limit).
-    fn time_step(&self, max_dt_s: f64) -> Result<f32, WorldError> {
+    pub(super) fn time_step(&self, max_dt_s: f64) -> Result<f32, WorldError> {
         let mut vmax = 0.0f32;
         for (k, b) in self.bodies.iter().enumerate() {
             if b.is_active() && self.stepping(k) {
