@@ -17,7 +17,7 @@
 //! potential contact", is its smooth relative): a velocity change dt ω_b² (s/4 − φ) along the
 //! normal of the face it touches (the face's touches' outward normals weighted by their push: at
 //! a solid's edge each particle's nearest feature turns its own sideways; a solid's faces are
-//! told apart by their normals, [`faces`]), before P2G, so that what it stores on the way in it
+//! told apart by their normals, `faces`), before P2G, so that what it stores on the way in it
 //! gives back on the way out. Its rest lies a quarter of a particle above the
 //! surface, not at the particle's face (s/2): particles sampled on a lattice jittered by ±s/4
 //! ([`crate::procedural::JITTER`]) and laid on a surface then start outside it, where at s/2
