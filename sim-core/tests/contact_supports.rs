@@ -81,6 +81,51 @@ fn a_jelly_on_a_static_box_rests_like_a_jelly_on_a_plane() {
     );
 }
 
+#[test]
+fn a_jelly_rests_at_the_same_height_wherever_the_top_of_its_box_lies_in_a_cell() {
+    // A damped 10 cm jelly cube on a static box whose top lies on a node layer, half-way, and
+    // nine tenths of the way to the next (1 cm cells). With the rule at the nodes inside the
+    // box only, the first node layer inside it held the cube: 1.05 mm lower at 0.9 than at 0.
+    let rest = |offset: f32| {
+        let top = 0.1 + offset * 0.01;
+        let scene = Scene::builder()
+            .grid_dx_m(0.01)
+            .duration_s(1.0)
+            .frame_rate_hz(20.0)
+            .sleep(false)
+            .object(
+                SceneObject::cuboid("table", [-0.15, -0.15, top - 0.1], [0.15, 0.15, top])
+                    .kind(ObjectKind::Static)
+                    .friction(0.5),
+            )
+            .object(
+                SceneObject::cuboid(
+                    "jelly",
+                    [-0.05, -0.05, top + 0.001],
+                    [0.05, 0.05, top + 0.101],
+                )
+                .spacing_m(0.005)
+                .material(MaterialSpec {
+                    damping_viscosity_pa_s: Some(20.0),
+                    ..MaterialSpec::jelly(2e5, 0.3, 1000.0)
+                })
+                .friction(0.5),
+            )
+            .build()
+            .expect("scene");
+        let mut w = World::from_scene(&scene).expect("world");
+        while !w.is_finished() {
+            w.advance_frame().expect("step");
+        }
+        com(&w, 1).0[2] - f64::from(top)
+    };
+    let heights: Vec<f64> = [0.0, 0.5, 0.9].into_iter().map(rest).collect();
+    println!("COM above the top: {heights:?} m");
+    let spread = heights.iter().copied().fold(f64::MIN, f64::max)
+        - heights.iter().copied().fold(f64::MAX, f64::min);
+    assert!(spread < 0.5e-3, "rest heights {heights:?} m");
+}
+
 /// Gravity tilted by θ about y: a horizontal support becomes a ramp of angle θ (down-slope +x).
 fn ramp(theta_deg: f64) -> SceneBuilder {
     let (s, c) = theta_deg.to_radians().sin_cos();

@@ -15,6 +15,12 @@
 //! solid's COM so a rigid object receives the reaction and the pair conserves momentum. Sums run per grid block in parallel and are added in block order, so
 //! the result does not depend on the thread count.
 //!
+//! Such a solid's rule also acts at nodes up to half a cell outside it ([`OUTSIDE`]), once the
+//! material reaches the surface: with only the nodes inside, the first node layer inside held
+//! the material, and a jelly cube on a static box rested up to 1.05 mm lower (1 cm cells) when
+//! the box's top lay just below a node layer than when it lay on one; with them, within
+//! 0.05 mm wherever the top lies in the cell.
+//!
 //! An awake rigid object is movable and meets the grid two-way: each node's impulse is shared by
 //! the node's mass and the node's share of the solid's mass and inertia, over a few Jacobi
 //! sweeps in which the solid's velocity follows ([`super::coupling`]), so a solid lighter than
@@ -46,6 +52,10 @@ use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};
 use crate::mpm::grid::SparseGrid;
 use crate::mpm::reach::{BARRIER_REACH, NODE_REACH, NodeGaps};
+
+/// How far outside a solid whose rule acts only where material reaches it a grid node still
+/// takes the rule, in cells (module docs).
+pub const OUTSIDE: f32 = 0.5;
 
 /// A solid as a grid boundary.
 #[derive(Debug, Clone, Copy)]
@@ -181,19 +191,35 @@ pub fn apply(
                     }
                     let pose = o.placed.pose;
                     let (phi, n0) = o.placed.geometry.distance(pose.to_rest(x));
-                    if phi > 0.0 || !phi.is_finite() {
+                    // Where the rule acts only where material reaches the surface, a node up to
+                    // half a cell outside it takes the rule too (module docs), unless it lies on
+                    // the surface but for round-off (its normal is then any feature's) or faces
+                    // away from the material that reaches it (beyond a thin plate's far face).
+                    let gate = reach.filter(|_| gated(o));
+                    let outside_m = if gate.is_some() { OUTSIDE * dx_m } else { 0.0 };
+                    if phi > outside_m || !phi.is_finite() || (phi > 0.0 && phi < 1e-3 * dx_m) {
                         continue;
                     }
                     let normal = pose.rotation * n0;
+                    let node = block * BLOCK_NODES + l;
+                    if phi > 0.0 && !gate.is_some_and(|(g, _)| g.faces(node, normal)) {
+                        continue;
+                    }
                     let r = x - pose.com_m;
                     // Material inside the solid touches it (the restitution law's contact
                     // lasts while any node does), even where it does not reach the surface yet.
-                    out[k].nodes += 1;
-                    if let Some((gaps, dt_s)) = reach.filter(|_| gated(o)) {
+                    if phi <= 0.0 {
+                        out[k].nodes += 1;
+                    }
+                    if let Some((gaps, dt_s)) = gate {
                         let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
                         let v_n = (vel[l] + v_ref - solid_v).dot(normal);
-                        if !gaps.reaches(block * BLOCK_NODES + l, v_n, dt_s) {
+                        if !gaps.reaches(node, v_n, dt_s) {
                             continue;
+                        }
+                        if phi > 0.0 {
+                            // It holds material at the surface: a contact, as a node inside is.
+                            out[k].nodes += 1;
                         }
                     }
                     if o.is_movable() {

@@ -53,6 +53,8 @@ pub const BARRIER_REACH: f32 = -0.25;
 pub struct NodeGaps {
     /// `[blocks × 64]`, in the grid's node order.
     pub gap_m: Vec<f32>,
+    /// `[blocks × 64]`: the outward normal of the solid at the particle that gave the gap.
+    pub normal: Vec<Vec3A>,
 }
 
 impl NodeGaps {
@@ -69,7 +71,7 @@ impl NodeGaps {
         let inv_dx = 1.0 / dx_m;
         // (node, gap) for every node in a near particle's column, found in parallel; the
         // minimum per node is then taken in one pass (a minimum does not depend on order).
-        let touches: Vec<(usize, f32)> = particles
+        let touches: Vec<(usize, f32, Vec3A)> = particles
             .x
             .par_chunks(CHUNK)
             .zip(particles.volume0_m3.par_chunks(CHUNK))
@@ -112,7 +114,7 @@ impl NodeGaps {
                                     continue;
                                 }
                                 if let Some(i) = node_index(grid, node) {
-                                    out.push((i, gap));
+                                    out.push((i, gap, n));
                                 }
                             }
                         }
@@ -122,10 +124,21 @@ impl NodeGaps {
             })
             .collect();
         let mut gap_m = vec![f32::INFINITY; grid.mass_kg.len()];
-        for (i, gap) in touches {
-            gap_m[i] = gap_m[i].min(gap);
+        let mut normal = vec![Vec3A::ZERO; grid.mass_kg.len()];
+        for (i, gap, n) in touches {
+            if gap < gap_m[i] {
+                gap_m[i] = gap;
+                normal[i] = n;
+            }
         }
-        Self { gap_m }
+        Self { gap_m, normal }
+    }
+
+    /// Whether node `i` faces the material that reaches it: `normal` (the solid's outward
+    /// normal at the node) within 60° of the normal at the particle that gave its gap.
+    #[inline]
+    pub fn faces(&self, i: usize, normal: Vec3A) -> bool {
+        self.normal.get(i).is_some_and(|m| m.dot(normal) > 0.5)
     }
 
     /// Whether node `i`, moving at normal velocity `v_n_m_s` relative to the solid (negative
