@@ -82,22 +82,32 @@ fn a_jelly_on_a_static_box_rests_like_a_jelly_on_a_plane() {
 }
 
 #[test]
-fn a_jelly_rests_at_the_same_height_wherever_the_top_of_its_box_lies_in_a_cell() {
-    // A damped 10 cm jelly cube on a static box whose top lies on a node layer, half-way, and
-    // nine tenths of the way to the next (1 cm cells). With the rule at the nodes inside the
-    // box only, the first node layer inside it held the cube: 1.05 mm lower at 0.9 than at 0.
-    let rest = |offset: f32| {
+fn a_jelly_rests_at_the_same_height_wherever_the_top_of_its_support_lies_in_a_cell() {
+    // A damped 10 cm jelly cube on a static box, and on a collider plane, whose top lies on a
+    // node layer, half-way, and nine tenths of the way to the next (1 cm cells). With the rule
+    // at the nodes inside the solid only, the first node layer inside it held the cube: on the
+    // box 1.05 mm lower at 0.9 than at 0, on the plane 1.04 mm.
+    let rest = |offset: f32, plane: bool| {
         let top = 0.1 + offset * 0.01;
-        let scene = Scene::builder()
+        let builder = Scene::builder()
             .grid_dx_m(0.01)
             .duration_s(1.0)
             .frame_rate_hz(20.0)
-            .sleep(false)
-            .object(
+            .sleep(false);
+        let builder = if plane {
+            builder.collider(
+                ColliderSpec::plane("top", [0.0, 0.0, top], [0.0, 0.0, 1.0])
+                    .surface(Surface::Separate)
+                    .friction(0.5),
+            )
+        } else {
+            builder.object(
                 SceneObject::cuboid("table", [-0.15, -0.15, top - 0.1], [0.15, 0.15, top])
                     .kind(ObjectKind::Static)
                     .friction(0.5),
             )
+        };
+        let scene = builder
             .object(
                 SceneObject::cuboid(
                     "jelly",
@@ -117,13 +127,18 @@ fn a_jelly_rests_at_the_same_height_wherever_the_top_of_its_box_lies_in_a_cell()
         while !w.is_finished() {
             w.advance_frame().expect("step");
         }
-        com(&w, 1).0[2] - f64::from(top)
+        com(&w, w.objects().len() - 1).0[2] - f64::from(top)
     };
-    let heights: Vec<f64> = [0.0, 0.5, 0.9].into_iter().map(rest).collect();
-    println!("COM above the top: {heights:?} m");
-    let spread = heights.iter().copied().fold(f64::MIN, f64::max)
-        - heights.iter().copied().fold(f64::MAX, f64::min);
-    assert!(spread < 0.5e-3, "rest heights {heights:?} m");
+    for (plane, what) in [(false, "static box"), (true, "collider plane")] {
+        let heights: Vec<f64> = [0.0, 0.5, 0.9]
+            .into_iter()
+            .map(|o| rest(o, plane))
+            .collect();
+        println!("{what}: COM above the top {heights:?} m");
+        let spread = heights.iter().copied().fold(f64::MIN, f64::max)
+            - heights.iter().copied().fold(f64::MAX, f64::min);
+        assert!(spread < 0.5e-3, "{what}: rest heights {heights:?} m");
+    }
 }
 
 /// Gravity tilted by θ about y: a horizontal support becomes a ramp of angle θ (down-slope +x).

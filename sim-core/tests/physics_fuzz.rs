@@ -14,6 +14,10 @@
 //!
 //! `SPLATPHYS_PHYSICS_FUZZ_CASES` sets the number of scenes (default 1,000);
 //! `SPLATPHYS_PHYSICS_FUZZ_ONLY=i` runs only scene `i` of them (to look at one that failed).
+//! `SPLATPHYS_PHYSICS_FUZZ_FREEZE=1` also draws the jelly made rigid while in contact (another
+//! set of scenes): its frozen shape starts inside what it touches, and a thin or wrapped one
+//! can later sink a cell or more into a support between substeps and be pushed out, which
+//! lifts it; 4 of those 1,000 scenes still gain 1–39 % in a frame (docs' limitations).
 
 use glam::Vec3A;
 use proptest::prelude::*;
@@ -66,19 +70,31 @@ struct Case {
     pusher: Option<(f32, f32, f32)>,
 }
 
-fn case() -> impl Strategy<Value = Case> {
-    let event = prop_oneof![
-        1 => Just(Event::None),
-        // A jelly made rigid in contact is left out: the frozen shape then jitters on its
-        // supports (ω flipping by several rad/s from frame to frame) and the pair creeps
-        // upwards (with it, 22 of these 1,000 scenes gain 1-8 % in a frame; undoing the
-        // overlaps at the command did not change it). See the docs' limitations.
-        2 => Just(Event::Kind(1, ObjectKind::Deformable)),
-        2 => (0..2usize, prop_oneof![100.0..500.0f64, 500.0..8000.0f64])
-            .prop_map(|(k, rho)| Event::Density(k, rho)),
-        1 => (0..2usize, [-2.0..2.0f32, -2.0..2.0f32, -2.0..2.0f32])
-            .prop_map(|(k, v)| Event::Velocity(k, v)),
-    ];
+fn case(freeze: bool) -> impl Strategy<Value = Case> {
+    let density = |(k, rho)| Event::Density(k, rho);
+    let velocity = |(k, v)| Event::Velocity(k, v);
+    let densities = || (0..2usize, prop_oneof![100.0..500.0f64, 500.0..8000.0f64]);
+    let velocities = || (0..2usize, [-2.0..2.0f32, -2.0..2.0f32, -2.0..2.0f32]);
+    // A jelly made rigid in contact only with `SPLATPHYS_PHYSICS_FUZZ_FREEZE=1` (module docs);
+    // without it the scenes are drawn as they always were.
+    let event = if freeze {
+        prop_oneof![
+            1 => Just(Event::None),
+            2 => Just(Event::Kind(1, ObjectKind::Deformable)),
+            2 => Just(Event::Kind(0, ObjectKind::Rigid)),
+            2 => densities().prop_map(density),
+            1 => velocities().prop_map(velocity),
+        ]
+        .boxed()
+    } else {
+        prop_oneof![
+            1 => Just(Event::None),
+            2 => Just(Event::Kind(1, ObjectKind::Deformable)),
+            2 => densities().prop_map(density),
+            1 => velocities().prop_map(velocity),
+        ]
+        .boxed()
+    };
     (
         (
             any::<bool>(),
@@ -297,10 +313,16 @@ fn no_frame_without_a_command_gains_energy() {
         .unwrap_or(1000);
     // Drawn from one seed, run side by side (each world is independent, so the outcome does not
     // depend on the order), reported whole rather than shrunk.
+    let freeze = std::env::var("SPLATPHYS_PHYSICS_FUZZ_FREEZE").is_ok_and(|v| v == "1");
     let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]);
     let mut runner = TestRunner::new_with_rng(Config::default(), rng);
     let drawn: Vec<Case> = (0..cases)
-        .map(|_| case().new_tree(&mut runner).expect("a case").current())
+        .map(|_| {
+            case(freeze)
+                .new_tree(&mut runner)
+                .expect("a case")
+                .current()
+        })
         .collect();
     let only: Option<usize> = std::env::var("SPLATPHYS_PHYSICS_FUZZ_ONLY")
         .ok()

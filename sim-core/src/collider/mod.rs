@@ -153,11 +153,16 @@ impl Collider {
     #[inline]
     pub fn apply(&self, x: Vec3A, v: Vec3A, t_s: f64) -> Vec3A {
         match self.contact_normal(x, t_s) {
-            Some(n) => {
-                let vc = self.velocity_at(t_s);
-                apply_surface(v - vc, n, self.surface, self.friction) + vc
-            }
+            Some(n) => self.apply_along(n, v, t_s),
             None => v,
         }
+    }
+
+    /// Applies the boundary condition to grid velocity `v` (m/s) with outward normal `n` at
+    /// time `t_s`, relative to the collider's velocity.
+    #[inline]
+    pub fn apply_along(&self, n: Vec3A, v: Vec3A, t_s: f64) -> Vec3A {
+        let vc = self.velocity_at(t_s);
+        apply_surface(v - vc, n, self.surface, self.friction) + vc
     }
 }

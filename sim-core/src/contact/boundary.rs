@@ -15,11 +15,9 @@
 //! solid's COM so a rigid object receives the reaction and the pair conserves momentum. Sums run per grid block in parallel and are added in block order, so
 //! the result does not depend on the thread count.
 //!
-//! Such a solid's rule also acts at nodes up to half a cell outside it ([`OUTSIDE`]), once the
-//! material reaches the surface: with only the nodes inside, the first node layer inside held
-//! the material, and a jelly cube on a static box rested up to 1.05 mm lower (1 cm cells) when
-//! the box's top lay just below a node layer than when it lay on one; with them, within
-//! 0.05 mm wherever the top lies in the cell.
+//! Such a solid's rule also acts at nodes up to half a cell outside it, once the material
+//! reaches the surface ([`crate::mpm::reach::OUTSIDE`]), so where an object rests does not
+//! depend on where the surface lies in a cell.
 //!
 //! An awake rigid object is movable and meets the grid two-way: each node's impulse is shared by
 //! the node's mass and the node's share of the solid's mass and inertia, over a few Jacobi
@@ -52,10 +50,6 @@ use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};
 use crate::mpm::grid::SparseGrid;
 use crate::mpm::reach::{BARRIER_REACH, NODE_REACH, NodeGaps};
-
-/// How far outside a solid whose rule acts only where material reaches it a grid node still
-/// takes the rule, in cells (module docs).
-pub const OUTSIDE: f32 = 0.5;
 
 /// A solid as a grid boundary.
 #[derive(Debug, Clone, Copy)]
@@ -196,13 +190,12 @@ pub fn apply(
                     // the surface but for round-off (its normal is then any feature's) or faces
                     // away from the material that reaches it (beyond a thin plate's far face).
                     let gate = reach.filter(|_| gated(o));
-                    let outside_m = if gate.is_some() { OUTSIDE * dx_m } else { 0.0 };
-                    if phi > outside_m || !phi.is_finite() || (phi > 0.0 && phi < 1e-3 * dx_m) {
-                        continue;
-                    }
                     let normal = pose.rotation * n0;
                     let node = block * BLOCK_NODES + l;
-                    if phi > 0.0 && !gate.is_some_and(|(g, _)| g.faces(node, normal)) {
+                    if !phi.is_finite()
+                        || !(phi <= 0.0
+                            || gate.is_some_and(|(g, _)| g.takes_outside(node, phi, normal, dx_m)))
+                    {
                         continue;
                     }
                     let r = x - pose.com_m;

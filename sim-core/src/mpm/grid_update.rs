@@ -24,14 +24,16 @@ pub struct ColliderImpulses {
     /// count).
     pub total_n_s: Vec<glam::DVec3>,
     /// `[colliders]` grid nodes with mass inside each, whether or not they took its rule (a
-    /// gated collider's rule waits for material to reach it): the material touching it.
+    /// gated collider's rule waits for material to reach it), and those outside it that took
+    /// its rule ([`super::reach::OUTSIDE`]): the material touching it.
     pub nodes: Vec<u64>,
 }
 
 /// Reduces `scratch` into `grid`, then updates node velocities; `impulses` gets each collider's
 /// normal impulse on the grid. With `gaps` (the grid's particles against the colliders' surfaces),
 /// a node inside a plane or box collider takes its rule only where material meets the surface
-/// within the substep ([`super::reach`]); the domain bound holds every node outside it. Returns
+/// within the substep ([`super::reach`]), and so does a node up to half a cell outside it
+/// ([`super::reach::OUTSIDE`]); the domain bound holds every node outside it. Returns
 /// the first non-finite node velocity's block index if any.
 #[allow(clippy::too_many_arguments)]
 pub fn update(
@@ -107,18 +109,38 @@ pub fn update(
                             // v is relative to v_ref; colliders see absolute velocity, and only the
                             // nodes they touch take the round trip through it.
                             for (ci, collider) in colliders.iter().enumerate() {
-                                if let Some(n) = collider.contact_normal(node, time_s) {
-                                    pushed[ci].1 += 1;
-                                    if let Some(g) = gaps.filter(|_| collider.is_gated()) {
-                                        let v_rel = v + v_ref - collider.velocity_at(time_s);
-                                        if !g.reaches(gb * BLOCK_NODES + l, v_rel.dot(n), dt_s) {
-                                            continue;
-                                        }
+                                let i = gb * BLOCK_NODES + l;
+                                let gate = gaps.filter(|_| collider.is_gated());
+                                let inside = collider.contact_normal(node, time_s);
+                                let n = match inside {
+                                    Some(n) => {
+                                        pushed[ci].1 += 1;
+                                        n
                                     }
-                                    let before = v;
-                                    v = collider.apply(node, v + v_ref, time_s) - v_ref;
-                                    pushed[ci].0 += (n * n.dot(v - before) * sum.w).as_dvec3();
+                                    // A gated collider's rule also acts up to half a cell
+                                    // outside it (`reach::OUTSIDE`).
+                                    None => match gate.and_then(|g| {
+                                        let (phi, n) = collider.signed_distance(node, time_s)?;
+                                        g.takes_outside(i, phi, n, dx_m).then_some(n)
+                                    }) {
+                                        Some(n) => n,
+                                        None => continue,
+                                    },
+                                };
+                                let vc = collider.velocity_at(time_s);
+                                if let Some(g) = gate {
+                                    if !g.reaches(i, (v + v_ref - vc).dot(n), dt_s) {
+                                        continue;
+                                    }
+                                    if inside.is_none() {
+                                        // It holds material at the surface: a contact, as a
+                                        // node inside is.
+                                        pushed[ci].1 += 1;
+                                    }
                                 }
+                                let before = v;
+                                v = collider.apply_along(n, v + v_ref, time_s) - v_ref;
+                                pushed[ci].0 += (n * n.dot(v - before) * sum.w).as_dvec3();
                             }
                             finite &= v.is_finite();
                             v

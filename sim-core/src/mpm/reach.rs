@@ -47,6 +47,20 @@ pub const NODE_REACH: f32 = 0.5 + REACH_TOLERANCE;
 /// below it as the barrier's rest lies above.
 pub const BARRIER_REACH: f32 = -0.25;
 
+/// How far outside a solid's surface a grid node still takes its rule where the rule waits for
+/// material to reach the surface, in cells: with only the nodes inside, the first node layer
+/// inside held the material, anywhere from on the surface to a cell below it, so a jelly cube
+/// on a static box (1 cm cells) rested up to 1.05 mm lower when the box's top lay just below a
+/// node layer than when it lay on one; with the nodes up to half a cell outside, within
+/// 0.05 mm wherever the top lies in the cell.
+pub const OUTSIDE: f32 = 0.5;
+
+/// A node closer to the surface than this (in cells) lies on it but for round-off, and its
+/// normal is any feature's: it is not taken as outside (at a support's edge, a node at
+/// φ = 1.1e-8 m took a side face's normal, and a block landing on two supports at e = 0
+/// bounced off at 0.06 m/s).
+const ON_SURFACE: f32 = 1e-3;
+
 /// Per grid node, the smallest gap (m) between a particle whose column holds the node and the
 /// solid (+∞ where none does): module docs.
 #[derive(Debug, Clone, Default)]
@@ -134,11 +148,16 @@ impl NodeGaps {
         Self { gap_m, normal }
     }
 
-    /// Whether node `i` faces the material that reaches it: `normal` (the solid's outward
-    /// normal at the node) within 60° of the normal at the particle that gave its gap.
+    /// Whether node `i`, outside the solid at signed distance `phi_m` with outward normal
+    /// `normal` there, takes the rule as if inside ([`OUTSIDE`]): it lies outside by more than
+    /// round-off and at most [`OUTSIDE`] cells (`dx_m`), and faces the material that reaches
+    /// it: `normal` within 60° of the normal at the particle that gave its gap (not a node
+    /// beyond a thin plate's far face, nor one beside a solid's edge reached from its top).
     #[inline]
-    pub fn faces(&self, i: usize, normal: Vec3A) -> bool {
-        self.normal.get(i).is_some_and(|m| m.dot(normal) > 0.5)
+    pub fn takes_outside(&self, i: usize, phi_m: f32, normal: Vec3A, dx_m: f32) -> bool {
+        phi_m >= ON_SURFACE * dx_m
+            && phi_m <= OUTSIDE * dx_m
+            && self.normal.get(i).is_some_and(|m| m.dot(normal) > 0.5)
     }
 
     /// Whether node `i`, moving at normal velocity `v_n_m_s` relative to the solid (negative

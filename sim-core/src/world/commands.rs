@@ -293,7 +293,11 @@ impl World {
             b.collision = None;
             b.thaw();
         }
+        let frozen = solid(kind) && !solid(b.kind);
         b.kind = kind;
+        if frozen {
+            self.contacts.made_solid.push(id);
+        }
         self.wake(id);
         Ok(())
     }

@@ -9,6 +9,12 @@
 //!    substep's impulses of the nearest point of the same pair ([`ContactCache`]).
 //! 3. Rigid objects keep the solved velocities and the push-out for the position half.
 //!
+//! An object made solid by a command starts where its material lay, and its frozen shape's
+//! collision surface (sampled on cells, up to a cell outside its particles) starts inside what
+//! it touched. Pushing that overlap out lifts it and gives it energy, so each pair it is in at
+//! its first contact pass keeps its overlap ([`CachedPair::keeps_overlap`]): its points are held
+//! at v_n ≥ 0 but not pushed apart, and take no restitution, until the pair parts.
+//!
 //! Deformable objects never come here: against a solid they meet its boundary nodes on their
 //! grid, against each other the COM-level impulse law on contact patches of `deformable_pair/`.
 
@@ -39,20 +45,31 @@ pub enum Other {
 /// A pair across substeps: object A and the other side.
 pub type PairKey = (u32, Other);
 
-/// Accumulated impulses of the last substep's points, for warm starting: per pair, the substep
-/// (s) they were solved over, whether any of its points carried a normal impulse (lasting
-/// contact, which takes no restitution), and each point in A's rest frame with its normal
-/// impulse and its share of its patch's friction. A new point takes the impulses of the nearest old point of its
-/// pair within [`WARM_RADIUS_CELLS`] (each old point once), scaled by the ratio of the substeps,
-/// so warm starting survives a manifold that picks different surface points as the bodies move,
-/// and pairs of islands stepped at different rates (`islands.rs`) keep their own substep.
+/// Accumulated impulses of the last substep's points, for warm starting ([`CachedPair`]). A new
+/// point takes the impulses of the nearest old point of its pair within [`WARM_RADIUS_CELLS`]
+/// (each old point once), scaled by the ratio of the substeps, so warm starting survives a
+/// manifold that picks different surface points as the bodies move, and pairs of islands
+/// stepped at different rates (`islands.rs`) keep their own substep.
 #[derive(Debug, Clone, Default)]
 pub struct ContactCache {
     pairs: HashMap<PairKey, CachedPair>,
 }
 
-/// One pair's entry of [`ContactCache`]: substep (s), loaded, points.
-type CachedPair = (f64, bool, Vec<(Vec3A, Warm)>);
+/// One pair's entry of [`ContactCache`].
+#[derive(Debug, Clone, Default)]
+struct CachedPair {
+    /// The substep its impulses were solved over (s).
+    dt_s: f64,
+    /// Whether any of its points carried a normal impulse: lasting contact, which takes no
+    /// restitution.
+    loaded: bool,
+    /// It keeps its overlap, not pushed apart (module docs): from the first contact pass after
+    /// one of its objects was made solid while it overlapped, until no point of it overlaps.
+    keeps_overlap: bool,
+    /// Each point in A's rest frame with its normal impulse and its share of its patch's
+    /// friction.
+    points: Vec<(Vec3A, Warm)>,
+}
 
 /// A point's accumulated impulses: normal (N s), its share of the patch's tangential (N s) and
 /// torsional (N m s) friction.
@@ -66,12 +83,13 @@ impl ContactCache {
     /// `local` (A's rest frame).
     /// `dt_s`: the new substep (s); the impulses come scaled by it over the old one.
     fn take(&mut self, pair: PairKey, local: Vec3A, radius_m: f32, dt_s: f64) -> Option<Warm> {
-        let (old_dt_s, _, old) = self.pairs.get_mut(&pair)?;
-        let ratio = if *old_dt_s > 0.0 {
-            dt_s / *old_dt_s
+        let cached = self.pairs.get_mut(&pair)?;
+        let ratio = if cached.dt_s > 0.0 {
+            dt_s / cached.dt_s
         } else {
             1.0
         };
+        let old = &mut cached.points;
         let (i, d2) = old
             .iter()
             .enumerate()
@@ -86,7 +104,12 @@ impl ContactCache {
 
     /// Whether `pair` carried a normal impulse at any point in the last substep.
     fn carried_load(&self, pair: PairKey) -> bool {
-        self.pairs.get(&pair).is_some_and(|p| p.1)
+        self.pairs.get(&pair).is_some_and(|p| p.loaded)
+    }
+
+    /// Whether `pair` keeps its overlap ([`CachedPair::keeps_overlap`]).
+    fn keeps_overlap(&self, pair: PairKey) -> bool {
+        self.pairs.get(&pair).is_some_and(|p| p.keeps_overlap)
     }
 
     /// Moves the pairs for which `keep` is false into a cache of their own (island stepping
@@ -238,6 +261,18 @@ pub(super) fn solve(
     }
     let poses: Vec<Option<crate::contact::Pose>> =
         placed.iter().map(|p| p.map(|p| p.pose)).collect();
+    // The pairs that keep their overlap (module docs): those of an object made solid since its
+    // last contact pass and those that kept it in the last substep, while any point overlaps.
+    let made_solid = |k: usize| memory.made_solid.contains(&k);
+    let mut keeps: HashMap<PairKey, bool> = HashMap::new();
+    for (a, other, c) in &raw {
+        let key = (*a as u32, *other);
+        let kept = made_solid(*a)
+            || matches!(other, Other::Object(j) if made_solid(*j as usize))
+            || memory.cache.keeps_overlap(key);
+        *keeps.entry(key).or_default() |= kept && c.separation_m < 0.0;
+    }
+    memory.made_solid.retain(|&k| !env.stepping(k));
     if raw.is_empty() {
         memory.cache.pairs.clear();
         memory.last.clear();
@@ -309,15 +344,19 @@ pub(super) fn solve(
                 dt_s,
             );
             let (p_n, p_t, twist) = warm.unwrap_or((0.0, DVec3::ZERO, 0.0));
+            // A point of a pair that keeps its overlap is touching, not pushed apart, and the
+            // pair, in contact from the start, takes no restitution.
+            let kept = keeps[&(*a as u32, *other)];
+            let s = c.separation_m as f64;
             ContactPoint {
                 a: *a,
                 b,
                 point_m: c.point_m.as_dvec3(),
                 normal: c.normal.as_dvec3(),
-                separation_m: c.separation_m as f64,
+                separation_m: if kept { s.max(0.0) } else { s },
                 restitution,
                 friction,
-                lasting: cache.carried_load((*a as u32, *other)),
+                lasting: kept || cache.carried_load((*a as u32, *other)),
                 normal_impulse: p_n,
                 tangent_impulse: p_t,
                 twist_impulse: twist,
@@ -334,11 +373,14 @@ pub(super) fn solve(
     stats.contact_impulses += points.iter().filter(|p| p.normal_impulse > 0.0).count() as u64;
     let mut pairs: HashMap<PairKey, CachedPair> = HashMap::new();
     for ((a, other, c), p) in raw.iter().zip(&points) {
-        let pair = pairs
-            .entry((*a as u32, *other))
-            .or_insert((dt_s, false, Vec::new()));
-        pair.1 |= p.normal_impulse > 0.0;
-        pair.2.push((
+        let key = (*a as u32, *other);
+        let pair = pairs.entry(key).or_insert_with(|| CachedPair {
+            dt_s,
+            keeps_overlap: keeps[&key],
+            ..CachedPair::default()
+        });
+        pair.loaded |= p.normal_impulse > 0.0;
+        pair.points.push((
             local(*a, c.point_m),
             (p.normal_impulse, p.tangent_impulse, p.twist_impulse),
         ));
@@ -347,12 +389,12 @@ pub(super) fn solve(
     memory.last = raw
         .iter()
         .zip(&points)
-        .map(|((a, other, _), p)| ContactReport {
+        .map(|((a, other, c), p)| ContactReport {
             a: *a as u32,
             b: *other,
             point_m: p.point_m,
             normal: p.normal,
-            separation_m: p.separation_m,
+            separation_m: c.separation_m as f64,
             normal_impulse_n_s: p.normal_impulse,
         })
         .collect();

@@ -87,6 +87,9 @@ pub(crate) struct ContactMemory {
     pub(crate) impacts: HashMap<(usize, SolidOf), Impact>,
     /// The contact points of the last substep.
     pub(crate) last: Vec<ContactReport>,
+    /// Objects made solid by a command since their last contact pass: the overlaps their frozen
+    /// shape starts with are kept, not pushed out (`contact.rs`).
+    pub(crate) made_solid: Vec<usize>,
 }
 
 /// The world split for a stage: what it reads ([`Env`]) and what it may change.
