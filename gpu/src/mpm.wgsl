@@ -83,7 +83,8 @@ struct Collider {
 // py, pz each as two such sums, of the positive terms and of the negative terms' magnitudes
 // (read as their difference); then the node's gap to the gated colliders (the bitwise NOT of an
 // order-preserving u32 form of the f32, so that 0 is "no particle's column reaches it" and
-// atomicMax takes the smallest gap).
+// atomicMax takes the smallest gap, with the code of the normal there in its low bits:
+// encode_gap).
 // After the nodes, per collider 7 words: the normal impulse it gave the grid in the substep,
 // n n·Δp summed over its nodes (grid_update.rs's collider impulses), as three 64-bit sums at the
 // momentum scale, then the count of nodes with mass inside it (whether or not they took its
@@ -109,6 +110,13 @@ const COLLIDER_WORDS: u32 = 7u;
 // A node counts as reached when the gap is within this fraction of the particle's size
 // (mpm/reach.rs REACH_TOLERANCE).
 const REACH_TOLERANCE: f32 = 0.25;
+// A gated collider's rule also acts at nodes up to OUTSIDE cells outside it, but not within
+// ON_SURFACE cells of it, and only where the node's normal is within 60° of the gap's
+// (mpm/reach.rs OUTSIDE, ON_SURFACE, NodeGaps::takes_outside).
+const OUTSIDE: f32 = 0.5;
+const ON_SURFACE: f32 = 1.0e-3;
+// Low bits of a node's gap word that hold its normal's code (encode_gap).
+const GAP_NORMAL_MASK: u32 = 0x3FFu;
 // Workgroups per row of a dispatch (the limit per dimension); work items are numbered row by
 // row, 64 per workgroup.
 const ROW: u32 = 65535u;
@@ -308,11 +316,34 @@ fn kirchhoff(m: Material, f: mat3x3<f32>, c: mat3x3<f32>, jp: f32) -> mat3x3<f32
     return tau;
 }
 
-// The NOT of an order-preserving u32 form of `gap` (module docs of the grid buffer).
-fn encode_gap(gap: f32) -> u32 {
+// The NOT of an order-preserving u32 form of `gap` (module docs of the grid buffer) whose low
+// GAP_NORMAL_BITS hold the octahedral code of the solid's normal at the particle (mpm/reach.rs
+// keeps it for the test of nodes outside the surface): the smallest gap wins, to 2^-13 of
+// itself, and among equal gaps the smallest code.
+fn encode_gap(gap: f32, n: vec3<f32>) -> u32 {
     let bits = bitcast<u32>(gap);
     let ordered = select(~bits, bits ^ 0x80000000u, gap >= 0.0);
-    return ~ordered;
+    return ~((ordered & ~GAP_NORMAL_MASK) | encode_normal(n));
+}
+
+// The octahedral code of unit vector n (Meyer et al. 2010, "On floating-point normal
+// vectors"), 31 levels per coordinate so that the axes are exact: 5 bits each.
+fn encode_normal(n: vec3<f32>) -> u32 {
+    var p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+    if n.z < 0.0 {
+        p = (vec2<f32>(1.0) - abs(p.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+    }
+    let k = vec2<u32>(round(clamp(p, vec2<f32>(-1.0), vec2<f32>(1.0)) * 15.0 + 15.0));
+    return k.x | (k.y << 5u);
+}
+
+fn decode_normal(code: u32) -> vec3<f32> {
+    let p = vec2<f32>(f32(code & 31u), f32((code >> 5u) & 31u)) / 15.0 - vec2<f32>(1.0);
+    var n = vec3<f32>(p, 1.0 - abs(p.x) - abs(p.y));
+    if n.z < 0.0 {
+        n = vec3<f32>((vec2<f32>(1.0) - abs(n.yx)) * select(vec2<f32>(-1.0), vec2<f32>(1.0), n.xy >= vec2<f32>(0.0)), n.z);
+    }
+    return normalize(n);
 }
 
 // The smallest gap of a node (m), or a huge value where no column reached it.
@@ -321,9 +352,18 @@ fn node_gap(slot: u32) -> f32 {
     if stored == 0u {
         return 3.0e38;
     }
-    let ordered = ~stored;
+    let ordered = ~stored & ~GAP_NORMAL_MASK;
     let bits = select(~ordered, ordered ^ 0x80000000u, (ordered & 0x80000000u) != 0u);
     return bitcast<f32>(bits);
+}
+
+// The solid's normal at the particle that gave a node its gap (zero where none did).
+fn node_gap_normal(slot: u32) -> vec3<f32> {
+    let stored = atomicLoad(&grid_sum[slot + NODE_GAP]);
+    if stored == 0u {
+        return vec3<f32>(0.0);
+    }
+    return decode_normal(~stored & GAP_NORMAL_MASK);
 }
 
 // Signed distance (m, negative inside) of x from a plane or box collider and its outward
@@ -381,7 +421,7 @@ fn scatter_gaps(x: vec3<f32>, volume0: f32, s: Stencil) {
     // A particle already inside holds every node of its stencil there (mpm/reach.rs).
     let r = max(0.5 * dx, 0.75 * size);
     let radius2 = select(r * r, 3.0e38, phi < 0.0);
-    let encoded = encode_gap(gap);
+    let encoded = encode_gap(gap, n);
     for (var kk = 0; kk < 3; kk++) {
         for (var jj = 0; jj < 3; jj++) {
             for (var ii = 0; ii < 3; ii++) {
@@ -534,13 +574,26 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
         if !collider_active(c, t) {
             continue;
         }
-        let n = contact_normal(c, x - collider_offset(c, t));
-        if dot(n, n) > 0.0 {
+        var n = contact_normal(c, x - collider_offset(c, t));
+        let inside = dot(n, n) > 0.0;
+        if inside {
             atomicAdd(&grid_sum[n_nodes * NODE_WORDS + COLLIDER_WORDS * k + 6u], 1u);
+        } else if c.gated != 0u {
+            let sd = collider_distance(c, x - collider_offset(c, t));
+            if sd.w >= ON_SURFACE * params.dx && sd.w <= OUTSIDE * params.dx
+                && dot(node_gap_normal(slot), sd.xyz) > 0.5 {
+                n = sd.xyz;
+            }
+        }
+        if dot(n, n) > 0.0 {
             let vc = collider_velocity(c, t);
             // A gated collider's rule only where material meets its surface within the substep.
             if c.gated != 0u && !(node_gap(slot) <= max(-dot(v - vc, n), 0.0) * params.dt) {
                 continue;
+            }
+            if !inside {
+                // It holds material at the surface: a contact, as a node inside is.
+                atomicAdd(&grid_sum[n_nodes * NODE_WORDS + COLLIDER_WORDS * k + 6u], 1u);
             }
             let before = v;
             v = apply_surface(v - vc, n, c.surface, c.friction) + vc;

@@ -5,7 +5,7 @@
 //! unless `SPLATPHYS_REQUIRE_GPU` is set (CI sets it): then a missing adapter fails.
 
 use glam::Vec3A;
-use splatphys_core::collider::{BoxShape, Collider, Shape, Surface};
+use splatphys_core::collider::{BoxShape, Collider, Plane, Shape, Surface};
 use splatphys_core::material::{ConstitutiveModel, Material, MaterialModel, MaterialSpec};
 use splatphys_core::mpm::{MpmSystem, Particles, TimeStepPolicy};
 use splatphys_gpu::mpm::check_supported;
@@ -193,22 +193,53 @@ fn the_standard_cube_matches_the_cpu_solver_through_its_landing() {
 fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
     let Some(ctx) = context() else { return };
     let g = Vec3A::new(0.0, 0.0, -9.8);
-    let mut cpu = cube(10, 1.0 / 32.0, Vec3A::new(0.8, 0.0, -1.0), g, jelly());
+    let dx = 1.0 / 32.0;
     // A floor that lets material leave (its nodes take the rule only where material reaches
-    // them: the gap check) with Coulomb friction, a cell above the domain's floor.
-    let plane = splatphys_core::collider::Plane::new(Vec3A::new(0.0, 0.0, 0.2), Vec3A::Z).unwrap();
-    cpu.colliders
-        .push(Collider::fixed(Shape::Plane(plane), Surface::Separate, 0.3));
-    let mut lowest = f32::MAX;
-    let compared = against_cpu(ctx, &mut cpu, 3000, |cpu| {
-        lowest = cpu.particles.x.iter().map(|x| x.z).fold(lowest, f32::min);
-    });
-    println!("on a plane: lowest particle ever {lowest:.4} m");
-    // It landed on the plane (reached it, never passed it) and friction slowed it.
-    assert!(lowest > 0.19 && lowest < 0.21, "{lowest}");
-    let vx = cpu.particles.v.iter().map(|v| v.x).sum::<f32>() / cpu.particles.len() as f32;
-    assert!(vx < 0.75, "friction should have slowed it: {vx}");
-    compared.assert_close("on a plane", 1.0 / 32.0);
+    // them: the gap check) with Coulomb friction: a plane 0.4 of a cell above a node layer, one
+    // a tenth of a cell below the next (where the nodes half a cell outside it take its rule
+    // too), and a box with its top there.
+    let top = 6.9 * dx;
+    let floors = [
+        (
+            "plane",
+            0.2,
+            Shape::Plane(Plane::new(Vec3A::new(0.0, 0.0, 0.2), Vec3A::Z).unwrap()),
+        ),
+        (
+            "plane below a node layer",
+            top,
+            Shape::Plane(Plane::new(Vec3A::new(0.0, 0.0, top), Vec3A::Z).unwrap()),
+        ),
+        (
+            "box below a node layer",
+            top,
+            Shape::Box(
+                BoxShape::new(Vec3A::new(0.05, 0.05, 0.1), Vec3A::new(0.95, 0.95, top)).unwrap(),
+            ),
+        ),
+    ];
+    for (what, height, shape) in floors {
+        let mut cpu = cube(10, dx, Vec3A::new(0.8, 0.0, -1.0), g, jelly());
+        cpu.colliders
+            .push(Collider::fixed(shape, Surface::Separate, 0.3));
+        let mut lowest = f32::MAX;
+        let compared = against_cpu(ctx.clone(), &mut cpu, 3000, |cpu| {
+            lowest = cpu.particles.x.iter().map(|x| x.z).fold(lowest, f32::min);
+        });
+        println!(
+            "on a {what}: lowest particle ever {:.4} m above it",
+            lowest - height
+        );
+        // It landed on the floor (reached it: particles 3 cm apart rest with their centres
+        // about half that above it; never passed it) and friction slowed it.
+        assert!(
+            lowest > height - 0.005 && lowest < height + 0.02,
+            "{what}: {lowest}"
+        );
+        let vx = cpu.particles.v.iter().map(|v| v.x).sum::<f32>() / cpu.particles.len() as f32;
+        assert!(vx < 0.75, "{what}: friction should have slowed it: {vx}");
+        compared.assert_close(what, dx);
+    }
 }
 
 #[test]
@@ -219,7 +250,7 @@ fn the_impulse_a_plane_gives_a_cube_resting_on_it_is_the_cpus() {
     let Some(ctx) = context() else { return };
     let g = Vec3A::new(0.0, 0.0, -9.8);
     let mut cpu = cube(8, 1.0 / 32.0, Vec3A::ZERO, g, jelly());
-    let plane = splatphys_core::collider::Plane::new(Vec3A::new(0.0, 0.0, 0.29), Vec3A::Z).unwrap();
+    let plane = Plane::new(Vec3A::new(0.0, 0.0, 0.29), Vec3A::Z).unwrap();
     cpu.colliders
         .push(Collider::fixed(Shape::Plane(plane), Surface::Sticky, 0.3));
     let mut gpu = GpuMpm::new(ctx, &cpu).expect("supported");
@@ -251,7 +282,7 @@ fn a_moving_plane_lifts_and_drags_a_cube_as_on_the_cpu() {
     let mut cpu = cube(10, 1.0 / 32.0, Vec3A::ZERO, g, jelly());
     // A floor rising at 0.3 m/s and sliding at 0.4 m/s from 0.02 s on, with friction: it meets
     // the falling cube, then carries it up and along.
-    let plane = splatphys_core::collider::Plane::new(Vec3A::new(0.0, 0.0, 0.15), Vec3A::Z).unwrap();
+    let plane = Plane::new(Vec3A::new(0.0, 0.0, 0.15), Vec3A::Z).unwrap();
     let mut moving = Collider::fixed(Shape::Plane(plane), Surface::Separate, 0.4);
     moving.velocity_m_s = Vec3A::new(0.4, 0.0, 0.3);
     moving.active_s = Some((0.02, 10.0));
