@@ -50,7 +50,7 @@ use super::settings::{ContactSolver, SolverSettings};
 /// bodies"; Stewart 2000, "Rigid-body dynamics with friction and impact", section 5): a body
 /// landing on points whose normals disagree, or whose spin turns one point's approach into
 /// another's separation, can leave faster than it came (measured: a solid of a frozen
-/// jelly's shape landing at 1.2 m/s left at 1.6 m/s, its spin from 12 to 36 rad/s). And
+/// jelly's shape landing at 1.2 m/s left at 1.5 m/s, its spin from 12 to 36 rad/s). And
 /// warm starting: the last substep's impulses, applied first, are more than this substep
 /// needs when a light body is squeezed between a heavy one and a support (a 4.5 g box under a
 /// 267 g solid), and the iterations, slow at such mass ratios, leave part of the excess.

@@ -12,7 +12,7 @@
 //! An object made solid by a command starts where its material lay, and its frozen shape's
 //! collision surface (sampled on cells, up to a cell outside its particles) starts inside what
 //! it touched. Pushing that overlap out lifts it and gives it energy, so each pair it is in at
-//! its first contact pass keeps its overlap ([`CachedPair::keeps_overlap`]): its points are held
+//! its first contact pass keeps its overlap (`CachedPair::keeps_overlap`): its points are held
 //! at v_n ≥ 0 but not pushed apart, and take no restitution, until the pair parts.
 //!
 //! Deformable objects never come here: against a solid they meet its boundary nodes on their
@@ -45,7 +45,7 @@ pub enum Other {
 /// A pair across substeps: object A and the other side.
 pub type PairKey = (u32, Other);
 
-/// Accumulated impulses of the last substep's points, for warm starting ([`CachedPair`]). A new
+/// Accumulated impulses of the last substep's points, for warm starting (`CachedPair`). A new
 /// point takes the impulses of the nearest old point of its pair within [`WARM_RADIUS_CELLS`]
 /// (each old point once), scaled by the ratio of the substeps, so warm starting survives a
 /// manifold that picks different surface points as the bodies move, and pairs of islands
