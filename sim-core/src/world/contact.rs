@@ -272,7 +272,10 @@ pub(super) fn solve(
             || memory.cache.keeps_overlap(key);
         *keeps.entry(key).or_default() |= kept && c.separation_m < 0.0;
     }
-    memory.made_solid.retain(|&k| !env.stepping(k));
+    // Consumed by the first pass that sees it (a static object is seen by every island's).
+    memory
+        .made_solid
+        .retain(|&k| k < n && !env.present(k, &bodies[k]));
     if raw.is_empty() {
         memory.cache.pairs.clear();
         memory.last.clear();
