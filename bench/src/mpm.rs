@@ -24,6 +24,9 @@ use crate::{taichi, thread_pool};
 
 /// Untimed substeps before the clock starts (the Taichi reference compiles its kernel there).
 const WARMUP_SUBSTEPS: u32 = 5;
+/// Substeps `--profile` times kernel by kernel.
+#[cfg(feature = "gpu")]
+const PROFILED_SUBSTEPS: u32 = 100;
 
 /// Arguments of `bench mpm`.
 #[derive(Args, Debug)]
@@ -71,6 +74,11 @@ pub struct MpmBenchArgs {
     /// runs jelly only.
     #[arg(long, default_value_t = MaterialModel::FixedCorotated)]
     pub model: MaterialModel,
+    /// With `--device gpu`: after the timed run, time each kernel over 100 more substeps
+    /// (GPU timestamps, each kernel in a pass of its own) and add the mean µs of each phase to
+    /// the line (`phases_us`). Needs an adapter with timestamp queries.
+    #[arg(long)]
+    pub profile: bool,
 }
 
 /// Where `bench mpm` runs the kernels.
@@ -256,6 +264,16 @@ fn gpu_run(a: &MpmBenchArgs, sys: &mut MpmSystem) -> Result<serde_json::Value> {
     gpu.read_particles(&mut sys.particles)?;
     let count = sys.particles.len();
     let (com_z, momentum_z) = com_and_momentum_z(&sys.particles);
+    let phases = if a.profile {
+        let profile = gpu.profile(PROFILED_SUBSTEPS, dt)?;
+        gpu.check()?;
+        let phases: serde_json::Map<String, serde_json::Value> = (profile.phases_us.iter())
+            .map(|(name, us)| (name.clone(), json!(us)))
+            .collect();
+        Some(phases)
+    } else {
+        None
+    };
     Ok(json!({
         "bench": "mpm",
         "impl": "splatphys",
@@ -271,6 +289,7 @@ fn gpu_run(a: &MpmBenchArgs, sys: &mut MpmSystem) -> Result<serde_json::Value> {
         "particle_substeps_per_s": (count as f64 * a.steps as f64) / seconds,
         "com_z_m": com_z,
         "momentum_z_kg_m_s": momentum_z,
+        "phases_us": phases,
     }))
 }
 

@@ -23,9 +23,11 @@
 //! grid over the domain bound. What does not (and is refused with [`GpuError::Unsupported`],
 //! naming it, so the caller can stay on the CPU): a system without a domain bound.
 //!
-//! P2G adds into 64-bit fixed-point sums (two 32-bit atomics per value, the carry propagated), so
-//! every node's sum is exact whatever order the particles arrive in: a run gives the same bits
-//! on the same device every time.
+//! P2G adds into fixed-point sums of two 32-bit words that need no carry (each term's part
+//! below 2^16, rounded up or down by a dither hashed from the particle, the node and the
+//! substep, and the rest), so no atomic waits for its old value and a node's sum does not depend
+//! on the order particles arrive in: a run gives the same bits on the same device every time.
+//! [`GpuMpm::profile`] times each kernel.
 
 pub mod backend;
 pub mod context;
@@ -33,7 +35,7 @@ pub mod mpm;
 
 pub use backend::GpuBackend;
 pub use context::GpuContext;
-pub use mpm::GpuMpm;
+pub use mpm::{GpuMpm, Profile};
 
 /// What can go wrong on the GPU path.
 #[derive(Debug, thiserror::Error)]

@@ -15,10 +15,12 @@ use crate::{GpuContext, GpuError};
 
 mod kernels;
 mod moments;
+mod profile;
 mod readback;
 mod upload;
 
 use kernels::Kernels;
+pub use profile::Profile;
 
 /// f32 values per set of moments in the shader's `moments` buffer (`sums.wgsl`).
 const MOMENTS: u32 = 28;
@@ -26,7 +28,7 @@ const MOMENTS: u32 = 28;
 /// sums; the nodes with mass inside it).
 pub(crate) const COLLIDER_WORDS: u64 = 7;
 /// u32 words per grid node in the shader's `grid_sum` (the mass and each momentum component's
-/// positive and negative parts as 64-bit sums, and the node gap).
+/// positive and negative parts as sums of two words, and the node gap).
 pub(crate) const NODE_WORDS: u64 = 15;
 /// Work items per workgroup (`@workgroup_size(64)` in the shader).
 const WORKGROUP: u32 = 64;
@@ -37,10 +39,9 @@ const ROW: u32 = 65_535;
 const MOMENT_GROUPS: u32 = 1024;
 /// Substeps per command buffer that [`GpuMpm::substeps`] submits.
 const SUBMIT_BATCH: u32 = 64;
-/// Momentum's fixed-point scale is 2^61 over the system's mass (rounded to a power of two) and
-/// over this: a node's momentum may reach this many m/s times the system's mass before its sum
-/// could overflow.
-const MOMENTUM_HEADROOM: f32 = 4096.0;
+/// The speed (m/s) at which the heaviest particle's momentum is 2^16 units of P2G's fixed-point
+/// sums for a million particles ([`fixed_point_scales`]).
+const REFERENCE_SPEED_M_S: f32 = 1.0;
 
 /// The shader's `Params` (uniform).
 #[repr(C)]
@@ -107,20 +108,26 @@ const MODEL_SNOW: u32 = 2;
 const MODEL_SAND: u32 = 3;
 const MODEL_VON_MISES: u32 = 4;
 
-/// P2G's fixed-point scales for mass and momentum (units per kg and per kg m/s), powers of two.
-/// Momentum: every node's sum stays below 2^61 / [`MOMENTUM_HEADROOM`] (the total mass at that
-/// speed does), as fine as that allows. Mass: one particle's whole mass below 2^31, so its
-/// contribution to a node is one 32-bit atomic add (the total stays below 2^63 for fewer than
-/// 2^32 particles); a unit is then 2^-31 of the heaviest particle, far finer than f32's rounding
-/// of a node's mass.
-fn fixed_point_scales(total_mass_kg: f64, largest_mass_kg: f32) -> (f32, f32) {
-    let exponent = |m: f64| m.max(1e-30).log2().ceil() as i32;
-    let s_p = 61 - exponent(total_mass_kg);
-    let s_m = (31 - exponent(f64::from(largest_mass_kg))).min(61 - exponent(total_mass_kg));
-    (
-        2f32.powi(s_m.clamp(-100, 100)),
-        2f32.powi(s_p.clamp(-100, 100)) / MOMENTUM_HEADROOM,
-    )
+/// P2G's fixed-point scales for mass and momentum (units per kg and per kg m/s), powers of two,
+/// for `n` particles the heaviest of which weighs `largest_mass_kg`.
+///
+/// A node's sum is two 32-bit words: one sums every term's part below 2^16 (rounded up or down
+/// with a dither, so without bias), the other the rest (`add_magnitude` in the shader). Neither
+/// carries while a node takes fewer than 2^16 terms in a substep (65,536 particles within 1.5
+/// cells of it: about 2,400 a cell, where MPM uses 8 to 27) and its sum stays below 2^48. For a
+/// million particles or more the scales put the heaviest particle's mass, and its momentum at
+/// [`REFERENCE_SPEED_M_S`], at 2^16 units: a mass term is then always one atomic add (a weight
+/// is at most 0.42) and a momentum term one below about 2.4 times that speed. A dithered term is
+/// off by a fraction of a unit, at random, so an object's momentum wanders by about
+/// sqrt(terms) units a substep, relatively more for fewer particles: below a million the units
+/// are finer by half a bit for every bit fewer of particles (at most 2^8 finer), which keeps
+/// the wander relative to the object's momentum at the million-particle level, for more atomic
+/// adds where there are few particles to add.
+fn fixed_point_scales(n: u32, largest_mass_kg: f32) -> (f32, f32) {
+    let finer = ((21 - n.max(1).next_power_of_two().ilog2() as i32).max(0) / 2).min(8);
+    let exponent = f64::from(largest_mass_kg).max(1e-30).log2().ceil() as i32;
+    let scale = 2f32.powi((16 + finer - exponent).clamp(-100, 100));
+    (scale, scale / REFERENCE_SPEED_M_S)
 }
 
 /// The GPU form of `materials`: every model of splatphys-core runs there.
@@ -303,9 +310,8 @@ impl GpuMpm {
         let n_nodes = dims.x as u64 * dims.y as u64 * dims.z as u64;
         let n_nodes =
             u32::try_from(n_nodes).map_err(|_| unsupported("a grid of more than 2^32 nodes"))?;
-        let total_mass: f64 = p.mass_kg.iter().map(|&m| f64::from(m)).sum();
         let largest_mass = p.mass_kg.iter().fold(0f32, |a, &m| a.max(m));
-        let (scale_m, scale_p) = fixed_point_scales(total_mass, largest_mass);
+        let (scale_m, scale_p) = fixed_point_scales(n, largest_mass);
         let params = Params {
             grid_dims: dims.to_array(),
             n_particles: n,
@@ -497,26 +503,28 @@ impl GpuMpm {
     /// Records one substep (P2G, grid update, G2P and the substep counter) into `encoder`,
     /// with the parameters last written.
     fn encode_substep(&self, encoder: &mut wgpu::CommandEncoder) {
-        let particles = dispatch(self.params.n_particles);
-        let nodes = dispatch(self.n_nodes);
         encoder.clear_buffer(&self.grid_sum, 0, None);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("substep"),
             timestamp_writes: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
-        if self.params.n_particles > 0 {
-            pass.set_pipeline(&self.kernels.p2g);
-            pass.dispatch_workgroups(particles.0, particles.1, 1);
+        for (_, pipeline, groups) in self.substep_kernels() {
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
         }
-        pass.set_pipeline(&self.kernels.grid_update);
-        pass.dispatch_workgroups(nodes.0, nodes.1, 1);
-        if self.params.n_particles > 0 {
-            pass.set_pipeline(&self.kernels.g2p);
-            pass.dispatch_workgroups(particles.0, particles.1, 1);
+    }
+
+    /// A substep's kernels in order, with their names and dispatch sizes: P2G, the grid update,
+    /// G2P (which also ends the substep; `tick` does without particles).
+    fn substep_kernels(&self) -> Vec<(&'static str, &wgpu::ComputePipeline, (u32, u32))> {
+        let k = &self.kernels;
+        let particles = dispatch(self.params.n_particles);
+        let grid = ("grid_update", &k.grid_update, dispatch(self.n_nodes));
+        if self.params.n_particles == 0 {
+            return vec![grid, ("tick", &k.tick, (1, 1))];
         }
-        pass.set_pipeline(&self.kernels.tick);
-        pass.dispatch_workgroups(1, 1, 1);
+        vec![("p2g", &k.p2g, particles), grid, ("g2p", &k.g2p, particles)]
     }
 
     /// Queues the upload of the parameters (before the next submission's work).

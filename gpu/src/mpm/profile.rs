@@ -1,0 +1,116 @@
+//! Where a substep's time goes on the GPU: each kernel in its own compute pass between two
+//! timestamps (wgpu's `TIMESTAMP_QUERY`), for `splatphys bench mpm --device gpu --profile`.
+
+use crate::{GpuError, GpuMpm};
+
+/// Queries one query set holds (wgpu's limit).
+const MAX_QUERIES: u32 = 4096;
+
+/// The mean time of each phase of a substep on the GPU (µs), in order: `clear` (zeroing the
+/// grid's sums), each kernel, and `substep` (from the start of the clear to the end of the
+/// last kernel, gaps between passes included).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Profile {
+    /// (phase, mean µs per substep).
+    pub phases_us: Vec<(String, f64)>,
+    /// Substeps measured.
+    pub substeps: u32,
+}
+
+impl GpuMpm {
+    /// Runs `count` substeps of `dt_s` (at most 4096 / (2 × kernels + 1) of them; fewer are run
+    /// if more are asked), each kernel in a pass of its own with timestamps at its start and
+    /// end, and returns the mean time of each phase. The passes of their own make a substep a
+    /// little slower than [`GpuMpm::substeps`] runs it.
+    ///
+    /// # Errors
+    /// [`GpuError::Unsupported`] when the device has no timestamp queries,
+    /// [`GpuError::Readback`].
+    pub fn profile(&mut self, count: u32, dt_s: f32) -> Result<Profile, GpuError> {
+        let device = &self.ctx.device;
+        if !device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+            return Err(GpuError::Unsupported {
+                what: format!("timestamp queries on {}", self.ctx.name()),
+            });
+        }
+        self.params.dt = dt_s;
+        self.params.t0 = self.time_s as f32;
+        self.write_params();
+        self.ctx
+            .queue
+            .write_buffer(&self.status, 12, bytemuck::bytes_of(&0u32));
+        let kernels = self.substep_kernels();
+        let per = 1 + 2 * kernels.len() as u32;
+        let count = count.clamp(1, MAX_QUERIES / per);
+        let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("profile"),
+            ty: wgpu::QueryType::Timestamp,
+            count: count * per,
+        });
+        let size = 8 * u64::from(count * per);
+        let resolved = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("profile"),
+            size,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("profile"),
+        });
+        for s in 0..count {
+            let base = s * per;
+            // An empty pass marks the start, before the grid's sums are cleared (a transfer,
+            // outside passes).
+            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("start"),
+                timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                    query_set: &queries,
+                    beginning_of_pass_write_index: Some(base),
+                    end_of_pass_write_index: None,
+                }),
+            });
+            encoder.clear_buffer(&self.grid_sum, 0, None);
+            for (i, (name, pipeline, groups)) in kernels.iter().enumerate() {
+                let at = base + 1 + 2 * i as u32;
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(name),
+                    timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                        query_set: &queries,
+                        beginning_of_pass_write_index: Some(at),
+                        end_of_pass_write_index: Some(at + 1),
+                    }),
+                });
+                pass.set_bind_group(0, &self.bind_group, &[]);
+                pass.set_pipeline(pipeline);
+                pass.dispatch_workgroups(groups.0, groups.1, 1);
+            }
+        }
+        encoder.resolve_query_set(&queries, 0..count * per, &resolved, 0);
+        let ticks: Vec<u64> = self.read_after(encoder, &[(&resolved, 0, size)], |bytes| {
+            bytemuck::pod_collect_to_vec(bytes[0])
+        })?;
+        let names: Vec<&str> = kernels.iter().map(|k| k.0).collect();
+        self.substeps += u64::from(count);
+        self.time_s += f64::from(dt_s) * f64::from(count);
+        let ns_per_tick = f64::from(self.ctx.queue.get_timestamp_period());
+        let us = |from: u64, to: u64| to.saturating_sub(from) as f64 * ns_per_tick * 1e-3;
+        let mut sums = vec![0.0; names.len() + 2];
+        for t in ticks.chunks_exact(per as usize) {
+            sums[0] += us(t[0], t[1]);
+            for i in 0..names.len() {
+                sums[1 + i] += us(t[1 + 2 * i], t[2 + 2 * i]);
+            }
+            sums[names.len() + 1] += us(t[0], t[per as usize - 1]);
+        }
+        let names = std::iter::once("clear")
+            .chain(names)
+            .chain(std::iter::once("substep"));
+        Ok(Profile {
+            phases_us: names
+                .zip(sums)
+                .map(|(name, sum)| (name.to_string(), sum / f64::from(count)))
+                .collect(),
+            substeps: count,
+        })
+    }
+}
