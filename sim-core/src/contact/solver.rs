@@ -68,11 +68,10 @@ pub fn solve(
         ContactSolver::SoftStep => super::soft_step::solve(bodies, contacts, dt_s, settings),
         ContactSolver::SequentialImpulses => sequential_impulses(bodies, contacts, dt_s, settings),
     };
-    let bounces = contacts.iter().any(|c| c.restitution > 0.0);
     let driven = bodies.iter().any(|b| {
         b.is_immovable() && (b.velocity_m_s != DVec3::ZERO || b.omega_rad_s != DVec3::ZERO)
     });
-    if !bounces || driven {
+    if driven || contacts.is_empty() {
         return scheme(bodies, contacts);
     }
     let start = (bodies.to_vec(), contacts.to_vec());
