@@ -461,13 +461,7 @@ impl GpuMpm {
         if count == 0 {
             return;
         }
-        self.params.dt = dt_s;
-        self.params.t0 = self.time_s as f32;
-        self.write_params();
-        // The batch's substep counter (status word 3) starts at 0.
-        self.ctx
-            .queue
-            .write_buffer(&self.status, 12, bytemuck::bytes_of(&0u32));
+        self.begin_batch(dt_s);
         // Submitted in batches, at most two in flight: one command buffer of thousands of
         // substeps held gigabytes on lavapipe.
         let mut in_flight = None;
@@ -491,6 +485,22 @@ impl GpuMpm {
                 });
             }
         }
+        self.end_batch(count, dt_s);
+    }
+
+    /// Queues the parameters of a batch of substeps of `dt_s` starting now, and its substep
+    /// counter (status word 3) at 0.
+    fn begin_batch(&mut self, dt_s: f32) {
+        self.params.dt = dt_s;
+        self.params.t0 = self.time_s as f32;
+        self.write_params();
+        self.ctx
+            .queue
+            .write_buffer(&self.status, 12, bytemuck::bytes_of(&0u32));
+    }
+
+    /// Counts `count` substeps of `dt_s` queued.
+    fn end_batch(&mut self, count: u32, dt_s: f32) {
         self.substeps += u64::from(count);
         self.time_s += f64::from(dt_s) * f64::from(count);
     }
@@ -516,15 +526,26 @@ impl GpuMpm {
     }
 
     /// A substep's kernels in order, with their names and dispatch sizes: P2G, the grid update,
-    /// G2P (which also ends the substep; `tick` does without particles).
-    fn substep_kernels(&self) -> Vec<(&'static str, &wgpu::ComputePipeline, (u32, u32))> {
+    /// G2P (which also ends the substep; `tick` does without particles). No allocation: this
+    /// runs for every substep recorded.
+    fn substep_kernels(
+        &self,
+    ) -> impl Iterator<Item = (&'static str, &wgpu::ComputePipeline, (u32, u32))> {
         let k = &self.kernels;
         let particles = dispatch(self.params.n_particles);
-        let grid = ("grid_update", &k.grid_update, dispatch(self.n_nodes));
-        if self.params.n_particles == 0 {
-            return vec![grid, ("tick", &k.tick, (1, 1))];
-        }
-        vec![("p2g", &k.p2g, particles), grid, ("g2p", &k.g2p, particles)]
+        let any = self.params.n_particles > 0;
+        let last = if any {
+            ("g2p", &k.g2p, particles)
+        } else {
+            ("tick", &k.tick, (1, 1))
+        };
+        [
+            any.then_some(("p2g", &k.p2g, particles)),
+            Some(("grid_update", &k.grid_update, dispatch(self.n_nodes))),
+            Some(last),
+        ]
+        .into_iter()
+        .flatten()
     }
 
     /// Queues the upload of the parameters (before the next submission's work).

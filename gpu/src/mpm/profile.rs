@@ -27,19 +27,14 @@ impl GpuMpm {
     /// [`GpuError::Unsupported`] when the device has no timestamp queries,
     /// [`GpuError::Readback`].
     pub fn profile(&mut self, count: u32, dt_s: f32) -> Result<Profile, GpuError> {
-        let device = &self.ctx.device;
+        let device = self.ctx.device.clone();
         if !device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
             return Err(GpuError::Unsupported {
                 what: format!("timestamp queries on {}", self.ctx.name()),
             });
         }
-        self.params.dt = dt_s;
-        self.params.t0 = self.time_s as f32;
-        self.write_params();
-        self.ctx
-            .queue
-            .write_buffer(&self.status, 12, bytemuck::bytes_of(&0u32));
-        let kernels = self.substep_kernels();
+        self.begin_batch(dt_s);
+        let kernels: Vec<_> = self.substep_kernels().collect();
         let per = 1 + 2 * kernels.len() as u32;
         let count = count.clamp(1, MAX_QUERIES / per);
         let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
@@ -90,8 +85,7 @@ impl GpuMpm {
             bytemuck::pod_collect_to_vec(bytes[0])
         })?;
         let names: Vec<&str> = kernels.iter().map(|k| k.0).collect();
-        self.substeps += u64::from(count);
-        self.time_s += f64::from(dt_s) * f64::from(count);
+        self.end_batch(count, dt_s);
         let ns_per_tick = f64::from(self.ctx.queue.get_timestamp_period());
         let us = |from: u64, to: u64| to.saturating_sub(from) as f64 * ns_per_tick * 1e-3;
         let mut sums = vec![0.0; names.len() + 2];
