@@ -75,8 +75,11 @@ pub struct MpmBenchArgs {
     #[arg(long, default_value_t = MaterialModel::FixedCorotated)]
     pub model: MaterialModel,
     /// With `--device gpu`: after the timed run, time each kernel over 100 more substeps
-    /// (GPU timestamps, each kernel in a pass of its own) and add the mean µs of each phase to
-    /// the line (`phases_us`). Needs an adapter with timestamp queries.
+    /// (GPU timestamps, each kernel in a pass of its own), the two kernels of the moments a
+    /// scene reads back after every substep (`moments`, `moments_total`), and on the host's
+    /// clock a substep followed by that read-back, as a scene takes it
+    /// (`substep_and_report_wall`); the mean µs of each are added to the line (`phases_us`).
+    /// Needs an adapter with timestamp queries.
     #[arg(long)]
     pub profile: bool,
 }
@@ -267,9 +270,14 @@ fn gpu_run(a: &MpmBenchArgs, sys: &mut MpmSystem) -> Result<serde_json::Value> {
     let phases = if a.profile {
         let profile = gpu.profile(PROFILED_SUBSTEPS, dt)?;
         gpu.check()?;
-        let phases: serde_json::Map<String, serde_json::Value> = (profile.phases_us.iter())
-            .map(|(name, us)| (name.clone(), json!(us)))
-            .collect();
+        let mut phases: serde_json::Map<String, serde_json::Value> =
+            (profile.phases_us.iter())
+                .map(|(name, us)| (name.clone(), json!(us)))
+                .collect();
+        // A substep as a scene takes it on the device: then its report, read back.
+        let reference = glam::Vec3A::splat(0.5);
+        let round_trip = gpu.round_trip_us(PROFILED_SUBSTEPS, dt, reference)?;
+        phases.insert("substep_and_report_wall".into(), json!(round_trip));
         Some(phases)
     } else {
         None

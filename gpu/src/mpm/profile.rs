@@ -1,5 +1,11 @@
 //! Where a substep's time goes on the GPU: each kernel in its own compute pass between two
-//! timestamps (wgpu's `TIMESTAMP_QUERY`), for `splatphys bench mpm --device gpu --profile`.
+//! timestamps (wgpu's `TIMESTAMP_QUERY`), for `splatphys bench mpm --device gpu --profile`; and
+//! what a substep costs as a `World` runs it, on the host's clock (the substep, then its report
+//! read back: [`GpuMpm::round_trip_us`]).
+
+use std::time::Instant;
+
+use glam::Vec3A;
 
 use crate::{GpuError, GpuMpm};
 
@@ -7,8 +13,9 @@ use crate::{GpuError, GpuMpm};
 const MAX_QUERIES: u32 = 4096;
 
 /// The mean time of each phase of a substep on the GPU (µs), in order: `clear` (zeroing the
-/// grid's sums), each kernel, and `substep` (from the start of the clear to the end of the
-/// last kernel, gaps between passes included).
+/// grid's sums), each kernel, `substep` (from the start of the clear to the end of the last
+/// kernel, gaps between passes included), then the two kernels of the moments a `World` reads
+/// back after every substep on the device (`moments`, `moments_total`: `sums.wgsl`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Profile {
     /// (phase, mean µs per substep).
@@ -34,7 +41,16 @@ impl GpuMpm {
             });
         }
         self.begin_batch(dt_s);
-        let kernels: Vec<_> = self.substep_kernels().collect();
+        let mut kernels: Vec<_> = self.substep_kernels().collect();
+        let in_substep = kernels.len();
+        kernels.extend([
+            (
+                "moments",
+                &self.kernels.moments_per_group,
+                (self.params.n_groups, 1),
+            ),
+            ("moments_total", &self.kernels.moments_total, (1, 1)),
+        ]);
         let per = 1 + 2 * kernels.len() as u32;
         let count = count.clamp(1, MAX_QUERIES / per);
         let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
@@ -88,17 +104,22 @@ impl GpuMpm {
         self.end_batch(count, dt_s);
         let ns_per_tick = f64::from(self.ctx.queue.get_timestamp_period());
         let us = |from: u64, to: u64| to.saturating_sub(from) as f64 * ns_per_tick * 1e-3;
+        // clear, each kernel, substep.
         let mut sums = vec![0.0; names.len() + 2];
         for t in ticks.chunks_exact(per as usize) {
             sums[0] += us(t[0], t[1]);
             for i in 0..names.len() {
                 sums[1 + i] += us(t[1 + 2 * i], t[2 + 2 * i]);
             }
-            sums[names.len() + 1] += us(t[0], t[per as usize - 1]);
+            sums[names.len() + 1] += us(t[0], t[2 * in_substep]);
         }
+        // The substep's phases, the substep, then the moments' kernels.
+        let substep = sums.pop().unwrap_or_default();
+        sums.insert(1 + in_substep, substep);
         let names = std::iter::once("clear")
-            .chain(names)
-            .chain(std::iter::once("substep"));
+            .chain(names[..in_substep].iter().copied())
+            .chain(std::iter::once("substep"))
+            .chain(names[in_substep..].iter().copied());
         Ok(Profile {
             phases_us: names
                 .zip(sums)
@@ -106,5 +127,30 @@ impl GpuMpm {
                 .collect(),
             substeps: count,
         })
+    }
+}
+
+impl GpuMpm {
+    /// The mean wall time (µs, on the host's clock) of `count` substeps of `dt_s` taken one at a
+    /// time as a `World` takes them on the device: each queued, then its report (moments about
+    /// `reference` m, the colliders' impulses, the failure check) recorded, submitted and read
+    /// back ([`GpuMpm::report`]) before the next. Against the kernels' time this is what the
+    /// round trip costs.
+    ///
+    /// # Errors
+    /// As [`GpuMpm::report`].
+    pub fn round_trip_us(
+        &mut self,
+        count: u32,
+        dt_s: f32,
+        reference: Vec3A,
+    ) -> Result<f64, GpuError> {
+        let count = count.max(1);
+        let started = Instant::now();
+        for _ in 0..count {
+            self.substep(dt_s);
+            self.report(reference)?;
+        }
+        Ok(started.elapsed().as_secs_f64() * 1e6 / f64::from(count))
     }
 }
