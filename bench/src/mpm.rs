@@ -270,10 +270,9 @@ fn gpu_run(a: &MpmBenchArgs, sys: &mut MpmSystem) -> Result<serde_json::Value> {
     let phases = if a.profile {
         let profile = gpu.profile(PROFILED_SUBSTEPS, dt)?;
         gpu.check()?;
-        let mut phases: serde_json::Map<String, serde_json::Value> =
-            (profile.phases_us.iter())
-                .map(|(name, us)| (name.clone(), json!(us)))
-                .collect();
+        let mut phases: serde_json::Map<String, serde_json::Value> = (profile.phases_us.iter())
+            .map(|(name, us)| (name.clone(), json!(us)))
+            .collect();
         // A substep as a scene takes it on the device: then its report, read back.
         let reference = glam::Vec3A::splat(0.5);
         let round_trip = gpu.round_trip_us(PROFILED_SUBSTEPS, dt, reference)?;

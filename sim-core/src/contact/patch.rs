@@ -36,7 +36,7 @@ pub struct ContactPatch {
     /// Torsional impulse on B about `normal` (N m s).
     pub twist_impulse: f64,
     /// Rolling-resistance angular impulse on B, in the tangent plane (N m s).
-    rolling_impulse: DVec3,
+    pub(super) rolling_impulse: DVec3,
     /// Coulomb friction μ of the pair.
     friction: f64,
     /// Rolling resistance b of the pair (m).
