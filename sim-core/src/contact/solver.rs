@@ -44,7 +44,7 @@ use super::settings::{ContactSolver, SolverSettings};
 ///
 /// Contact never adds energy: where the solve leaves the bodies more kinetic energy than they
 /// came with plus the work the driven (immovable, moving) bodies did on them through its
-/// impulses ([`drive_work_j`]), the substep is solved again from zero impulses with e = 0. Two
+/// impulses (`drive_work_j`), the substep is solved again from zero impulses with e = 0. Two
 /// things can add it. Per-point restitution (each
 /// point's Newton target −e v_n) is exact for one point but not for simultaneous impacts at
 /// several (Baraff 1989, "Analytical methods for dynamic simulation of non-penetrating rigid
