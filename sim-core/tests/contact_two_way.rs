@@ -185,7 +185,8 @@ fn a_block_on_a_jelly_sinks_by_the_uniaxial_strain_and_stays() {
 
 /// How much the 10 cm jelly cube (E `youngs_pa`, ν 0.3, 1000 kg/m³, Kelvin–Voigt 50 Pa·s, 1 cm
 /// grid, two particles per cell along each axis) on a floor is shorter between its top and
-/// bottom layers of particles after 1.5 s than at the start (m), with a rigid block 1 cm thick
+/// bottom layers of particles at the end (1.5 s with a block, 0.75 s without) than at the start
+/// (m), with a rigid block 1 cm thick
 /// of density `block_density` (kg/m³) laid on its whole top, or without one; and the block's
 /// mass (kg).
 fn damped_cube_compression(youngs_pa: f64, block_density: Option<f64>) -> (f64, f64) {

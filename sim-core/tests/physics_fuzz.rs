@@ -17,7 +17,7 @@
 //! `SPLATPHYS_PHYSICS_FUZZ_FREEZE=1` also draws the jelly made rigid while in contact (another
 //! set of scenes): its frozen shape starts inside what it touches, and a thin or wrapped one
 //! can later sink a cell or more into a support between substeps and be pushed out, which
-//! lifts it; 4 of those 1,000 scenes still gain 1–39 % in a frame (docs' limitations).
+//! lifts it; 3 of those 1,000 scenes still gain 1–10 % in a frame (docs' limitations).
 
 use glam::Vec3A;
 use proptest::prelude::*;
