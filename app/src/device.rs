@@ -73,8 +73,8 @@ fn open() -> Result<std::sync::Arc<dyn splatphys_core::world::DeviceBackend>, St
         Ok(b) => {
             if b.is_software() {
                 eprintln!(
-                    "warning: {} is a software adapter: slower than the CPU path, and its memory \
-                     grows with every substep (for checks, not for runs)",
+                    "warning: {} is a software adapter: slower than the CPU path (for checks, \
+                     not for runs)",
                     splatphys_core::world::DeviceBackend::name(&b)
                 );
             }

@@ -28,9 +28,8 @@ impl GpuBackend {
         GpuContext::new().map(Self::new)
     }
 
-    /// Whether the adapter is software on the CPU (Mesa's lavapipe): correct, slower than the
-    /// CPU path, and its memory grows with every dispatch (about 1 MB per substep of a
-    /// 12,000-particle object, measured on lavapipe with LLVM 15).
+    /// Whether the adapter is software on the CPU (Mesa's lavapipe): correct, and slower than
+    /// the CPU path.
     pub fn is_software(&self) -> bool {
         self.ctx.info.device_type == wgpu::DeviceType::Cpu
     }

@@ -359,7 +359,7 @@ impl GpuMpm {
         let params_buf = init(
             "params",
             bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
         let xv = init("xv", &nonempty(bytemuck::cast_slice(&xv), 32), rw);
         let cf = init("cf", &nonempty(bytemuck::cast_slice(&cf), 96), rw);

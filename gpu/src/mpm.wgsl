@@ -71,7 +71,11 @@ struct Collider {
     window: vec4<f32>,
 };
 
-@group(0) @binding(0) var<uniform> params: Params;
+// A read-only storage buffer, not a uniform one: Mesa's lavapipe (22.x) compiles a shader
+// again, with the values inlined, every time a pipeline is bound whose branches depend on
+// uniform values only (P2G's `n_gated`): 8 ms a dispatch on two cores, and memory that grows
+// until the pipeline is destroyed. GPUs read a small storage struct as fast.
+@group(0) @binding(0) var<storage, read> params: Params;
 // Per particle: (x, mass), (v, volume0).
 @group(0) @binding(1) var<storage, read_write> xv: array<vec4<f32>>;
 // Per particle: C columns 0..2, then F columns 0..2 (w unused).
