@@ -6,6 +6,7 @@
 //! deeper than one cell inside B when its cell is an interior cell of B (B occupies it and all 6
 //! face neighbours). Touching surfaces only share boundary cells.
 
+use rayon::prelude::*;
 use splatphys_core::material::{MaterialModel, MaterialSpec};
 use splatphys_core::scene::{
     ColliderSpec, Method, ObjectBuilder, Scene, SceneBuilder, SceneObject, Surface,
@@ -268,9 +269,17 @@ fn the_table_scenes_with_a_static_table_object_come_to_rest_on_it() {
                 .object(jelly_ball("right", [0.1, 0.0, 0.045], [-1.0, 0.0, 0.0])),
         ),
     ];
-    for (name, scene) in scenes {
-        let scene = scene.sleep(false).object(static_table());
-        let (w, _) = run_checked(name, scene, None);
+    // The scenes run side by side (each world is mostly serial).
+    let worlds: Vec<_> = scenes
+        .into_par_iter()
+        .map(|(name, scene)| {
+            (
+                name,
+                run_checked(name, scene.sleep(false).object(static_table()), None).0,
+            )
+        })
+        .collect();
+    for (name, w) in worlds {
         for o in w.objects().iter().filter(|o| o.name != "table") {
             let speed = o.velocity_m_s.iter().map(|v| v * v).sum::<f64>().sqrt();
             println!(

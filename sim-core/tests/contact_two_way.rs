@@ -3,6 +3,7 @@
 //! rest on a jelly, a rigid block rests on a jelly near the uniaxial sag without creeping, and a
 //! rigid block covering a damped jelly cube compresses it by the uniaxial strain.
 
+use rayon::prelude::*;
 use splatphys_core::material::MaterialSpec;
 use splatphys_core::scene::{ColliderSpec, ObjectKind, Scene, SceneBuilder, SceneObject, Surface};
 use splatphys_core::world::World;
@@ -250,9 +251,18 @@ fn a_rigid_block_covering_a_damped_jelly_cube_compresses_it_by_the_uniaxial_stra
     // slightly stiffer). The cube's own weight shortens it too, with or without the block: the
     // block's part is the difference. Measured: 0.96 of δ at E = 1e5 Pa (strain 1.6 %), 0.95 at
     // 5e4 Pa; with one particle per cell instead of two the cube is too soft (1.16).
-    for youngs_pa in [1e5, 5e4] {
-        let (alone, _) = damped_cube_compression(youngs_pa, None);
-        let (loaded, m) = damped_cube_compression(youngs_pa, Some(16_000.0));
+    // The four runs side by side (each world is mostly serial).
+    let runs: Vec<_> = [
+        (1e5, None),
+        (1e5, Some(16_000.0)),
+        (5e4, None),
+        (5e4, Some(16_000.0)),
+    ]
+    .into_par_iter()
+    .map(|(e, block)| damped_cube_compression(e, block))
+    .collect();
+    for (youngs_pa, pair) in [1e5, 5e4].into_iter().zip(runs.chunks_exact(2)) {
+        let ((alone, _), (loaded, m)) = (pair[0], pair[1]);
         let uniaxial = m * 9.81 / (0.1 * 0.1) * 0.1 / youngs_pa;
         let by_block = loaded - alone;
         println!(
