@@ -43,7 +43,7 @@ const SUBMIT_BATCH: u32 = 64;
 /// sums for a million particles ([`fixed_point_scales`]).
 const REFERENCE_SPEED_M_S: f32 = 1.0;
 
-/// The shader's `Params` (uniform).
+/// The shader's `Params` (a read-only storage buffer, `mpm.wgsl` says why).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 struct Params {

@@ -74,7 +74,7 @@ struct Collider {
 // A read-only storage buffer, not a uniform one: Mesa's lavapipe (22.x) compiles a shader
 // again, with the values inlined, every time a pipeline is bound whose branches depend on
 // uniform values only (P2G's `n_gated`): 8 ms a dispatch on two cores, and memory that grows
-// until the pipeline is destroyed. GPUs read a small storage struct as fast.
+// until the pipeline is destroyed. (Not measured on a GPU, where both are cached reads.)
 @group(0) @binding(0) var<storage, read> params: Params;
 // Per particle: (x, mass), (v, volume0).
 @group(0) @binding(1) var<storage, read_write> xv: array<vec4<f32>>;
