@@ -22,6 +22,17 @@ impl GpuContext {
     /// [`GpuError::NoAdapter`] when there is none (tests skip then), [`GpuError::Device`] when
     /// it refuses a device.
     pub fn new() -> Result<Self, GpuError> {
+        Self::with_limits(|limits| limits)
+    }
+
+    /// [`GpuContext::new`] with the limits `adjust` makes of the adapter's own (lower ones, to
+    /// see how the GPU path meets a smaller device).
+    ///
+    /// # Errors
+    /// As [`GpuContext::new`].
+    pub fn with_limits(
+        adjust: impl FnOnce(wgpu::Limits) -> wgpu::Limits,
+    ) -> Result<Self, GpuError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
@@ -34,7 +45,7 @@ impl GpuContext {
             label: Some("splatphys-gpu"),
             // Timestamps, where there are, for `GpuMpm::profile`.
             required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
-            required_limits: adapter.limits(),
+            required_limits: adjust(adapter.limits()),
             memory_hints: wgpu::MemoryHints::Performance,
             ..Default::default()
         }))

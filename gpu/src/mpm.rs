@@ -279,7 +279,8 @@ impl GpuMpm {
     /// the caller's: [`GpuMpm::substep`] takes dt).
     ///
     /// # Errors
-    /// [`GpuError::Unsupported`] for a model, collider or layout the GPU path does not run.
+    /// [`GpuError::Unsupported`] for a model, collider or layout the GPU path does not run, or
+    /// a device that allows fewer storage buffers per shader stage than the kernels bind (11).
     pub fn new(ctx: GpuContext, sys: &MpmSystem) -> Result<Self, GpuError> {
         Self::new_over(ctx, sys, None)
     }
@@ -334,6 +335,14 @@ impl GpuMpm {
             field_dw: [0.0; 3],
             _pad1: 0.0,
         };
+        let allowed = ctx.device.limits().max_storage_buffers_per_shader_stage;
+        if allowed < kernels::STORAGE_BUFFERS {
+            return Err(unsupported(format!(
+                "{} storage buffers per shader stage on {} (it allows {allowed})",
+                kernels::STORAGE_BUFFERS,
+                ctx.name()
+            )));
+        }
         let kernels = Kernels::new(&ctx.device);
         let device = &ctx.device;
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {

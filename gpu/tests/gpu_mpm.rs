@@ -441,6 +441,29 @@ fn the_plastic_models_match_the_cpu_solver_through_a_crushing_landing() {
 }
 
 #[test]
+fn a_device_with_too_few_storage_buffers_per_stage_is_refused_with_the_limit() {
+    if context().is_none() {
+        return;
+    }
+    // wgpu's default limit, 8, below the kernels' 11.
+    let ctx = GpuContext::with_limits(|l| wgpu::Limits {
+        max_storage_buffers_per_shader_stage: 8,
+        ..l
+    })
+    .expect("a device with lower limits");
+    let sys = cube(4, 1.0 / 16.0, Vec3A::ZERO, Vec3A::ZERO, jelly());
+    match GpuMpm::new(ctx, &sys) {
+        Err(GpuError::Unsupported { what }) => {
+            assert!(
+                what.contains("11 storage buffers") && what.contains("allows 8"),
+                "{what}"
+            );
+        }
+        other => panic!("expected Unsupported, got {:?}", other.map(|_| ())),
+    }
+}
+
+#[test]
 fn what_the_gpu_does_not_run_is_refused_with_its_name() {
     let mut sys = cube(4, 1.0 / 32.0, Vec3A::ZERO, Vec3A::ZERO, jelly());
     sys.colliders.clear();

@@ -16,6 +16,10 @@ pub struct Kernels {
     pub(crate) rigid_field: wgpu::ComputePipeline,
 }
 
+/// Storage buffers the kernels bind (bindings 0 to 10 of [`Kernels::layout`]): a device must
+/// allow this many per shader stage.
+pub(crate) const STORAGE_BUFFERS: u32 = 11;
+
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
