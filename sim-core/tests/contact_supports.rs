@@ -489,38 +489,46 @@ fn an_oblique_jelly_rebounds_at_e_along_the_normal_whatever_the_friction() {
             .friction(mu)
             .restitution(0.0)
     };
+    let mut runs = Vec::new();
     for (surface, mu) in [
         (Surface::Separate, 0.3),
         (Surface::Separate, 0.6),
         (Surface::Sticky, 1.0),
     ] {
         for e in [0.0f32, 0.5] {
-            let jelly = thrown_jelly(e).friction(mu).velocity([1.0, 0.0, -1.0]);
             for on_slab in [false, true] {
-                let scene = if on_slab {
-                    weightless().object(jelly.clone()).object(slab(surface, mu))
-                } else {
-                    weightless()
-                        .object(jelly.clone())
-                        .collider(collider(surface, mu))
-                };
-                let mut w = World::from_scene(&scene.build().expect("scene")).expect("world");
-                while !w.is_finished() {
-                    w.advance_frame().expect("step");
-                }
-                let v = com(&w, 0).1;
-                let on = if on_slab { "static slab" } else { "collider" };
-                println!(
-                    "{on}, {surface:?}, mu = {mu}, e = {e}: rebound {:.4} m/s, v_x {:.4}",
-                    v[2], v[0]
-                );
-                // The same 1 % as the head-on drops above.
-                assert!(
-                    (v[2] - f64::from(e)).abs() < 0.01,
-                    "{on}, {surface:?}, mu = {mu}, e = {e}: {v:?}"
-                );
+                runs.push((surface, mu, e, on_slab));
             }
         }
+    }
+    // The runs side by side (each world is mostly serial).
+    let rebounds: Vec<_> = runs
+        .into_par_iter()
+        .map(|(surface, mu, e, on_slab)| {
+            let jelly = thrown_jelly(e).friction(mu).velocity([1.0, 0.0, -1.0]);
+            let scene = if on_slab {
+                weightless().object(jelly).object(slab(surface, mu))
+            } else {
+                weightless().object(jelly).collider(collider(surface, mu))
+            };
+            let mut w = World::from_scene(&scene.build().expect("scene")).expect("world");
+            while !w.is_finished() {
+                w.advance_frame().expect("step");
+            }
+            (surface, mu, e, on_slab, com(&w, 0).1)
+        })
+        .collect();
+    for (surface, mu, e, on_slab, v) in rebounds {
+        let on = if on_slab { "static slab" } else { "collider" };
+        println!(
+            "{on}, {surface:?}, mu = {mu}, e = {e}: rebound {:.4} m/s, v_x {:.4}",
+            v[2], v[0]
+        );
+        // The same 1 % as the head-on drops above.
+        assert!(
+            (v[2] - f64::from(e)).abs() < 0.01,
+            "{on}, {surface:?}, mu = {mu}, e = {e}: {v:?}"
+        );
     }
 }
 
@@ -573,8 +581,8 @@ fn a_sand_column_collapsing_against_a_static_box_stops_at_it() {
         let top = sand.x.iter().map(|x| x.z).fold(0.0f32, f32::max);
         (reach, top)
     };
-    let (free_reach, free_top) = run(false);
-    let (reach, top) = run(true);
+    // Side by side (each world is mostly serial).
+    let ((free_reach, free_top), (reach, top)) = rayon::join(|| run(false), || run(true));
     println!(
         "sand reaches x = {:.1} mm without the box, {:.1} mm with its face at {:.0} mm (tops {:.0} / {:.0} mm)",
         free_reach * 1e3,
