@@ -1,8 +1,8 @@
 //! A physics fuzzer (release build): proptest draws small scenes of a jelly and a rigid box on a
 //! floor (light solids on dense jellies and the other way round, thrown at each other or laid
 //! one on the other, sticky, slip and frictional floors, collider planes and static boxes) and
-//! at most one command mid-run (the box made deformable while in contact, a density edit, a
-//! velocity); in a third of them a kinematic pusher drives into the pair at constant velocity,
+//! at most one command mid-run (the box made deformable or the jelly made rigid while in
+//! contact, a density edit, a velocity); in a third of them a kinematic pusher drives into the pair at constant velocity,
 //! low or high, smooth or rough.
 //! Over every frame without a command the total energy (kinetic, gravitational above the floor
 //! and strain, Σ V₀ ψ(F), and what the particle barrier holds) must not grow by more than 1 %
@@ -14,10 +14,6 @@
 //!
 //! `SPLATPHYS_PHYSICS_FUZZ_CASES` sets the number of scenes (default 1,000);
 //! `SPLATPHYS_PHYSICS_FUZZ_ONLY=i` runs only scene `i` of them (to look at one that failed).
-//! `SPLATPHYS_PHYSICS_FUZZ_FREEZE=1` also draws the jelly made rigid while in contact (another
-//! set of scenes): its frozen shape starts inside what it touches, and a thin or wrapped one
-//! can later sink a cell or more into a support between substeps and be pushed out, which
-//! lifts it; 3 of those 1,000 scenes still gain 1–10 % in a frame (docs' limitations).
 
 use glam::Vec3A;
 use proptest::prelude::*;
@@ -70,31 +66,18 @@ struct Case {
     pusher: Option<(f32, f32, f32)>,
 }
 
-fn case(freeze: bool) -> impl Strategy<Value = Case> {
+fn case() -> impl Strategy<Value = Case> {
     let density = |(k, rho)| Event::Density(k, rho);
     let velocity = |(k, v)| Event::Velocity(k, v);
     let densities = || (0..2usize, prop_oneof![100.0..500.0f64, 500.0..8000.0f64]);
     let velocities = || (0..2usize, [-2.0..2.0f32, -2.0..2.0f32, -2.0..2.0f32]);
-    // A jelly made rigid in contact only with `SPLATPHYS_PHYSICS_FUZZ_FREEZE=1` (module docs);
-    // without it the scenes are drawn as they always were.
-    let event = if freeze {
-        prop_oneof![
-            1 => Just(Event::None),
-            2 => Just(Event::Kind(1, ObjectKind::Deformable)),
-            2 => Just(Event::Kind(0, ObjectKind::Rigid)),
-            2 => densities().prop_map(density),
-            1 => velocities().prop_map(velocity),
-        ]
-        .boxed()
-    } else {
-        prop_oneof![
-            1 => Just(Event::None),
-            2 => Just(Event::Kind(1, ObjectKind::Deformable)),
-            2 => densities().prop_map(density),
-            1 => velocities().prop_map(velocity),
-        ]
-        .boxed()
-    };
+    let event = prop_oneof![
+        1 => Just(Event::None),
+        2 => Just(Event::Kind(1, ObjectKind::Deformable)),
+        2 => Just(Event::Kind(0, ObjectKind::Rigid)),
+        2 => densities().prop_map(density),
+        1 => velocities().prop_map(velocity),
+    ];
     (
         (
             any::<bool>(),
@@ -313,12 +296,11 @@ fn no_frame_without_a_command_gains_energy() {
         .unwrap_or(1000);
     // Drawn from one seed, run side by side (each world is independent, so the outcome does not
     // depend on the order), reported whole rather than shrunk.
-    let freeze = std::env::var("SPLATPHYS_PHYSICS_FUZZ_FREEZE").is_ok_and(|v| v == "1");
     let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]);
     let mut runner = TestRunner::new_with_rng(Config::default(), rng);
     let drawn: Vec<Case> = (0..cases)
         .map(|_| {
-            case(freeze)
+            case()
                 .new_tree(&mut runner)
                 .expect("a case")
                 .current()

@@ -114,6 +114,33 @@ fn probe(from: &Placed, into: &Placed, margin_m: f32, flag: u32, out: &mut Vec<R
     out[start..].sort_unstable_by_key(|c| c.feature);
 }
 
+/// Points deeper than this fraction of the margin may be flipped ([`drop_flipped`]).
+const FLIP_DEPTH: f32 = 0.25;
+
+/// A point opposes the pair's mean normal when their dot product is below this.
+const FLIP_COSINE: f32 = -0.5;
+
+/// `out` without the points that lie past the mid-plane of a thin part of the other surface.
+///
+/// A signed distance's normal points to the nearest surface, so a point sunk past the middle
+/// of a plate, a floor slab or a thin wall takes the far face's normal and would push the pair
+/// through it; such points are the deepest of the pair, so they would also decide which points
+/// support it ([`reduce`]). A point deeper than [`FLIP_DEPTH`] of the margin whose normal
+/// opposes the mean of the pair's normals (counted point by point, dot product below
+/// [`FLIP_COSINE`]) is dropped. Contacts on two opposite sides of one pair (a peg in a hole, a
+/// box under a shelf of the same captured background) keep their points: their mean is short,
+/// or they are shallower than that, which the solver holds them to.
+fn drop_flipped(out: Vec<RawContact>, margin_m: f32) -> Vec<RawContact> {
+    let deep = -FLIP_DEPTH * margin_m;
+    if out.iter().all(|c| c.separation_m >= deep) {
+        return out;
+    }
+    let mean = out.iter().map(|c| c.normal).sum::<Vec3A>() / out.len() as f32;
+    out.into_iter()
+        .filter(|c| c.separation_m >= deep || c.normal.dot(mean) >= FLIP_COSINE)
+        .collect()
+}
+
 /// The manifold a pair keeps: at most [`MAX_POINTS`] points, four spanning the largest area as
 /// in Bullet's and Box2D's manifold reduction (the point farthest from the points' centre, the
 /// point farthest from it, the point farthest from their line, the point farthest beyond the
@@ -362,7 +389,7 @@ pub fn between(a: &Placed, b: &Placed, margin_m: f32) -> Vec<RawContact> {
     probe(b, a, margin_m, FEATURE_OF_B, &mut out);
     // B's points in A: A's outward normal already runs from A to B.
     debug_assert!(out[from_a..].iter().all(|c| c.feature & FEATURE_OF_B != 0));
-    reduce(out, margin_m)
+    reduce(drop_flipped(out, margin_m), margin_m)
 }
 
 /// Contact points of `a` against grid collider `collider` at time `time_s` (normals from A into
@@ -408,7 +435,7 @@ pub fn against_collider(
         }
     });
     out.sort_unstable_by_key(|c| c.feature);
-    reduce(out, margin_m)
+    reduce(drop_flipped(out, margin_m), margin_m)
 }
 
 #[cfg(test)]

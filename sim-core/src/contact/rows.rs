@@ -132,8 +132,14 @@ pub(super) struct Row {
     /// Distance from its patch's anchor in the tangent plane (m): its arm in torsional friction.
     pub(super) arm_m: f64,
     pub(super) target_vn: f64,
+    /// Split-impulse target (m/s of pseudo-velocity along n): positive pushes a penetrating
+    /// point out, negative pulls a point that bounced across a gap back by what it would have
+    /// travelled to close it.
     pub(super) push_target: f64,
     pub(super) push_impulse: f64,
+    /// The gap (m) this point bounces across if its normal impulse engages (restitution
+    /// target set with separation s > 0), else 0.
+    pub(super) bounce_gap_m: f64,
 }
 
 impl Row {
@@ -147,6 +153,7 @@ impl Row {
             target_vn: 0.0,
             push_target: 0.0,
             push_impulse: 0.0,
+            bounce_gap_m: 0.0,
         }
     }
 }

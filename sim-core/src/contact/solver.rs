@@ -182,6 +182,7 @@ fn sequential_impulses(
         let lasting = c.lasting || c.normal_impulse > 0.0;
         if touches && !lasting && -vn > settings.resting_speed_m_s && c.restitution > 0.0 {
             row.target_vn = row.target_vn.max(-c.restitution * vn);
+            row.bounce_gap_m = s.max(0.0);
         }
         if s < -settings.slop_m {
             row.push_target =
@@ -216,14 +217,31 @@ fn sequential_impulses(
             break;
         }
     }
+    // A point that bounced across a gap s leaves from where it would have struck: exactly, the
+    // surfaces meet after s/u of the substep (u the approach speed) and part at e u for the
+    // rest, so they end e (u dt − s) apart, not s + e u dt; the bounce velocity moves them
+    // (1 + e) s too far apart, and lifting a body that far against gravity gains energy. The
+    // split impulses pull such a point back by that much, as a pseudo-velocity (negative push
+    // target), leaving the velocities to the restitution law.
+    for (c, row) in contacts.iter().zip(rows.iter_mut()) {
+        if row.bounce_gap_m > 0.0 && c.normal_impulse > 0.0 {
+            row.push_target = -(1.0 + c.restitution) * row.bounce_gap_m / dt_s;
+        }
+    }
     for _ in 0..settings.push_iterations {
         for (c, row) in contacts.iter().zip(rows.iter_mut()) {
-            if row.push_target <= 0.0 || row.k_n <= 0.0 || !row.k_n.is_finite() {
+            if row.push_target == 0.0 || row.k_n <= 0.0 || !row.k_n.is_finite() {
                 continue;
             }
             let n = c.normal;
             let vn = (bodies[c.b].push_at(row.rb) - bodies[c.a].push_at(row.ra)).dot(n);
-            let total = (row.push_impulse + (row.push_target - vn) / row.k_n).max(0.0);
+            let step = row.push_impulse + (row.push_target - vn) / row.k_n;
+            // A push only pushes and a pull only pulls.
+            let total = if row.push_target > 0.0 {
+                step.max(0.0)
+            } else {
+                step.min(0.0)
+            };
             let delta = total - row.push_impulse;
             row.push_impulse = total;
             bodies[c.a].apply_push(row.ra, -n * delta);
