@@ -299,12 +299,7 @@ fn no_frame_without_a_command_gains_energy() {
     let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]);
     let mut runner = TestRunner::new_with_rng(Config::default(), rng);
     let drawn: Vec<Case> = (0..cases)
-        .map(|_| {
-            case()
-                .new_tree(&mut runner)
-                .expect("a case")
-                .current()
-        })
+        .map(|_| case().new_tree(&mut runner).expect("a case").current())
         .collect();
     let only: Option<usize> = std::env::var("SPLATPHYS_PHYSICS_FUZZ_ONLY")
         .ok()

@@ -513,6 +513,54 @@ mod tests {
     }
 
     #[test]
+    fn a_point_past_the_middle_of_a_thin_support_does_not_pull_the_pair_through() {
+        // A sampled shape (4 mm cells, its surface a cell outside its points) sunk into a 4 cm
+        // slab (top at z = 0): a 10 cm block 9 mm deep and, under it, a 2.8 cm plate whose top
+        // lies 24 mm down, nearer the slab's bottom face. The
+        // plate's top takes that face's normal (down) and is the deepest part, so without the
+        // rule it alone would decide the pair; the pair must push the shape up everywhere.
+        let slab = Geometry::Analytic(Shape::Box {
+            min_m: [-0.15, -0.15, -0.04],
+            max_m: [0.15, 0.15, 0.0],
+        });
+        let lattice = |lo: [f32; 3], hi: [f32; 3], out: &mut Vec<Vec3A>| {
+            let h = 0.002;
+            let n = |a: f32, b: f32| ((b - a) / h).round() as i32;
+            for i in 0..=n(lo[0], hi[0]) {
+                for j in 0..=n(lo[1], hi[1]) {
+                    for k in 0..=n(lo[2], hi[2]) {
+                        let (i, j, k) = (i as f32, j as f32, k as f32);
+                        out.push(Vec3A::new(lo[0] + i * h, lo[1] + j * h, lo[2] + k * h));
+                    }
+                }
+            }
+        };
+        let mut solid = Vec::new();
+        lattice([-0.05, -0.05, -0.005], [0.05, 0.05, 0.03], &mut solid);
+        lattice([-0.01, -0.01, -0.034], [0.01, 0.01, -0.028], &mut solid);
+        let ls = crate::contact::LevelSet::from_points(&solid, 0.004, 1 << 22).unwrap();
+        let shape = Geometry::Sampled(ls);
+        let (ps, pt) = (slab.surface_points(0.01), shape.surface_points(0.004));
+        let (a, b) = (
+            placed(&slab, &ps, Pose::IDENTITY),
+            placed(&shape, &pt, Pose::IDENTITY),
+        );
+        let c = between(&a, &b, 0.02);
+        assert!(!c.is_empty());
+        for p in &c {
+            assert!(p.normal.z > 0.9, "{p:?}");
+        }
+        // The plate's points were there to drop: probed alone, they point down.
+        let mut probed = Vec::new();
+        probe(&b, &a, 0.02, FEATURE_OF_B, &mut probed);
+        assert!(
+            probed
+                .iter()
+                .any(|p| p.normal.z < -0.9 && p.point_m.z < -0.015)
+        );
+    }
+
+    #[test]
     fn a_sphere_on_an_exact_surface_is_one_point_below_its_centre() {
         // A 5 cm sphere 1 mm above a box top, either way round: one point under the centre,
         // normal straight down from the sphere, separation 1 mm; none within a 0.5 mm margin.

@@ -349,6 +349,32 @@ mod tests {
     }
 
     #[test]
+    fn a_bounce_across_a_gap_ends_where_an_exact_bounce_does() {
+        // A ball s above the ground approaching at u strikes after s/u and rises at e u for the
+        // rest of the substep: it ends e (u dt − s) above, moving at e u. Its position moves by
+        // velocity plus push over the substep.
+        let (dt, u) = (1e-3, 3.0);
+        for e in [0.0, 0.25, 0.5, 1.0] {
+            for s in [2e-4, 1e-3, 2.5e-3] {
+                let mut bodies = [SolverBody::immovable(DVec3::ZERO), ball(0.0, -u)];
+                let mut c = [ground_contact(e, s)];
+                solve(&mut bodies, &mut c, dt, &SolverSettings::default());
+                let b = &bodies[1];
+                let expected_v = if e > 0.0 { e * u } else { -s / dt };
+                assert!(
+                    (b.velocity_m_s.z - expected_v).abs() < 1e-9,
+                    "e {e}, s {s}: {b:?}"
+                );
+                let gap = s + (b.velocity_m_s.z + b.push_m_s.z) * dt;
+                assert!(
+                    (gap - e * (u * dt - s)).abs() < 1e-12,
+                    "e {e}, s {s}: gap {gap}"
+                );
+            }
+        }
+    }
+
+    #[test]
     fn friction_is_an_isotropic_cone() {
         // Sliding diagonally at 1 m/s, pressed by an impulse of 1 N s, mu = 0.5: the friction
         // impulse is 0.5 N s against the sliding direction, whatever the tangent basis.
