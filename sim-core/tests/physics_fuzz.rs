@@ -2,8 +2,8 @@
 //! floor (light solids on dense jellies and the other way round, thrown at each other or laid
 //! one on the other, sticky, slip and frictional floors, collider planes and static boxes) and
 //! at most one command mid-run (the box made deformable or the jelly made rigid while in
-//! contact, a density edit, a velocity); in a third of them a kinematic pusher drives into the pair at constant velocity,
-//! low or high, smooth or rough.
+//! contact, a density edit, a velocity); in a third of them a kinematic pusher drives into the
+//! pair at constant velocity, low or high, smooth or rough.
 //! Over every frame without a command the total energy (kinetic, gravitational above the floor
 //! and strain, Σ V₀ ψ(F), and what the particle barrier holds) must not grow by more than 1 %
 //! beyond the work the pusher did (its velocity against the contact force it reports, which is
