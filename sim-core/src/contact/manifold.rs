@@ -130,15 +130,13 @@ const FLIP_COSINE: f32 = -0.5;
 /// [`FLIP_COSINE`]) is dropped. Contacts on two opposite sides of one pair (a peg in a hole, a
 /// box under a shelf of the same captured background) keep their points: their mean is short,
 /// or they are shallower than that, which the solver holds them to.
-fn drop_flipped(out: Vec<RawContact>, margin_m: f32) -> Vec<RawContact> {
+fn drop_flipped(mut out: Vec<RawContact>, margin_m: f32) -> Vec<RawContact> {
     let deep = -FLIP_DEPTH * margin_m;
-    if out.iter().all(|c| c.separation_m >= deep) {
-        return out;
+    if out.iter().any(|c| c.separation_m < deep) {
+        let mean = out.iter().map(|c| c.normal).sum::<Vec3A>() / out.len() as f32;
+        out.retain(|c| c.separation_m >= deep || c.normal.dot(mean) >= FLIP_COSINE);
     }
-    let mean = out.iter().map(|c| c.normal).sum::<Vec3A>() / out.len() as f32;
-    out.into_iter()
-        .filter(|c| c.separation_m >= deep || c.normal.dot(mean) >= FLIP_COSINE)
-        .collect()
+    out
 }
 
 /// The manifold a pair keeps: at most [`MAX_POINTS`] points, four spanning the largest area as

@@ -29,6 +29,8 @@
 //! and Bullet's split impulse): a second, separate set of pseudo-velocities drives a penetrating
 //! point out at β (depth − slop)/dt. Pseudo-velocities move positions for one substep and are
 //! then dropped, so pushing out adds no kinetic energy and resting objects neither sink nor jump.
+//! An impact that bounces across a gap s (the surfaces meeting within the substep) is pulled
+//! back by (1 + e) s the same way, to where an exact bounce leaves it.
 
 use glam::DVec3;
 
