@@ -418,11 +418,15 @@ pub fn against_collider(
             .signed_distance(c, time_s)
             .is_some_and(|(phi, _)| !(phi.is_finite() && phi > margin_m + r))
     };
+    // A point within the margin counts where its own normal faces the collider; a point inside
+    // it counts whatever its normal says: the collider's distance is exact, while a sampled
+    // shape's normal can be coarse (the tip of a post thinner than a cell points sideways), and
+    // leaving the point out would hide the depth until a small turn brought it back at once.
     candidates(a, near, |i, p0| {
         let p = a.pose.to_world(p0);
         if let Some((phi, n)) = collider.signed_distance(p, time_s)
             && phi < margin_m
-            && (a.pose.rotation * a.geometry.distance(p0).1).dot(n) <= -FACING
+            && (phi < 0.0 || (a.pose.rotation * a.geometry.distance(p0).1).dot(n) <= -FACING)
         {
             out.push(RawContact {
                 point_m: p,
@@ -675,6 +679,57 @@ mod tests {
             c.iter()
                 .all(|p| p.normal.z > 0.999 && p.separation_m.abs() < 1e-5)
         );
+    }
+
+    #[test]
+    fn every_point_of_a_body_inside_a_collider_is_a_contact() {
+        // A coarse level set (2 cm cells, as a jelly made rigid on a 2 cm grid gets) of a 6 cm
+        // cube and of a cube with a 4 cm post under it, turned every way and lowered until its
+        // deepest surface point is 5 mm into a plane: the manifold holds a point that deep in
+        // every pose, whatever that point's own (coarse) normal says. Left out while its
+        // normal faced away, the depth would appear all at once when a small turn brought it
+        // back, and pushing it out would throw the body.
+        let floor = Collider::fixed(
+            crate::collider::Shape::Plane(
+                crate::collider::Plane::new(Vec3A::ZERO, Vec3A::Z).unwrap(),
+            ),
+            crate::collider::Surface::Slip,
+            0.5,
+        );
+        let grid = |lo: [i32; 3], hi: [i32; 3], out: &mut Vec<Vec3A>| {
+            for i in lo[0]..=hi[0] {
+                for j in lo[1]..=hi[1] {
+                    for k in lo[2]..=hi[2] {
+                        out.push(Vec3A::new(i as f32, j as f32, k as f32) * 0.01);
+                    }
+                }
+            }
+        };
+        let mut cube = Vec::new();
+        grid([-3, -3, -3], [3, 3, 3], &mut cube);
+        let mut post = cube.clone();
+        grid([0, 0, -7], [1, 1, -4], &mut post);
+        for points in [cube, post] {
+            let ls = crate::contact::LevelSet::from_points(&points, 0.02, 1 << 22).unwrap();
+            let body = crate::contact::Collision::new(Geometry::Sampled(ls), 0.02, Vec3A::ZERO);
+            for k in 0..200 {
+                let t = k as f32;
+                let turn = Quat::from_euler(glam::EulerRot::XYZ, 0.37 * t, 0.61 * t, 0.23 * t);
+                let lowest = body
+                    .points
+                    .iter()
+                    .map(|p| (turn * *p).z)
+                    .fold(f32::INFINITY, f32::min);
+                let lift = -0.005 - lowest;
+
+                let placed = body.placed(glam::DVec3::new(0.0, 0.0, lift as f64), turn);
+                let deepest = against_collider(&placed, &floor, 0.0, 0.02)
+                    .iter()
+                    .map(|c| c.separation_m)
+                    .fold(f32::INFINITY, f32::min);
+                assert!((deepest + 0.005).abs() < 1e-4, "pose {k}: deepest {deepest}");
+            }
+        }
     }
 
     fn ungrouped(p: Placed<'_>) -> Placed<'_> {
