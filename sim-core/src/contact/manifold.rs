@@ -727,7 +727,10 @@ mod tests {
                     .iter()
                     .map(|c| c.separation_m)
                     .fold(f32::INFINITY, f32::min);
-                assert!((deepest + 0.005).abs() < 1e-4, "pose {k}: deepest {deepest}");
+                assert!(
+                    (deepest + 0.005).abs() < 1e-4,
+                    "pose {k}: deepest {deepest}"
+                );
             }
         }
     }
