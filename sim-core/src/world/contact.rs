@@ -231,6 +231,22 @@ pub(super) fn solve(
     let placed: Vec<Option<Placed<'_>>> = (0..n).map(|k| env.placed(bodies, k)).collect();
     let bounds: Vec<Option<(Vec3A, Vec3A)>> =
         placed.iter().map(|p| p.map(|p| p.bounds_m)).collect();
+    let background_placed = env.background.placed();
+    // Whether a pair's boxes still come within the margin (never for a collider: its points
+    // are exact, [`manifold::against_collider`]).
+    let near = |(a, other): PairKey| {
+        let Some(ba) = bounds[a as usize] else {
+            return false;
+        };
+        match other {
+            Other::Object(j) => bounds[j as usize].is_some_and(|bj| overlaps(ba, bj, margin)),
+            Other::Background => background_placed
+                .as_ref()
+                .is_some_and(|bg| overlaps(ba, bg.bounds_m, margin)),
+            Other::Collider(_) => false,
+        }
+    };
+    let mut candidates: Vec<PairKey> = Vec::new();
     for (i, j) in broad_phase(&bounds, margin) {
         let (bi, bj) = (&bodies[i], &bodies[j]);
         let (Some(a), Some(b)) = (&placed[i], &placed[j]) else {
@@ -239,6 +255,7 @@ pub(super) fn solve(
         if !may_touch(bi, bj) {
             continue;
         }
+        candidates.push((i as u32, Other::Object(j as u32)));
         let points = manifold::between(a, b, margin);
         raw.extend(points.into_iter().map(|c| (i, Other::Object(j as u32), c)));
     }
@@ -252,9 +269,10 @@ pub(super) fn solve(
             let pts = manifold::against_collider(a, collider, env.time_s, margin);
             raw.extend(pts.into_iter().map(|c| (k, Other::Collider(ci as u32), c)));
         }
-        if let Some(bg) = env.background.placed()
+        if let Some(bg) = background_placed
             && overlaps(a.bounds_m, bg.bounds_m, margin)
         {
+            candidates.push((k as u32, Other::Background));
             let pts = manifold::between(a, &bg, margin);
             raw.extend(pts.into_iter().map(|c| (k, Other::Background, c)));
         }
@@ -272,12 +290,37 @@ pub(super) fn solve(
             || memory.cache.keeps_overlap(key);
         *keeps.entry(key).or_default() |= kept && c.separation_m < 0.0;
     }
+    // A pair may overlap where none of its points shows it: a shape made solid while wrapped
+    // round another (a jelly draped over a box) holds the other's surface past the middle of
+    // its thin parts, where every point faces away ([`manifold`]), until a turn brings one
+    // back at its full depth. So a pair of an object just made solid and a kept pair with no
+    // point this pass stay kept, pointless, while their boxes come within the margin.
+    let hidden: Vec<PairKey> = candidates
+        .iter()
+        .copied()
+        .filter(|key| !keeps.contains_key(key) && near(*key))
+        .filter(|&(a, other)| {
+            made_solid(a as usize)
+                || matches!(other, Other::Object(j) if made_solid(j as usize))
+                || memory.cache.keeps_overlap((a, other))
+        })
+        .collect();
+    let hidden_pairs = |dt_s: f64| {
+        hidden.iter().map(move |key| {
+            let pair = CachedPair {
+                dt_s,
+                keeps_overlap: true,
+                ..CachedPair::default()
+            };
+            (*key, pair)
+        })
+    };
     // Consumed by the first pass that sees it (a static object is seen by every island's).
     memory
         .made_solid
         .retain(|&k| k < n && !env.present(k, &bodies[k]));
     if raw.is_empty() {
-        memory.cache.pairs.clear();
+        memory.cache.pairs = hidden_pairs(dt_s).collect();
         memory.last.clear();
         return;
     }
@@ -388,6 +431,7 @@ pub(super) fn solve(
             (p.normal_impulse, p.tangent_impulse, p.twist_impulse),
         ));
     }
+    pairs.extend(hidden_pairs(dt_s));
     memory.cache = ContactCache { pairs };
     memory.last = raw
         .iter()
