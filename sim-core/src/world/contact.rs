@@ -13,7 +13,9 @@
 //! collision surface (sampled on cells, up to a cell outside its particles) starts inside what
 //! it touched. Pushing that overlap out lifts it and gives it energy, so each pair it is in at
 //! its first contact pass keeps its overlap (`CachedPair::keeps_overlap`): its points are held
-//! at v_n ≥ 0 but not pushed apart, and take no restitution, until the pair parts.
+//! at v_n ≥ 0 but not pushed apart, and take no restitution, until the pair parts (two
+//! objects, or an object and the background: their boxes no longer come within the margin; an
+//! object and a collider: no point overlaps).
 //!
 //! Deformable objects never come here: against a solid they meet its boundary nodes on their
 //! grid, against each other the COM-level impulse law on contact patches of `deformable_pair/`.
@@ -64,7 +66,8 @@ struct CachedPair {
     /// restitution.
     loaded: bool,
     /// It keeps its overlap, not pushed apart (module docs): from the first contact pass after
-    /// one of its objects was made solid while it overlapped, until no point of it overlaps.
+    /// one of its objects was made solid while they met, until the pair parts. A kept pair may
+    /// have no points.
     keeps_overlap: bool,
     /// Each point in A's rest frame with its normal impulse and its share of its patch's
     /// friction.
@@ -282,28 +285,27 @@ pub(super) fn solve(
     // The pairs that keep their overlap (module docs): those of an object made solid since its
     // last contact pass and those that kept it in the last substep, while any point overlaps.
     let made_solid = |k: usize| memory.made_solid.contains(&k);
+    let kept_before = |(a, other): PairKey| {
+        made_solid(a as usize)
+            || matches!(other, Other::Object(j) if made_solid(j as usize))
+            || memory.cache.keeps_overlap((a, other))
+    };
+    // A pair may overlap where none of its points shows it: a shape made solid while wrapped
+    // round another (a jelly draped over a box) holds the other's surface past the middle of
+    // its thin parts, where points face away ([`manifold`]), until a turn brings one back at
+    // its full depth. So a pair of objects (or an object and the background) stays kept while
+    // their boxes come within the margin, with or without points; a pair with a collider,
+    // whose points are exact, while any point overlaps.
     let mut keeps: HashMap<PairKey, bool> = HashMap::new();
     for (a, other, c) in &raw {
         let key = (*a as u32, *other);
-        let kept = made_solid(*a)
-            || matches!(other, Other::Object(j) if made_solid(*j as usize))
-            || memory.cache.keeps_overlap(key);
-        *keeps.entry(key).or_default() |= kept && c.separation_m < 0.0;
+        let kept = kept_before(key) && (near(key) || c.separation_m < 0.0);
+        *keeps.entry(key).or_default() |= kept;
     }
-    // A pair may overlap where none of its points shows it: a shape made solid while wrapped
-    // round another (a jelly draped over a box) holds the other's surface past the middle of
-    // its thin parts, where every point faces away ([`manifold`]), until a turn brings one
-    // back at its full depth. So a pair of an object just made solid and a kept pair with no
-    // point this pass stay kept, pointless, while their boxes come within the margin.
     let hidden: Vec<PairKey> = candidates
         .iter()
         .copied()
-        .filter(|key| !keeps.contains_key(key) && near(*key))
-        .filter(|&(a, other)| {
-            made_solid(a as usize)
-                || matches!(other, Other::Object(j) if made_solid(j as usize))
-                || memory.cache.keeps_overlap((a, other))
-        })
+        .filter(|key| !keeps.contains_key(key) && near(*key) && kept_before(*key))
         .collect();
     let hidden_pairs = |dt_s: f64| {
         hidden.iter().map(move |key| {
