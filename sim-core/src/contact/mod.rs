@@ -23,6 +23,7 @@ pub mod block;
 pub mod boundary;
 pub mod coupling;
 pub mod crossing;
+pub mod energy;
 pub mod exact;
 pub mod geometry;
 pub mod level_set;
