@@ -34,18 +34,8 @@ fn cube(material: Material, c: Vec3A, l: Mat3A, dt_s: f32) -> MpmSystem {
 /// Kinetic energy with APIC's affine part (J): Σ ½ m (|v|² + (dx²/4) |C|²), what the grid
 /// carries (Jiang et al. 2015, the quadratic B-spline's inertia D = dx²/4 I).
 fn apic_kinetic_j(sys: &MpmSystem) -> f64 {
-    let p = &sys.particles;
-    let d = (sys.solver.dx_m as f64).powi(2) / 4.0;
-    (0..p.len())
-        .map(|i| {
-            let c = p.c[i]
-                .to_cols_array()
-                .iter()
-                .map(|&v| (v as f64).powi(2))
-                .sum::<f64>();
-            0.5 * p.mass_kg[i] as f64 * (p.v[i].length_squared() as f64 + d * c)
-        })
-        .sum()
+    let d = sys.diagnostics();
+    d.kinetic_j + d.affine_kinetic_j
 }
 
 /// A uniform expansion v = a (x − c) has D = a I, so Kelvin–Voigt damping dissipates

@@ -4,8 +4,9 @@
 //! at most one command mid-run (the box made deformable or the jelly made rigid while in
 //! contact, a density edit, a velocity); in a third of them a kinematic pusher drives into the
 //! pair at constant velocity, low or high, smooth or rough.
-//! Over every frame without a command the total energy (kinetic, gravitational above the floor
-//! and strain, Σ V₀ ψ(F), and what the particle barrier holds) must not grow by more than 1 %
+//! Over every frame without a command the total energy (kinetic with APIC's affine part,
+//! gravitational above the floor and strain, Σ V₀ ψ(F), and what the particle barrier holds)
+//! must not grow by more than 1 %
 //! beyond the work the pusher did (its velocity against the contact force it reports, which is
 //! the frame's mean), and every state must stay finite.
 //!

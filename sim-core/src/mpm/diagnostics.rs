@@ -1,6 +1,6 @@
 //! Per-step conservation diagnostics: total mass, linear and angular momentum (including APIC's
-//! affine contribution m (dx²/4) ε:Cᵀ, Jiang et al. 2015 section 5.3), kinetic, elastic and
-//! gravitational energy. Sums are f64 over fixed chunks in a fixed order: bit-identical for any
+//! affine contribution m (dx²/4) ε:Cᵀ, Jiang et al. 2015 section 5.3), kinetic (with APIC's
+//! affine part), elastic and gravitational energy. Sums are f64 over fixed chunks in a fixed order: bit-identical for any
 //! thread count.
 
 use glam::{DVec3, Vec3A};
@@ -23,6 +23,13 @@ pub struct Diagnostics {
     pub angular_momentum_kg_m2_s: [f64; 3],
     /// Σ ½ m |v|² (J).
     pub kinetic_j: f64,
+    /// APIC's affine kinetic energy Σ ½ m (dx²/4) |C|² (J; |C| the Frobenius norm): with
+    /// `kinetic_j`, the bound on what a P2G transfer puts on the grid, Σ_i ½ m_i |v_i|², for the
+    /// quadratic B-spline's inertia D = dx²/4 I (Jiang et al. 2015). A spinning or vibrating
+    /// object keeps part of its motion here, and it passes to and from `kinetic_j` and
+    /// `elastic_j` from step to step.
+    #[serde(default)]
+    pub affine_kinetic_j: f64,
     /// Σ V0 ψ(F) (J).
     pub elastic_j: f64,
     /// Σ -m g·x (J), zero at the origin.
@@ -32,9 +39,9 @@ pub struct Diagnostics {
 }
 
 impl Diagnostics {
-    /// kinetic + elastic + potential (J).
+    /// kinetic (with the affine part) + elastic + potential (J).
     pub fn total_energy_j(&self) -> f64 {
-        self.kinetic_j + self.elastic_j + self.potential_j
+        self.kinetic_j + self.affine_kinetic_j + self.elastic_j + self.potential_j
     }
 
     /// Sums two sets of totals (max for the speed).
@@ -45,6 +52,7 @@ impl Diagnostics {
             self.angular_momentum_kg_m2_s[k] += o.angular_momentum_kg_m2_s[k];
         }
         self.kinetic_j += o.kinetic_j;
+        self.affine_kinetic_j += o.affine_kinetic_j;
         self.elastic_j += o.elastic_j;
         self.potential_j += o.potential_j;
         self.max_speed_m_s = self.max_speed_m_s.max(o.max_speed_m_s);
@@ -83,6 +91,8 @@ impl Diagnostics {
                         t.angular_momentum_kg_m2_s[k] += l[k];
                     }
                     t.kinetic_j += 0.5 * m * v.length_squared();
+                    let c2: f32 = cm.to_cols_array().iter().map(|c| c * c).sum();
+                    t.affine_kinetic_j += 0.5 * m * d * c2 as f64;
                     let mat = &materials[particles.material[i] as usize];
                     t.elastic_j += particles.volume0_m3[i] as f64
                         * mat.energy_density(particles.f[i], particles.plastic[i]) as f64;

@@ -128,6 +128,7 @@ fn rigid_diagnostics(b: &Body, gravity_m_s2: DVec3) -> Diagnostics {
         momentum_kg_m_s: p.to_array(),
         angular_momentum_kg_m2_s: (s.com_m.cross(p) + s.angular_momentum).to_array(),
         kinetic_j: 0.5 * (s.mass_kg * s.velocity_m_s.length_squared() + w.dot(s.inertia * w)),
+        affine_kinetic_j: 0.0,
         elastic_j: 0.0,
         potential_j: -s.mass_kg * gravity_m_s2.dot(s.com_m),
         max_speed_m_s: s.velocity_m_s.length() + w.length() * b.arm_m(),
