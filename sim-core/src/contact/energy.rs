@@ -6,12 +6,14 @@ use glam::DVec3;
 use super::patch::ContactPatch;
 use super::rows::{ContactPoint, SolverBody};
 
-/// How much kinetic energy a solve may add, as a fraction, before [`super::solver::solve`] takes it for a gain:
-/// a bounce at e = 1 keeps it only to round-off and the iterations' tolerance.
+/// How much kinetic energy a solve may add, as a fraction, before [`super::solver::solve`]
+/// takes it for a gain: a bounce at e = 1 keeps it only to round-off and the iterations'
+/// tolerance.
 pub(super) const ENERGY_TOLERANCE: f64 = 1e-3;
 
-/// How much of ½ m |Δv_ext|² a solve may add beyond it ([`step_energy_j`]) before [`super::solver::solve`]
-/// takes it for a gain: the iterations leave a slowly converging stack a little more.
+/// How much of ½ m |Δv_ext|² a solve may add beyond it ([`step_energy_j`]) before
+/// [`super::solver::solve`] takes it for a gain: the iterations leave a slowly converging
+/// stack a little more (a settled 10-box stack up to 1.8 % of it, 27 % in its first substeps).
 pub(super) const EXTERNAL_TOLERANCE: f64 = 0.5;
 
 /// The work (J) the driven bodies (immovable and moving: kinematic objects, moving colliders)

@@ -721,7 +721,6 @@ mod tests {
                     .map(|p| (turn * *p).z)
                     .fold(f32::INFINITY, f32::min);
                 let lift = -0.005 - lowest;
-
                 let placed = body.placed(glam::DVec3::new(0.0, 0.0, lift as f64), turn);
                 let deepest = against_collider(&placed, &floor, 0.0, 0.02)
                     .iter()

@@ -1,7 +1,7 @@
 //! Per-step conservation diagnostics: total mass, linear and angular momentum (including APIC's
 //! affine contribution m (dx²/4) ε:Cᵀ, Jiang et al. 2015 section 5.3), kinetic (with APIC's
-//! affine part), elastic and gravitational energy. Sums are f64 over fixed chunks in a fixed order: bit-identical for any
-//! thread count.
+//! affine part), elastic and gravitational energy. Sums are f64 over fixed chunks in a fixed
+//! order: bit-identical for any thread count.
 
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
