@@ -283,7 +283,7 @@ pub(super) fn solve(
     let poses: Vec<Option<crate::contact::Pose>> =
         placed.iter().map(|p| p.map(|p| p.pose)).collect();
     // The pairs that keep their overlap (module docs): those of an object made solid since its
-    // last contact pass and those that kept it in the last substep, while any point overlaps.
+    // last contact pass and those that kept it in the last substep, until they part.
     let made_solid = |k: usize| memory.made_solid.contains(&k);
     let kept_before = |(a, other): PairKey| {
         made_solid(a as usize)
