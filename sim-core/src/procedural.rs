@@ -17,9 +17,6 @@ use crate::gaussians::GaussianCloud;
 
 /// Jitter amplitude as a fraction of the spacing (each axis, uniform in ±JITTER·h).
 pub const JITTER: f32 = 0.25;
-/// How far (in cells) above a whole number a side's length over the spacing may lie and still
-/// count as that number of cells: f32 round-off ([`fill_points`]).
-const CELL_ROUNDING: f32 = 1e-3;
 /// Opacity logit of procedural Gaussians (sigmoid = 0.99).
 pub const OPACITY_LOGIT: f32 = 4.595_12;
 /// Most particles one shape may produce; more is an error, not an allocation.
@@ -207,12 +204,7 @@ pub fn fill_points(
     positive("spacing_m", spacing_m)?;
     shape.validate()?;
     let (lo, hi) = shape.aabb();
-    // A side a whole number of spacings long holds that many cells: its f32 quotient can land
-    // a hair above the integer, which added a layer on both faces (a 10 cm cube at 5 mm got 21
-    // layers in some places and 20 in others).
-    let cells = ((hi - lo) / spacing_m - Vec3::splat(CELL_ROUNDING))
-        .ceil()
-        .max(Vec3::ONE);
+    let cells = ((hi - lo) / spacing_m).ceil().max(Vec3::ONE);
     let estimate = (cells.x as f64 * cells.y as f64 * cells.z as f64) as u64;
     if estimate > MAX_PARTICLES as u64 {
         return Err(ProceduralError::TooManyParticles {
@@ -281,31 +273,4 @@ pub fn shape_gaussians(
 ) -> Result<GaussianCloud, ProceduralError> {
     let pts = fill_points(shape, spacing_m, seed)?;
     Ok(isotropic_gaussians(pts, 0.5 * spacing_m, color))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_box_a_whole_number_of_spacings_wide_holds_that_many_layers_wherever_it_lies() {
-        // A 10 cm cube at 5 mm: 20 cell-centred layers a side, 8,000 points, the outer layers
-        // half a spacing inside the faces give or take the jitter (a quarter), for bottoms
-        // 0.1 mm apart across a 1 cm cell.
-        let h = 0.005;
-        for k in 0..100 {
-            let z0 = 0.101 + 1e-4 * k as f32;
-            let shape = Shape::Box {
-                min_m: [-0.05, -0.05, z0],
-                max_m: [0.05, 0.05, z0 + 0.1],
-            };
-            let p = fill_points(&shape, h, 7).expect("a box");
-            assert_eq!(p.len(), 8000, "bottom at {z0} m");
-            let lowest = p.iter().map(|p| p[2]).fold(f32::MAX, f32::min) - z0;
-            assert!(
-                lowest >= (0.5 - JITTER) * h - 1e-6,
-                "bottom at {z0} m: a point {lowest} m above it"
-            );
-        }
-    }
 }
