@@ -67,14 +67,11 @@ pub(super) fn drive_work_j(
 /// up, while K(v_after) ≤ K(v_before) still lets a solve that turns a body upwards by Δv_z add
 /// m g dt Δv_z.
 pub(super) fn step_energy_j(bodies: &[SolverBody]) -> f64 {
-    let shifted: Vec<SolverBody> = bodies
+    bodies
         .iter()
-        .map(|b| SolverBody {
-            velocity_m_s: b.velocity_m_s - b.external_m_s,
-            ..*b
-        })
-        .collect();
-    kinetic_energy_j(&shifted)
+        .filter(|b| b.inverse_mass > 0.0)
+        .map(|b| body_kinetic_j(b, b.velocity_m_s - b.external_m_s))
+        .sum()
 }
 
 /// ½ m |Δv_ext|² of the movable bodies (J): see [`step_energy_j`].
@@ -86,19 +83,23 @@ pub(super) fn external_energy_j(bodies: &[SolverBody]) -> f64 {
         .sum()
 }
 
-/// Kinetic energy of the movable bodies (J): ½ m v² + ½ ω·I ω.
+/// Kinetic energy of the movable bodies (J): ½ m v² + ½ ω·I ω (the solver tests compare it).
+#[cfg(test)]
 pub(super) fn kinetic_energy_j(bodies: &[SolverBody]) -> f64 {
     bodies
         .iter()
         .filter(|b| b.inverse_mass > 0.0)
-        .map(|b| {
-            let spin = if b.inverse_inertia.determinant() > 0.0 {
-                b.omega_rad_s
-                    .dot(b.inverse_inertia.inverse() * b.omega_rad_s)
-            } else {
-                0.0
-            };
-            0.5 * (b.velocity_m_s.length_squared() / b.inverse_mass + spin)
-        })
+        .map(|b| body_kinetic_j(b, b.velocity_m_s))
         .sum()
+}
+
+/// ½ m |v|² + ½ ω·I ω of movable body `b` moving at `v` (J).
+fn body_kinetic_j(b: &SolverBody, v: DVec3) -> f64 {
+    let spin = if b.inverse_inertia.determinant() > 0.0 {
+        b.omega_rad_s
+            .dot(b.inverse_inertia.inverse() * b.omega_rad_s)
+    } else {
+        0.0
+    };
+    0.5 * (v.length_squared() / b.inverse_mass + spin)
 }
