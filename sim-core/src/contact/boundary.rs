@@ -23,8 +23,11 @@
 //! the node's mass and the node's share of the solid's mass and inertia, over a few Jacobi
 //! sweeps in which the solid's velocity follows ([`super::coupling`]), so a solid lighter than
 //! the material it meets is not treated as a wall (which handed it 1 − m/M + (m/M)² of its
-//! kinetic energy, more than it had once the node mass m passed M). Static, kinematic and
-//! sleeping objects and the background are immovable: the one-way rule.
+//! kinetic energy, more than it had once the node mass m passed M). Within the sweeps the
+//! solid is held where it leaned on immovable solids in the last contact pass
+//! ([`super::coupling::Support`]): a light box on a floor under a heavy jelly gives way to the
+//! jelly only as far as the floor lets it. Static, kinematic and sleeping objects and the
+//! background are immovable: the one-way rule.
 //!
 //! Grid nodes sample a solid's surface only every cell, so on a rough solid (captured ground,
 //! whose surface varies within a cell) particles can sink between nodes well inside it. After
@@ -43,7 +46,9 @@ use glam::{DMat3, DVec3, IVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::barrier::Wall;
-use super::coupling::{COUPLING_SWEEPS, SolidShare, node_impulse};
+use super::coupling::{
+    COUPLING_CONVERGED_M_S, COUPLING_SWEEPS, SolidShare, Support, hold_on_supports, node_impulse,
+};
 use super::geometry::Placed;
 use crate::collider::{Surface, apply_surface};
 use crate::mpm::Particles;
@@ -68,9 +73,12 @@ pub struct Obstacle<'a> {
     pub inverse_mass: f64,
     /// World-frame inverse inertia about the COM (1/(kg m²)); zero for an immovable solid.
     pub inverse_inertia: DMat3,
+    /// Where a movable solid leans on immovable ones ([`super::coupling::Support`]); the
+    /// two-way solve holds its motion there.
+    pub supports: &'a [Support],
 }
 
-impl Obstacle<'_> {
+impl<'a> Obstacle<'a> {
     /// Whether the grid moves it: a movable solid meets the grid two-way
     /// ([`super::coupling`]), an immovable one one-way.
     pub fn is_movable(&self) -> bool {
@@ -90,6 +98,20 @@ impl Obstacle<'_> {
     pub fn receive(&mut self, reaction: &Reaction) {
         self.velocity_m_s += (reaction.impulse_n_s * self.inverse_mass).as_vec3a();
         self.omega_rad_s += (self.inverse_inertia * reaction.angular_impulse_n_m_s).as_vec3a();
+    }
+
+    /// A movable solid's velocities held off its supports ([`hold_on_supports`]).
+    pub fn hold(&mut self) {
+        let (mut v, mut w) = (self.velocity_m_s.as_dvec3(), self.omega_rad_s.as_dvec3());
+        self.hold_motion(&mut v, &mut w);
+        self.velocity_m_s = v.as_vec3a();
+        self.omega_rad_s = w.as_vec3a();
+    }
+
+    fn hold_motion(&self, v: &mut DVec3, w: &mut DVec3) {
+        if self.is_movable() && !self.supports.is_empty() {
+            hold_on_supports(v, w, self.inverse_mass, self.inverse_inertia, self.supports);
+        }
     }
 }
 
@@ -127,7 +149,7 @@ impl Reaction {
 
 /// Applies `obstacles` to the nodes of `grid` (cell `dx_m`, velocities relative to `v_ref`);
 /// returns each obstacle's reaction, in order. Immovable obstacles are applied first, in order
-/// at each node; then the movable ones, two-way, over [`COUPLING_SWEEPS`] sweeps
+/// at each node; then the movable ones, two-way, over Jacobi sweeps
 /// ([`super::coupling`]). With `reach` (the node gaps of the grid's particles, [`gaps`], and the
 /// substep dt in s), a node inside an immovable procedural obstacle that lets material leave
 /// takes the rule only where material meets the surface within the substep
@@ -313,7 +335,7 @@ struct Touch {
 }
 
 /// The two-way solve of the `touches` (per block) of movable obstacles with the grid's nodes
-/// (`mass_kg`, `velocity_m_s` relative to `v_ref`): [`COUPLING_SWEEPS`] Jacobi sweeps with mass
+/// (`mass_kg`, `velocity_m_s` relative to `v_ref`): Jacobi sweeps (at most [`COUPLING_SWEEPS`]) with mass
 /// splitting ([`super::coupling`]); adds the impulses to `total`.
 fn couple(
     mass_kg: &[f32],
@@ -336,15 +358,16 @@ fn couple(
         .map(|o| (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3()))
         .collect();
     for _ in 0..COUPLING_SWEEPS {
-        let parts: Vec<Vec<Reaction>> = mass_kg
+        let (parts, changes): (Vec<Vec<Reaction>>, Vec<f32>) = mass_kg
             .par_chunks(BLOCK_NODES)
             .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
             .zip(touches.par_iter())
             .map(|((mass, vel), ts)| {
                 if ts.is_empty() {
-                    return Vec::new();
+                    return (Vec::new(), 0.0);
                 }
                 let mut out = vec![Reaction::default(); n];
+                let mut change = 0.0f32;
                 for t in ts {
                     let k = t.obstacle as usize;
                     let (o, m) = (&obstacles[k], mass[t.node as usize]);
@@ -354,20 +377,25 @@ fn couple(
                     let v = vel[t.node as usize] + v_ref;
                     let j = node_impulse(v - at, t.normal, m, t.r_m, &solid, o.surface, o.friction);
                     vel[t.node as usize] += j / m;
+                    change = change.max((j / m).length());
                     out[k].receive(j.as_dvec3(), t.r_m, t.normal);
                 }
-                out
+                (out, change)
             })
-            .collect();
+            .unzip();
         let sweep = sum_in_order(&parts, n);
         for ((o, r), (v, w)) in obstacles.iter().zip(&sweep).zip(&mut motion) {
             *v += r.impulse_n_s * o.inverse_mass;
             *w += o.inverse_inertia * r.angular_impulse_n_m_s;
+            o.hold_motion(v, w);
         }
         for (t, r) in total.iter_mut().zip(&sweep) {
             t.impulse_n_s += r.impulse_n_s;
             t.angular_impulse_n_m_s += r.angular_impulse_n_m_s;
             t.normal_impulse_n_s += r.normal_impulse_n_s;
+        }
+        if changes.iter().all(|&c| c <= COUPLING_CONVERGED_M_S) {
+            break;
         }
     }
 }
@@ -401,8 +429,9 @@ pub const MAX_PUSH_OUT_M_S: f32 = 0.3;
 /// Gives every particle of `particles` that lies inside one of `obstacles` a normal velocity
 /// relative to the solid of at least its push-out speed, so it stops sinking and leaves over
 /// [`PUSH_OUT_TIME_S`] (module docs); returns each obstacle's reaction, in order. Against a
-/// movable obstacle the push is shared two-way, each particle with its mass share of the solid
-/// ([`super::coupling`], one sweep).
+/// movable obstacle the push is shared two-way, each particle with its mass share of the solid,
+/// over sweeps in which the solid's velocity follows, held on its supports, as the grid's
+/// nodes are ([`super::coupling`]).
 pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> Vec<Reaction> {
     let n = obstacles.len();
     if n == 0 {
@@ -461,40 +490,58 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
                 mass_kg[c * PROJECTION_CHUNK + p.particle as usize] as f64;
         }
     }
-    let parts: Vec<Vec<Reaction>> = v
-        .par_chunks_mut(PROJECTION_CHUNK)
-        .zip(mass_kg.par_chunks(PROJECTION_CHUNK))
-        .zip(inside.par_iter())
-        .map(|((v, m), chunk)| {
-            if chunk.is_empty() {
-                return Vec::new();
-            }
-            let mut out = vec![Reaction::default(); n];
-            for p in chunk {
-                let (k, i) = (p.obstacle as usize, p.particle as usize);
-                let o = &obstacles[k];
-                let solid = o.share(m[i] as f64 / inside_mass[k]);
-                let solid_v = o.velocity_m_s + o.omega_rad_s.cross(p.r_m);
-                // The push is a separating target: shift it out of the relative velocity and
-                // let the separate rule stop the approach to it.
-                let target = p.normal * p.push_m_s;
-                let j = node_impulse(
-                    v[i] - solid_v - target,
-                    p.normal,
-                    m[i],
-                    p.r_m,
-                    &solid,
-                    Surface::Separate,
-                    0.0,
-                );
-                v[i] += j / m[i];
-                out[k].receive(j.as_dvec3(), p.r_m, p.normal);
-            }
-            out
-        })
+    let mut motion: Vec<(DVec3, DVec3)> = obstacles
+        .iter()
+        .map(|o| (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3()))
         .collect();
-    for (t, r) in total.iter_mut().zip(sum_in_order(&parts, n)) {
-        t.add(&r);
+    for _ in 0..COUPLING_SWEEPS {
+        let (parts, changes): (Vec<Vec<Reaction>>, Vec<f32>) = v
+            .par_chunks_mut(PROJECTION_CHUNK)
+            .zip(mass_kg.par_chunks(PROJECTION_CHUNK))
+            .zip(inside.par_iter())
+            .map(|((v, m), chunk)| {
+                if chunk.is_empty() {
+                    return (Vec::new(), 0.0);
+                }
+                let mut out = vec![Reaction::default(); n];
+                let mut change = 0.0f32;
+                for p in chunk {
+                    let (k, i) = (p.obstacle as usize, p.particle as usize);
+                    let o = &obstacles[k];
+                    let solid = o.share(m[i] as f64 / inside_mass[k]);
+                    let (v_solid, w_solid) = motion[k];
+                    let solid_v = (v_solid + w_solid.cross(p.r_m.as_dvec3())).as_vec3a();
+                    // The push is a separating target: shift it out of the relative velocity
+                    // and let the separate rule stop the approach to it.
+                    let target = p.normal * p.push_m_s;
+                    let j = node_impulse(
+                        v[i] - solid_v - target,
+                        p.normal,
+                        m[i],
+                        p.r_m,
+                        &solid,
+                        Surface::Separate,
+                        0.0,
+                    );
+                    v[i] += j / m[i];
+                    change = change.max((j / m[i]).length());
+                    out[k].receive(j.as_dvec3(), p.r_m, p.normal);
+                }
+                (out, change)
+            })
+            .unzip();
+        let sweep = sum_in_order(&parts, n);
+        for ((o, r), (v, w)) in obstacles.iter().zip(&sweep).zip(&mut motion) {
+            *v += r.impulse_n_s * o.inverse_mass;
+            *w += o.inverse_inertia * r.angular_impulse_n_m_s;
+            o.hold_motion(v, w);
+        }
+        for (t, r) in total.iter_mut().zip(&sweep) {
+            t.add(r);
+        }
+        if changes.iter().all(|&c| c <= COUPLING_CONVERGED_M_S) {
+            break;
+        }
     }
     total
 }
@@ -555,6 +602,7 @@ pub(crate) mod tests {
             surface: Surface::Separate,
             inverse_mass: 0.0,
             inverse_inertia: DMat3::ZERO,
+            supports: &[],
         }
     }
 

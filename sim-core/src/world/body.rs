@@ -153,6 +153,9 @@ pub struct Body {
     pub(crate) collision_cell_m: f32,
     /// The contact solver's push-out pseudo-velocities (m/s, rad/s) for this substep.
     pub(crate) push: (DVec3, DVec3),
+    /// Where a rigid object leaned on immovable solids in the last contact pass (`contact.rs`),
+    /// for the deformable grids it meets two-way.
+    pub(crate) supports: Vec<crate::contact::coupling::Support>,
     /// What moves a kinematic object (unused for other kinds).
     pub(crate) drive: super::kinematic::Drive,
     /// Counters of its run so far and of the current frame.
@@ -187,6 +190,7 @@ crate::clone_reusing::clone_reusing!(Body {
     collision,
     collision_cell_m,
     push,
+    supports,
     drive,
     stats,
 });
@@ -273,6 +277,7 @@ impl Body {
             collision: None,
             collision_cell_m,
             push: (DVec3::ZERO, DVec3::ZERO),
+            supports: Vec::new(),
             drive: Default::default(),
         };
         body.capture_rigid_pose();

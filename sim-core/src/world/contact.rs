@@ -227,6 +227,11 @@ pub(super) fn solve(
     dt_s: f64,
 ) {
     let n = bodies.len();
+    for (k, b) in bodies.iter_mut().enumerate() {
+        if env.stepping(k) {
+            b.supports.clear();
+        }
+    }
     let dx = env.settings.grid_dx_m as f32;
     // Speculative margin: points within a cell are contacts (the gap may close).
     let margin = dx;
@@ -473,6 +478,7 @@ pub(super) fn solve(
             }
         }
     }
+    record_supports(bodies, &solver_bodies, &points);
     for (k, s) in solver_bodies.iter().enumerate().take(n) {
         if !env.stepping(k) {
             continue;
@@ -482,6 +488,37 @@ pub(super) fn solve(
             b.rigid.velocity_m_s = s.velocity_m_s;
             b.rigid.omega_rad_s = s.omega_rad_s;
             b.push = (s.push_m_s, s.push_rad_s);
+        }
+    }
+}
+
+/// Each awake rigid object's loaded points against immovable solver bodies (colliders, the
+/// background, static, kinematic and sleeping objects), as the supports the deformable grids it
+/// meets next substep hold it on ([`crate::contact::coupling::Support`]).
+fn record_supports(bodies: &mut [Body], solver_bodies: &[SolverBody], points: &[ContactPoint]) {
+    let n = bodies.len();
+    let immovable = |k: usize| {
+        let s = &solver_bodies[k];
+        s.inverse_mass == 0.0 && s.inverse_inertia == glam::DMat3::ZERO
+    };
+    for p in points.iter().filter(|p| p.normal_impulse > 0.0) {
+        // The normal runs from a to b: out of a support a, into a support b.
+        for (k, other, normal) in [(p.a, p.b, -p.normal), (p.b, p.a, p.normal)] {
+            if k >= n || !immovable(other) || immovable(k) {
+                continue;
+            }
+            let b = &mut bodies[k];
+            if b.kind != ObjectKind::Rigid || b.sleeping {
+                continue;
+            }
+            let s = &solver_bodies[other];
+            b.supports.push(crate::contact::coupling::Support {
+                r_m: p.point_m - solver_bodies[k].com_m,
+                normal,
+                velocity_m_s: s.velocity_m_s + s.omega_rad_s.cross(p.point_m - s.com_m),
+                friction: p.friction,
+                normal_impulse_n_s: p.normal_impulse,
+            });
         }
     }
 }

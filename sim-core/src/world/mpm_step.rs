@@ -321,13 +321,16 @@ fn obstacles<'a>(
             surface: b.surface,
             inverse_mass: 0.0,
             inverse_inertia: DMat3::ZERO,
+            supports: &[],
         };
         if b.kind == ObjectKind::Rigid && !b.sleeping && b.rigid.mass_kg > 0.0 {
             obstacle.inverse_mass = 1.0 / b.rigid.mass_kg;
             obstacle.inverse_inertia = inverse_or_zero(b.rigid_world_inertia());
+            obstacle.supports = &b.supports;
             if let Some(r) = received.get(k) {
                 obstacle.receive(r);
             }
+            obstacle.hold();
         }
         out.push(obstacle);
         of.push(ObstacleOf::Object(k));
@@ -343,6 +346,7 @@ fn obstacles<'a>(
             surface: crate::collider::Surface::Separate,
             inverse_mass: 0.0,
             inverse_inertia: DMat3::ZERO,
+            supports: &[],
         });
         of.push(ObstacleOf::Background);
     }
