@@ -47,7 +47,7 @@ use rayon::prelude::*;
 
 use super::barrier::Wall;
 use super::coupling::{
-    COUPLING_CONVERGED_M_S, COUPLING_SWEEPS, SolidShare, Support, hold_on_supports, node_impulse,
+    COUPLING_CONVERGED_M_S, COUPLING_SWEEPS, Hold, SolidShare, Support, node_impulse,
 };
 use super::geometry::Placed;
 use crate::collider::{Surface, apply_surface};
@@ -100,17 +100,10 @@ impl<'a> Obstacle<'a> {
         self.omega_rad_s += (self.inverse_inertia * reaction.angular_impulse_n_m_s).as_vec3a();
     }
 
-    /// A movable solid's velocities held off its supports ([`hold_on_supports`]).
-    pub fn hold(&mut self) {
-        let (mut v, mut w) = (self.velocity_m_s.as_dvec3(), self.omega_rad_s.as_dvec3());
-        self.hold_motion(&mut v, &mut w);
-        self.velocity_m_s = v.as_vec3a();
-        self.omega_rad_s = w.as_vec3a();
-    }
-
-    fn hold_motion(&self, v: &mut DVec3, w: &mut DVec3) {
+    /// Holds a movable solid's velocities `v` and `w` on its supports ([`Hold`]).
+    fn hold_motion(&self, hold: &mut Hold, v: &mut DVec3, w: &mut DVec3) {
         if self.is_movable() && !self.supports.is_empty() {
-            hold_on_supports(v, w, self.inverse_mass, self.inverse_inertia, self.supports);
+            hold.apply(v, w, self.inverse_mass, self.inverse_inertia, self.supports);
         }
     }
 }
@@ -353,10 +346,7 @@ fn couple(
             contact_mass[t.obstacle as usize] += mass_kg[b * BLOCK_NODES + t.node as usize] as f64;
         }
     }
-    let mut motion: Vec<(DVec3, DVec3)> = obstacles
-        .iter()
-        .map(|o| (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3()))
-        .collect();
+    let (mut motion, mut holds) = held_motion(obstacles);
     for _ in 0..COUPLING_SWEEPS {
         let (parts, changes): (Vec<Vec<Reaction>>, Vec<f32>) = mass_kg
             .par_chunks(BLOCK_NODES)
@@ -384,10 +374,15 @@ fn couple(
             })
             .unzip();
         let sweep = sum_in_order(&parts, n);
-        for ((o, r), (v, w)) in obstacles.iter().zip(&sweep).zip(&mut motion) {
+        for (((o, r), (v, w)), hold) in obstacles
+            .iter()
+            .zip(&sweep)
+            .zip(&mut motion)
+            .zip(&mut holds)
+        {
             *v += r.impulse_n_s * o.inverse_mass;
             *w += o.inverse_inertia * r.angular_impulse_n_m_s;
-            o.hold_motion(v, w);
+            o.hold_motion(hold, v, w);
         }
         for (t, r) in total.iter_mut().zip(&sweep) {
             t.impulse_n_s += r.impulse_n_s;
@@ -398,6 +393,20 @@ fn couple(
             break;
         }
     }
+}
+
+/// Each obstacle's velocity and angular velocity, held on its supports, and the holds, for a
+/// two-way solve.
+fn held_motion(obstacles: &[Obstacle]) -> (Vec<(DVec3, DVec3)>, Vec<Hold>) {
+    obstacles
+        .iter()
+        .map(|o| {
+            let mut hold = Hold::new(o.supports);
+            let (mut v, mut w) = (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3());
+            o.hold_motion(&mut hold, &mut v, &mut w);
+            ((v, w), hold)
+        })
+        .unzip()
 }
 
 /// The `n` obstacles' reactions summed over `parts` in their order (so the sums do not depend
@@ -490,10 +499,7 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
                 mass_kg[c * PROJECTION_CHUNK + p.particle as usize] as f64;
         }
     }
-    let mut motion: Vec<(DVec3, DVec3)> = obstacles
-        .iter()
-        .map(|o| (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3()))
-        .collect();
+    let (mut motion, mut holds) = held_motion(obstacles);
     for _ in 0..COUPLING_SWEEPS {
         let (parts, changes): (Vec<Vec<Reaction>>, Vec<f32>) = v
             .par_chunks_mut(PROJECTION_CHUNK)
@@ -531,10 +537,15 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
             })
             .unzip();
         let sweep = sum_in_order(&parts, n);
-        for ((o, r), (v, w)) in obstacles.iter().zip(&sweep).zip(&mut motion) {
+        for (((o, r), (v, w)), hold) in obstacles
+            .iter()
+            .zip(&sweep)
+            .zip(&mut motion)
+            .zip(&mut holds)
+        {
             *v += r.impulse_n_s * o.inverse_mass;
             *w += o.inverse_inertia * r.angular_impulse_n_m_s;
-            o.hold_motion(v, w);
+            o.hold_motion(hold, v, w);
         }
         for (t, r) in total.iter_mut().zip(&sweep) {
             t.add(r);

@@ -62,58 +62,73 @@ pub struct Support {
     pub velocity_m_s: DVec3,
     /// Coulomb friction μ of the pair.
     pub friction: f64,
-    /// The normal impulse the point carried in that pass (N s).
-    pub normal_impulse_n_s: f64,
 }
 
-/// Holds a solid's COM velocity `v` (m/s) and angular velocity `w` (rad/s), of inverse mass
-/// `inverse_mass` (1/kg) and world inverse inertia `inverse_inertia` (1/(kg m²)), on its
-/// `supports`: at each, a normal impulse raises an approaching normal velocity relative to the
-/// support to zero, and a friction impulse brings the tangential one toward zero, within μ times
-/// the point's normal impulse of the last pass plus this one's (accumulated clamping over
-/// [`SUPPORT_PASSES`] Gauss–Seidel passes, as in [`super::solver`]). What the grid's nodes see of
-/// the solid within a substep; the contact solver then settles the solid's own velocity against
-/// its supports with the reaction the nodes gave it.
-pub fn hold_on_supports(
-    v: &mut DVec3,
-    w: &mut DVec3,
-    inverse_mass: f64,
-    inverse_inertia: DMat3,
-    supports: &[Support],
-) {
-    let mut held = vec![(0.0f64, DVec3::ZERO); supports.len()];
-    let apply = |v: &mut DVec3, w: &mut DVec3, r: DVec3, j: DVec3| {
-        *v += j * inverse_mass;
-        *w += inverse_inertia * r.cross(j);
-    };
-    for _ in 0..SUPPORT_PASSES {
-        for (s, (normal, tangent)) in supports.iter().zip(held.iter_mut()) {
-            let n = s.normal;
-            let relative = |v: &DVec3, w: &DVec3| *v + w.cross(s.r_m) - s.velocity_m_s;
-            let rn = s.r_m.cross(n);
-            let k = inverse_mass + rn.dot(inverse_inertia * rn);
-            if !(k > 0.0 && k.is_finite()) {
-                continue;
+/// A solid's hold on its [`Support`]s over one two-way solve: the normal and friction impulse
+/// each point has given so far, clamped as accumulated totals (as in [`super::solver`]), so the
+/// friction over the whole solve stays within μ times its normal impulse.
+#[derive(Debug, Clone, Default)]
+pub struct Hold {
+    /// Per support: accumulated normal impulse (N s, ≥ 0) and friction impulse (N s).
+    impulses: Vec<(f64, DVec3)>,
+}
+
+impl Hold {
+    /// No impulse yet at any of `supports`.
+    pub fn new(supports: &[Support]) -> Self {
+        Self {
+            impulses: vec![(0.0, DVec3::ZERO); supports.len()],
+        }
+    }
+
+    /// Holds a solid's COM velocity `v` (m/s) and angular velocity `w` (rad/s), of inverse
+    /// mass `inverse_mass` (1/kg) and world inverse inertia `inverse_inertia` (1/(kg m²)), on
+    /// `supports` (those `self` was made for): at each, a normal impulse raises an approaching
+    /// normal velocity relative to the support to zero, and friction brings the tangential one
+    /// toward zero within μ times the point's normal impulse ([`SUPPORT_PASSES`] Gauss–Seidel
+    /// passes). What the grid's nodes see of the solid within a substep; the contact solver
+    /// then settles the solid's own velocity on its supports with the reaction the nodes gave.
+    pub fn apply(
+        &mut self,
+        v: &mut DVec3,
+        w: &mut DVec3,
+        inverse_mass: f64,
+        inverse_inertia: DMat3,
+        supports: &[Support],
+    ) {
+        let push = |v: &mut DVec3, w: &mut DVec3, r: DVec3, j: DVec3| {
+            *v += j * inverse_mass;
+            *w += inverse_inertia * r.cross(j);
+        };
+        for _ in 0..SUPPORT_PASSES {
+            for (s, (normal, tangent)) in supports.iter().zip(self.impulses.iter_mut()) {
+                let n = s.normal;
+                let relative = |v: &DVec3, w: &DVec3| *v + w.cross(s.r_m) - s.velocity_m_s;
+                let rn = s.r_m.cross(n);
+                let k = inverse_mass + rn.dot(inverse_inertia * rn);
+                if !(k > 0.0 && k.is_finite()) {
+                    continue;
+                }
+                let total = (*normal - relative(v, w).dot(n) / k).max(0.0);
+                push(v, w, s.r_m, n * (total - *normal));
+                *normal = total;
+                let u = relative(v, w);
+                let ut = u - n * u.dot(n);
+                let speed = ut.length();
+                if speed <= 0.0 {
+                    continue;
+                }
+                let t = ut / speed;
+                let rt = s.r_m.cross(t);
+                let kt = inverse_mass + rt.dot(inverse_inertia * rt);
+                let limit = s.friction * *normal;
+                let mut next = *tangent - t * (speed / kt);
+                if next.length() > limit {
+                    next *= limit / next.length();
+                }
+                push(v, w, s.r_m, next - *tangent);
+                *tangent = next;
             }
-            let total = (*normal - relative(v, w).dot(n) / k).max(0.0);
-            apply(v, w, s.r_m, n * (total - *normal));
-            *normal = total;
-            let u = relative(v, w);
-            let ut = u - n * u.dot(n);
-            let speed = ut.length();
-            if speed <= 0.0 {
-                continue;
-            }
-            let t = ut / speed;
-            let rt = s.r_m.cross(t);
-            let kt = inverse_mass + rt.dot(inverse_inertia * rt);
-            let limit = s.friction * (s.normal_impulse_n_s + *normal);
-            let mut next = *tangent - t * (speed / kt);
-            if next.length() > limit {
-                next *= limit / next.length();
-            }
-            apply(v, w, s.r_m, next - *tangent);
-            *tangent = next;
         }
     }
 }

@@ -23,7 +23,8 @@
 //!
 //! After the n steps one restitution pass gives an impact (approach faster than
 //! [`SolverSettings::resting_speed_m_s`] at the start that took an impulse, of a pair that
-//! carried none in the last substep) −e times its approach speed. A body's motion over the
+//! carried none in the last substep) −e times its approach speed before the substep's gravity,
+//! plus that gravity (the bounce first, then the substep's fall). A body's motion over the
 //! substep is returned as velocity plus a pseudo-velocity (Δp/dt − v), which the world's
 //! position half integrates.
 //!
@@ -343,7 +344,10 @@ fn restitution(
         for &i in &bouncing {
             let (c, row, p) = (&mut contacts[i], &rows[i], &mut points[i]);
             let vn = relative(bodies, c.a, c.b, row.ra, row.rb).dot(c.normal);
-            let target = -c.restitution * p.approach_m_s;
+            // The approach before the substep's external forces, reflected; they then act on
+            // the rebound (as in the sequential-impulse solver).
+            let external = (bodies[c.b].external_m_s - bodies[c.a].external_m_s).dot(c.normal);
+            let target = -c.restitution * (p.approach_m_s - external) + external;
             let total = (c.normal_impulse + (target - vn) / row.k_n).max(0.0);
             let delta = total - c.normal_impulse;
             c.normal_impulse = total;
@@ -405,6 +409,19 @@ mod tests {
             solve(&mut bodies, &mut [c], 1e-3, &settings());
             let v = bodies[1].velocity_m_s.z;
             assert!((v - 2.0 * e).abs() < 1e-9, "e = {e}: {v}");
+        }
+    }
+
+    #[test]
+    fn an_impact_reflects_the_approach_before_the_substep_gravity() {
+        // Arriving at u with the substep's g dt already in its velocity: it leaves at e u − g dt.
+        let (dt, g, u) = (8.3e-3, 9.81, 0.5);
+        for e in [0.25, 0.5, 1.0] {
+            let (mut bodies, c) = ball_on_ground(0.05, -u - g * dt, e);
+            bodies[1].external_m_s = DVec3::new(0.0, 0.0, -g * dt);
+            solve(&mut bodies, &mut [c], dt, &settings());
+            let v = bodies[1].velocity_m_s.z;
+            assert!((v - (e * u - g * dt)).abs() < 1e-9, "e = {e}: {v}");
         }
     }
 

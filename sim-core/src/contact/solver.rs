@@ -130,7 +130,13 @@ fn sequential_impulses(
         let touches = s <= 0.0 || -vn * dt_s >= s;
         let lasting = c.lasting || c.normal_impulse > 0.0;
         if touches && !lasting && -vn > settings.resting_speed_m_s && c.restitution > 0.0 {
-            row.target_vn = row.target_vn.max(-c.restitution * vn);
+            // The law reflects the approach before this substep's external forces, which then
+            // act on the rebound: reflecting v_n after them would return a falling body
+            // (1 + e) g dt faster than it came.
+            let external = (bodies[c.b].external_m_s - bodies[c.a].external_m_s).dot(n);
+            row.target_vn = row
+                .target_vn
+                .max(-c.restitution * (vn - external) + external);
             row.bounce_gap_m = s.max(0.0);
         }
         if s < -settings.slop_m {
@@ -281,6 +287,23 @@ mod tests {
             solve(&mut bodies, &mut c, 1e-3, &SolverSettings::default());
             assert!((bodies[1].velocity_m_s.z - 2.0 * e).abs() < 1e-9, "e = {e}");
             assert!((c[0].normal_impulse - (1.0 + e) * 2.0).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn an_impact_reflects_the_approach_before_the_substep_gravity() {
+        // A ball arriving at u, its velocity already holding the substep's g dt: it leaves at
+        // e u, then falls for the substep, so e u − g dt; reflecting u + g dt instead would
+        // return it (1 + e) g dt faster, and at e = 1 faster than it came.
+        let (dt, g, u) = (8.3e-3, 9.81, 0.5);
+        for e in [0.25, 0.5, 1.0] {
+            let mut ball = ball(0.0, -u - g * dt);
+            ball.external_m_s = DVec3::new(0.0, 0.0, -g * dt);
+            let mut bodies = [SolverBody::immovable(DVec3::ZERO), ball];
+            let mut c = [ground_contact(e, 0.0)];
+            solve(&mut bodies, &mut c, dt, &SolverSettings::default());
+            let vz = bodies[1].velocity_m_s.z;
+            assert!((vz - (e * u - g * dt)).abs() < 1e-9, "e = {e}: {vz}");
         }
     }
 

@@ -517,7 +517,6 @@ fn record_supports(bodies: &mut [Body], solver_bodies: &[SolverBody], points: &[
                 normal,
                 velocity_m_s: s.velocity_m_s + s.omega_rad_s.cross(p.point_m - s.com_m),
                 friction: p.friction,
-                normal_impulse_n_s: p.normal_impulse,
             });
         }
     }

@@ -330,7 +330,6 @@ fn obstacles<'a>(
             if let Some(r) = received.get(k) {
                 obstacle.receive(r);
             }
-            obstacle.hold();
         }
         out.push(obstacle);
         of.push(ObstacleOf::Object(k));
