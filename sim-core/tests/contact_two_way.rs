@@ -250,7 +250,7 @@ fn a_rigid_block_covering_a_damped_jelly_cube_compresses_it_by_the_uniaxial_stra
     // The block's weight over the cube's top, σ = m g / A, shortens it by δ = σ H / E (uniaxial
     // stress; friction at both faces holds the Poisson expansion back a little, which makes it
     // slightly stiffer). The cube's own weight shortens it too, with or without the block: the
-    // block's part is the difference. Measured: 0.96 of δ at E = 1e5 Pa (strain 1.6 %), 0.95 at
+    // block's part is the difference. Measured: 0.96 of δ at E = 1e5 Pa (strain 1.6 %), 0.97 at
     // 5e4 Pa; with one particle per cell instead of two the cube is too soft (1.16).
     // The four runs side by side (each world is mostly serial).
     let runs: Vec<_> = [
