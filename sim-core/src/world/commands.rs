@@ -295,6 +295,8 @@ impl World {
         }
         let frozen = solid(kind) && !solid(b.kind);
         b.kind = kind;
+        // Where it leaned as another kind is not where it leans now.
+        b.supports.clear();
         if frozen {
             self.contacts.made_solid.push(id);
         }

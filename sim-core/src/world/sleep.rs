@@ -48,6 +48,7 @@ impl Body {
         self.rigid.velocity_m_s = DVec3::ZERO;
         self.rigid.omega_rad_s = DVec3::ZERO;
         self.max_speed_m_s = 0.0;
+        self.supports.clear();
     }
 }
 
