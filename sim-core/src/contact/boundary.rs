@@ -78,7 +78,7 @@ pub struct Obstacle<'a> {
     pub supports: &'a [Support],
 }
 
-impl<'a> Obstacle<'a> {
+impl Obstacle<'_> {
     /// Whether the grid moves it: a movable solid meets the grid two-way
     /// ([`super::coupling`]), an immovable one one-way.
     pub fn is_movable(&self) -> bool {
@@ -328,8 +328,8 @@ struct Touch {
 }
 
 /// The two-way solve of the `touches` (per block) of movable obstacles with the grid's nodes
-/// (`mass_kg`, `velocity_m_s` relative to `v_ref`): Jacobi sweeps (at most [`COUPLING_SWEEPS`]) with mass
-/// splitting ([`super::coupling`]); adds the impulses to `total`.
+/// (`mass_kg`, `velocity_m_s` relative to `v_ref`): Jacobi sweeps with mass splitting, at most
+/// [`COUPLING_SWEEPS`] ([`super::coupling`]); adds the impulses to `total`.
 fn couple(
     mass_kg: &[f32],
     velocity_m_s: &mut [Vec3A],

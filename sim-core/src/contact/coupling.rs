@@ -43,7 +43,7 @@ pub const COUPLING_SWEEPS: usize = 64;
 /// jelly, the slowest case, steps 1.3 times as long as with four sweeps (1e-6: 1.6 times).
 pub const COUPLING_CONVERGED_M_S: f32 = 1e-5;
 
-/// Gauss–Seidel passes of [`hold_on_supports`] over a solid's support points.
+/// Gauss–Seidel passes of [`Hold::apply`] over a solid's support points.
 pub const SUPPORT_PASSES: usize = 4;
 
 /// A point where a movable solid leans on an immovable one (a floor, a static shelf, a
