@@ -1,6 +1,6 @@
 //! Deformable objects and movable solids meet two-way on the deformable's grid (release build):
 //! a light rigid ball thrown into a jelly never leaves faster than it came, a light lid comes to
-//! rest on a jelly, a rigid block rests on a jelly near the uniaxial sag without creeping, and a
+//! rest on a jelly, a rigid block rests on a jelly near the uniaxial sag without creeping, a
 //! rigid block covering a damped jelly cube compresses it by the uniaxial strain, and a jelly
 //! resting on a box lighter than itself stays on it.
 
