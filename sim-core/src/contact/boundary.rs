@@ -346,7 +346,7 @@ fn couple(
             contact_mass[t.obstacle as usize] += mass_kg[b * BLOCK_NODES + t.node as usize] as f64;
         }
     }
-    let (mut motion, mut holds) = held_motion(obstacles);
+    let mut solids = Solids::new(obstacles);
     for _ in 0..COUPLING_SWEEPS {
         let (parts, changes): (Vec<Vec<Reaction>>, Vec<f32>) = mass_kg
             .par_chunks(BLOCK_NODES)
@@ -362,7 +362,7 @@ fn couple(
                     let k = t.obstacle as usize;
                     let (o, m) = (&obstacles[k], mass[t.node as usize]);
                     let solid = o.share(m as f64 / contact_mass[k]);
-                    let (v_solid, w_solid) = motion[k];
+                    let (v_solid, w_solid) = solids.motion[k];
                     let at = (v_solid + w_solid.cross(t.r_m.as_dvec3())).as_vec3a();
                     let v = vel[t.node as usize] + v_ref;
                     let j = node_impulse(v - at, t.normal, m, t.r_m, &solid, o.surface, o.friction);
@@ -373,40 +373,62 @@ fn couple(
                 (out, change)
             })
             .unzip();
-        let sweep = sum_in_order(&parts, n);
+        if solids.follow(obstacles, &parts, &changes, total) {
+            break;
+        }
+    }
+}
+
+/// The obstacles' motion over a two-way solve: each one's velocity and angular velocity as the
+/// sweeps have left it, held on its supports.
+struct Solids {
+    /// Velocity (m/s) and angular velocity (rad/s) of each obstacle.
+    motion: Vec<(DVec3, DVec3)>,
+    /// Each obstacle's hold on its supports.
+    holds: Vec<Hold>,
+}
+
+impl Solids {
+    /// The obstacles as they start the solve, held on their supports.
+    fn new(obstacles: &[Obstacle]) -> Self {
+        let (motion, holds) = obstacles
+            .iter()
+            .map(|o| {
+                let mut hold = Hold::new(o.supports);
+                let (mut v, mut w) = (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3());
+                o.hold_motion(&mut hold, &mut v, &mut w);
+                ((v, w), hold)
+            })
+            .unzip();
+        Self { motion, holds }
+    }
+
+    /// After a sweep whose per-part reactions are `parts` and largest velocity changes (m/s)
+    /// `changes`: each obstacle takes the sweep's impulses and is held on its supports, and
+    /// `total` gains them. Whether the solve has converged ([`COUPLING_CONVERGED_M_S`]).
+    fn follow(
+        &mut self,
+        obstacles: &[Obstacle],
+        parts: &[Vec<Reaction>],
+        changes: &[f32],
+        total: &mut [Reaction],
+    ) -> bool {
+        let sweep = sum_in_order(parts, obstacles.len());
         for (((o, r), (v, w)), hold) in obstacles
             .iter()
             .zip(&sweep)
-            .zip(&mut motion)
-            .zip(&mut holds)
+            .zip(&mut self.motion)
+            .zip(&mut self.holds)
         {
             *v += r.impulse_n_s * o.inverse_mass;
             *w += o.inverse_inertia * r.angular_impulse_n_m_s;
             o.hold_motion(hold, v, w);
         }
         for (t, r) in total.iter_mut().zip(&sweep) {
-            t.impulse_n_s += r.impulse_n_s;
-            t.angular_impulse_n_m_s += r.angular_impulse_n_m_s;
-            t.normal_impulse_n_s += r.normal_impulse_n_s;
+            t.add(r);
         }
-        if changes.iter().all(|&c| c <= COUPLING_CONVERGED_M_S) {
-            break;
-        }
+        changes.iter().all(|&c| c <= COUPLING_CONVERGED_M_S)
     }
-}
-
-/// Each obstacle's velocity and angular velocity, held on its supports, and the holds, for a
-/// two-way solve.
-fn held_motion(obstacles: &[Obstacle]) -> (Vec<(DVec3, DVec3)>, Vec<Hold>) {
-    obstacles
-        .iter()
-        .map(|o| {
-            let mut hold = Hold::new(o.supports);
-            let (mut v, mut w) = (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3());
-            o.hold_motion(&mut hold, &mut v, &mut w);
-            ((v, w), hold)
-        })
-        .unzip()
 }
 
 /// The `n` obstacles' reactions summed over `parts` in their order (so the sums do not depend
@@ -499,7 +521,7 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
                 mass_kg[c * PROJECTION_CHUNK + p.particle as usize] as f64;
         }
     }
-    let (mut motion, mut holds) = held_motion(obstacles);
+    let mut solids = Solids::new(obstacles);
     for _ in 0..COUPLING_SWEEPS {
         let (parts, changes): (Vec<Vec<Reaction>>, Vec<f32>) = v
             .par_chunks_mut(PROJECTION_CHUNK)
@@ -515,7 +537,7 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
                     let (k, i) = (p.obstacle as usize, p.particle as usize);
                     let o = &obstacles[k];
                     let solid = o.share(m[i] as f64 / inside_mass[k]);
-                    let (v_solid, w_solid) = motion[k];
+                    let (v_solid, w_solid) = solids.motion[k];
                     let solid_v = (v_solid + w_solid.cross(p.r_m.as_dvec3())).as_vec3a();
                     // The push is a separating target: shift it out of the relative velocity
                     // and let the separate rule stop the approach to it.
@@ -536,21 +558,7 @@ pub fn project_particles(particles: &mut Particles, obstacles: &[Obstacle]) -> V
                 (out, change)
             })
             .unzip();
-        let sweep = sum_in_order(&parts, n);
-        for (((o, r), (v, w)), hold) in obstacles
-            .iter()
-            .zip(&sweep)
-            .zip(&mut motion)
-            .zip(&mut holds)
-        {
-            *v += r.impulse_n_s * o.inverse_mass;
-            *w += o.inverse_inertia * r.angular_impulse_n_m_s;
-            o.hold_motion(hold, v, w);
-        }
-        for (t, r) in total.iter_mut().zip(&sweep) {
-            t.add(r);
-        }
-        if changes.iter().all(|&c| c <= COUPLING_CONVERGED_M_S) {
+        if solids.follow(obstacles, &parts, &changes, &mut total) {
             break;
         }
     }
