@@ -78,7 +78,9 @@ pub struct MpmBenchArgs {
     /// (GPU timestamps, each kernel in a pass of its own), the two kernels of the moments a
     /// scene reads back after every substep (`moments`, `moments_total`), and on the host's
     /// clock a substep followed by that read-back, as a scene takes it
-    /// (`substep_and_report_wall`); the mean µs of each are added to the line (`phases_us`).
+    /// (`substep_and_report_wall`: queueing the substep, `substep_queue_wall`, then the report,
+    /// `report_wall`), and a bare 16-byte read-back polling and blocking (`bare_read_wall`,
+    /// `bare_read_blocking_wall`); the mean µs of each are added to the line (`phases_us`).
     /// Needs an adapter with timestamp queries.
     #[arg(long)]
     pub profile: bool,
@@ -275,8 +277,15 @@ fn gpu_run(a: &MpmBenchArgs, sys: &mut MpmSystem) -> Result<serde_json::Value> {
             .collect();
         // A substep as a scene takes it on the device: then its report, read back.
         let reference = glam::Vec3A::splat(0.5);
-        let round_trip = gpu.round_trip_us(PROFILED_SUBSTEPS, dt, reference)?;
-        phases.insert("substep_and_report_wall".into(), json!(round_trip));
+        let trip = gpu.round_trip(PROFILED_SUBSTEPS, dt, reference)?;
+        phases.insert("substep_and_report_wall".into(), json!(trip.total_us));
+        phases.insert("substep_queue_wall".into(), json!(trip.queue_us));
+        phases.insert("report_wall".into(), json!(trip.report_us));
+        phases.insert("bare_read_wall".into(), json!(trip.bare_read_us));
+        phases.insert(
+            "bare_read_blocking_wall".into(),
+            json!(trip.bare_read_blocking_us),
+        );
         Some(phases)
     } else {
         None

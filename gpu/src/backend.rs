@@ -71,6 +71,7 @@ impl DeviceMpm for GpuMpm {
         reference_m: Vec3A,
     ) -> Result<DeviceReport, DeviceError> {
         self.time_s = time_s;
+        self.set_reference(reference_m);
         // Two submissions: the GPU runs the substep while the report is recorded (one
         // submission of both was 10-15 % slower on an H200 for the captured donut).
         GpuMpm::substep(self, dt_s);

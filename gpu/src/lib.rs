@@ -35,7 +35,7 @@ pub mod mpm;
 
 pub use backend::GpuBackend;
 pub use context::GpuContext;
-pub use mpm::{GpuMpm, Profile};
+pub use mpm::{GpuMpm, Profile, RoundTrip};
 
 /// What can go wrong on the GPU path.
 #[derive(Debug, thiserror::Error)]

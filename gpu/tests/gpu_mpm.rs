@@ -353,6 +353,38 @@ fn a_moving_plane_lifts_and_drags_a_cube_as_on_the_cpu() {
 }
 
 #[test]
+fn a_report_read_by_polling_is_the_one_read_by_blocking() {
+    // A `World` reads a report after every substep; polling the device for it (what a hardware
+    // adapter does) and blocking (a software one) must give the same report and particles.
+    let Some(ctx) = context() else { return };
+    let g = Vec3A::new(0.0, 0.0, -9.8);
+    let mut sys = cube(6, 1.0 / 32.0, Vec3A::new(0.0, 0.0, -1.0), g, jelly());
+    let plane = Plane::new(Vec3A::new(0.0, 0.0, 0.29), Vec3A::Z).unwrap();
+    sys.colliders
+        .push(Collider::fixed(Shape::Plane(plane), Surface::Separate, 0.3));
+    let run = |spin_ms: u64| {
+        let mut gpu = GpuMpm::new(context().expect("the same device"), &sys).expect("supported");
+        gpu.set_spin_wait(std::time::Duration::from_millis(spin_ms));
+        let reports: Vec<_> = (0..60)
+            .map(|_| {
+                gpu.substep(DT_S);
+                gpu.report(Vec3A::new(0.5, 0.5, 0.45)).expect("report")
+            })
+            .collect();
+        let mut p = sys.particles.clone();
+        gpu.read_particles(&mut p).expect("read back");
+        (reports, p)
+    };
+    drop(ctx);
+    let (polled, a) = run(50);
+    let (blocked, b) = run(0);
+    // The cube reached the plane: its impulse is in the reports.
+    assert!(polled.iter().any(|r| r.impulses_n_s[1].z > 0.0));
+    assert_eq!(polled, blocked);
+    assert_eq!(a.x, b.x);
+}
+
+#[test]
 fn a_run_gives_the_same_bits_every_time() {
     let Some(ctx) = context() else { return };
     let sys = cube(

@@ -88,8 +88,12 @@ impl GpuMpm {
     /// # Errors
     /// As [`GpuMpm::check`].
     pub fn report(&mut self, reference: Vec3A) -> Result<DeviceReport, GpuError> {
-        self.params.reference = reference.to_array();
-        self.write_params();
+        // A `World` sets the reference with the substep's parameters (`backend.rs`): one
+        // write a substep instead of two.
+        if self.params.reference != reference.to_array() {
+            self.params.reference = reference.to_array();
+            self.write_params();
+        }
         let mut encoder = self.encoder("report");
         self.encode_moments(&mut encoder);
         let (offset, size) = self.collider_range();

@@ -1,7 +1,7 @@
 //! Where a substep's time goes on the GPU: each kernel in its own compute pass between two
 //! timestamps (wgpu's `TIMESTAMP_QUERY`), for `splatphys bench mpm --device gpu --profile`; and
 //! what a substep costs as a `World` runs it, on the host's clock (the substep, then its report
-//! read back: [`GpuMpm::round_trip_us`]).
+//! read back: [`GpuMpm::round_trip`]).
 
 use std::time::Instant;
 
@@ -130,27 +130,68 @@ impl GpuMpm {
     }
 }
 
+/// What a substep costs on the host's clock as a `World` takes it on the device
+/// ([`GpuMpm::round_trip`]), mean µs per substep.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoundTrip {
+    /// The whole: the substep queued, then its report recorded, submitted and read back.
+    pub total_us: f64,
+    /// Of which queueing the substep (parameters written, kernels recorded, submitted).
+    pub queue_us: f64,
+    /// Of which the report: recorded, submitted, waited for, read.
+    pub report_us: f64,
+    /// With nothing queued, one 16-byte read-back alone (submit, wait, map), as the report
+    /// waits (polling, then blocking): the floor a round trip costs on this device and driver,
+    /// whatever the kernels.
+    pub bare_read_us: f64,
+    /// The same read-back with a blocking wait only.
+    pub bare_read_blocking_us: f64,
+}
+
 impl GpuMpm {
     /// The mean wall time (µs, on the host's clock) of `count` substeps of `dt_s` taken one at a
     /// time as a `World` takes them on the device: each queued, then its report (moments about
     /// `reference` m, the colliders' impulses, the failure check) recorded, submitted and read
-    /// back ([`GpuMpm::report`]) before the next. Against the kernels' time this is what the
-    /// round trip costs.
+    /// back ([`GpuMpm::report`]) before the next; and a bare read-back's. Against the kernels'
+    /// time this is what the round trip costs.
     ///
     /// # Errors
     /// As [`GpuMpm::report`].
-    pub fn round_trip_us(
+    pub fn round_trip(
         &mut self,
         count: u32,
         dt_s: f32,
         reference: Vec3A,
-    ) -> Result<f64, GpuError> {
+    ) -> Result<RoundTrip, GpuError> {
         let count = count.max(1);
-        let started = Instant::now();
+        let (mut queue, mut report) = (0.0, 0.0);
         for _ in 0..count {
+            let started = Instant::now();
             self.substep(dt_s);
+            let queued = Instant::now();
             self.report(reference)?;
+            queue += (queued - started).as_secs_f64();
+            report += queued.elapsed().as_secs_f64();
         }
-        Ok(started.elapsed().as_secs_f64() * 1e6 / f64::from(count))
+        let spin = self.spin;
+        let mut bare_read = |spin| -> Result<f64, GpuError> {
+            let kept = std::mem::replace(&mut self.spin, spin);
+            let started = Instant::now();
+            for _ in 0..count {
+                self.read_range(&self.status, 0, 16)?;
+            }
+            self.spin = kept;
+            Ok(started.elapsed().as_secs_f64())
+        };
+        let bare = bare_read(spin)?;
+        let blocking = bare_read(std::time::Duration::ZERO)?;
+        let us = |s: f64| s * 1e6 / f64::from(count);
+        Ok(RoundTrip {
+            total_us: us(queue + report),
+            queue_us: us(queue),
+            report_us: us(report),
+            bare_read_us: us(bare),
+            bare_read_blocking_us: us(blocking),
+        })
     }
 }

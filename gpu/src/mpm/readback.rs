@@ -1,6 +1,9 @@
 //! Reading results back from the GPU: the status (failures, largest speed) and the particles;
 //! each read is one wait for the GPU.
 
+use std::sync::mpsc::TryRecvError;
+use std::time::{Duration, Instant};
+
 use glam::{Mat3A, Vec3A};
 use rayon::prelude::*;
 use splatphys_core::mpm::Particles;
@@ -91,12 +94,7 @@ impl GpuMpm {
         staging.map_async(wgpu::MapMode::Read, ..total, move |r| {
             let _ = tx.send(r);
         });
-        self.ctx
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
+        self.wait_for(&rx, self.spin)?
             .map_err(|e| GpuError::Readback(e.to_string()))?;
         let out = {
             let bytes = staging
@@ -112,6 +110,36 @@ impl GpuMpm {
         };
         staging.unmap();
         Ok(out)
+    }
+
+    /// Waits until the GPU has run the work submitted so far and `rx` has the map's result:
+    /// polling the device without blocking for up to `spin` (a blocking wait wakes the thread
+    /// some tens of µs after the GPU signals, which a substep of a small object pays every
+    /// time), then blocking.
+    fn wait_for(
+        &self,
+        rx: &std::sync::mpsc::Receiver<Result<(), wgpu::BufferAsyncError>>,
+        spin: Duration,
+    ) -> Result<Result<(), wgpu::BufferAsyncError>, GpuError> {
+        let failed = |e: &dyn std::fmt::Display| GpuError::Readback(e.to_string());
+        let started = Instant::now();
+        while started.elapsed() < spin {
+            match rx.try_recv() {
+                Ok(r) => return Ok(r),
+                Err(TryRecvError::Empty) => {}
+                Err(e) => return Err(failed(&e)),
+            }
+            self.ctx
+                .device
+                .poll(wgpu::PollType::Poll)
+                .map_err(|e| failed(&e))?;
+            std::hint::spin_loop();
+        }
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| failed(&e))?;
+        rx.recv().map_err(|e| failed(&e))
     }
 
     /// Waits for the queued substeps; returns the largest particle speed since the last check
