@@ -86,6 +86,10 @@ impl DeviceMpm for GpuMpm {
         GpuMpm::recentre(self, extent_m)
     }
 
+    fn regrid(&mut self, extent_m: (Vec3A, Vec3A)) -> bool {
+        GpuMpm::regrid(self, extent_m)
+    }
+
     fn rigid_field(&mut self, dv: Vec3A, dw: Vec3A, about: Vec3A) {
         GpuMpm::rigid_field(self, dv, dw, about);
     }

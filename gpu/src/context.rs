@@ -1,8 +1,11 @@
 //! Finding a GPU and opening a device on it.
 
-use crate::GpuError;
+use std::sync::{Arc, OnceLock};
 
-/// An open wgpu device and its queue; a clone shares them.
+use crate::GpuError;
+use crate::mpm::kernels::Kernels;
+
+/// An open wgpu device and its queue; a clone shares them, and the kernels compiled on it.
 #[derive(Debug, Clone)]
 pub struct GpuContext {
     /// The device.
@@ -11,6 +14,10 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     /// What the adapter says it is.
     pub info: wgpu::AdapterInfo,
+    /// The MPM kernels, compiled on the first upload and shared by every later one (compiling
+    /// them took 0.2 s of a 0.45 s upload on lavapipe; an object that outgrows its grid is
+    /// uploaded again).
+    kernels: Arc<OnceLock<Arc<Kernels>>>,
 }
 
 impl GpuContext {
@@ -57,7 +64,16 @@ impl GpuContext {
             device,
             queue,
             info,
+            kernels: Arc::default(),
         })
+    }
+
+    /// The MPM kernels on this device, compiled on the first call.
+    pub(crate) fn kernels(&self) -> Arc<Kernels> {
+        Arc::clone(
+            self.kernels
+                .get_or_init(|| Arc::new(Kernels::new(&self.device))),
+        )
     }
 
     /// The adapter's name and backend, e.g. `"NVIDIA H100 (Vulkan)"`.

@@ -13,7 +13,7 @@ use wgpu::util::DeviceExt;
 
 use crate::{GpuContext, GpuError};
 
-mod kernels;
+pub(crate) mod kernels;
 mod moments;
 mod profile;
 mod readback;
@@ -264,6 +264,52 @@ fn dispatch(n: u32) -> (u32, u32) {
     (groups.min(ROW), groups.div_ceil(ROW))
 }
 
+/// The grid's buffers for `n_nodes` nodes and `n_colliders` colliders: the P2G sums
+/// (`grid_sum`, [`NODE_WORDS`] a node, then [`COLLIDER_WORDS`] a collider) and the velocities
+/// (`grid_v`).
+fn grid_buffers(
+    device: &wgpu::Device,
+    n_nodes: u32,
+    n_colliders: u32,
+) -> (wgpu::Buffer, wgpu::Buffer) {
+    let usage =
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+    let buffer = |label, size| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage,
+            mapped_at_creation: false,
+        })
+    };
+    let words = u64::from(n_nodes) * NODE_WORDS + COLLIDER_WORDS * u64::from(n_colliders);
+    (
+        buffer("grid_sum", 4 * words),
+        buffer("grid_v", u64::from(n_nodes) * 16),
+    )
+}
+
+/// The kernels' bind group over `buffers`, in binding order (`kernels.rs`).
+fn bind(
+    device: &wgpu::Device,
+    kernels: &Kernels,
+    buffers: [&wgpu::Buffer; kernels::STORAGE_BUFFERS as usize],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("mpm"),
+        layout: &kernels.layout,
+        entries: &entries,
+    })
+}
+
 /// An [`MpmSystem`]'s particles, materials and colliders on the GPU.
 #[derive(Debug)]
 pub struct GpuMpm {
@@ -276,9 +322,15 @@ pub struct GpuMpm {
     plastic: wgpu::Buffer,
     moments: wgpu::Buffer,
     grid_sum: wgpu::Buffer,
+    grid_v: wgpu::Buffer,
     status: wgpu::Buffer,
+    /// The particles' material indices, the materials and the colliders (bound, never read
+    /// back).
+    fixed: [wgpu::Buffer; 3],
+    /// Whether the grid covers the system's domain bound (it then never moves or grows).
+    over_domain: bool,
     bind_group: wgpu::BindGroup,
-    kernels: Kernels,
+    kernels: std::sync::Arc<Kernels>,
     /// The read-back staging buffers, small and large, kept between reads (`mpm/readback.rs`).
     staging: std::sync::Mutex<[Option<wgpu::Buffer>; 2]>,
     /// How long a read-back polls the device before it blocks (`mpm/readback.rs`).
@@ -358,7 +410,7 @@ impl GpuMpm {
                 ctx.name()
             )));
         }
-        let kernels = Kernels::new(&ctx.device);
+        let kernels = ctx.kernels();
         let device = &ctx.device;
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -403,20 +455,7 @@ impl GpuMpm {
             &nonempty(bytemuck::cast_slice(&cols), size_of::<GpuCollider>()),
             wgpu::BufferUsages::STORAGE,
         );
-        let grid_sum = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("grid_sum"),
-            size: 4
-                * (u64::from(n_nodes) * NODE_WORDS
-                    + COLLIDER_WORDS * u64::from(params.n_colliders)),
-            usage: rw,
-            mapped_at_creation: false,
-        });
-        let grid_v = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("grid_v"),
-            size: u64::from(n_nodes) * 16,
-            usage: rw,
-            mapped_at_creation: false,
-        });
+        let (grid_sum, grid_v) = grid_buffers(device, n_nodes, params.n_colliders);
         let status = init("status", &[0u8; 16], rw);
         let moments = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("moments"),
@@ -424,32 +463,24 @@ impl GpuMpm {
             usage: rw,
             mapped_at_creation: false,
         });
-        let buffers = [
-            &params_buf,
-            &xv,
-            &cf,
-            &pmat,
-            &mats,
-            &cols,
-            &grid_sum,
-            &grid_v,
-            &status,
-            &plastic,
-            &moments,
-        ];
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("mpm"),
-            layout: &kernels.layout,
-            entries: &entries,
-        });
+        let fixed = [pmat, mats, cols];
+        let bind_group = bind(
+            device,
+            &kernels,
+            [
+                &params_buf,
+                &xv,
+                &cf,
+                &fixed[0],
+                &fixed[1],
+                &fixed[2],
+                &grid_sum,
+                &grid_v,
+                &status,
+                &plastic,
+                &moments,
+            ],
+        );
         Ok(Self {
             params,
             n_nodes,
@@ -459,7 +490,13 @@ impl GpuMpm {
             plastic,
             moments,
             grid_sum,
+            grid_v,
             status,
+            fixed,
+            over_domain: sys
+                .colliders
+                .iter()
+                .any(|c| matches!(c.shape, Shape::DomainBound(_))),
             bind_group,
             kernels,
             staging: std::sync::Mutex::new([None, None]),

@@ -3,7 +3,7 @@
 use glam::Vec3A;
 use splatphys_core::mpm::Particles;
 
-use super::GpuMpm;
+use super::{GpuMpm, bind, grid_buffers};
 use crate::GpuError;
 
 /// Particles as the shader stores them: `xv` (position and mass, velocity and rest volume: two
@@ -89,6 +89,47 @@ impl GpuMpm {
         let origin = first - (spare * 0.5).floor();
         self.params.grid_origin = (origin * dx).to_array();
         self.write_params();
+        true
+    }
+
+    /// Lays the dense grid out anew over `extent` (min, max corners in m), larger or smaller,
+    /// keeping the particles where they are on the GPU: what an object that outgrew its grid
+    /// needs, without reading its particles back and uploading them again. `false` (and
+    /// nothing changed) for a grid over the system's domain bound, or one of more than 2^32
+    /// nodes. Returns without waiting.
+    pub fn regrid(&mut self, extent: (Vec3A, Vec3A)) -> bool {
+        let dx = self.params.dx;
+        let first = (extent.0 / dx).floor() - Vec3A::splat(3.0);
+        let last = (extent.1 / dx).ceil() + Vec3A::splat(3.0);
+        let dims = (last - first + Vec3A::ONE).as_ivec3();
+        let nodes = dims.as_u64vec3().element_product();
+        let (Ok(n_nodes), true) = (u32::try_from(nodes), first.is_finite() && !self.over_domain)
+        else {
+            return false;
+        };
+        let device = &self.ctx.device;
+        (self.grid_sum, self.grid_v) = grid_buffers(device, n_nodes, self.params.n_colliders);
+        self.n_nodes = n_nodes;
+        self.params.grid_dims = dims.to_array();
+        self.params.grid_origin = (first * dx).to_array();
+        self.write_params();
+        self.bind_group = bind(
+            device,
+            &self.kernels,
+            [
+                &self.params_buf,
+                &self.xv,
+                &self.cf,
+                &self.fixed[0],
+                &self.fixed[1],
+                &self.fixed[2],
+                &self.grid_sum,
+                &self.grid_v,
+                &self.status,
+                &self.plastic,
+                &self.moments,
+            ],
+        );
         true
     }
 }

@@ -94,6 +94,12 @@ pub trait DeviceMpm: Send + Sync + fmt::Debug {
     /// when the extent does not fit in the grid uploaded.
     fn recentre(&mut self, extent_m: (Vec3A, Vec3A)) -> bool;
 
+    /// Lays its grid out anew over `extent_m` (min, max corners in m), keeping the particles
+    /// on the device; `false` when it cannot (the object is then uploaded again whole).
+    fn regrid(&mut self, _extent_m: (Vec3A, Vec3A)) -> bool {
+        false
+    }
+
     /// v += `dv` + `dw` × (x − `about`), C += \[`dw`\]× on every particle (m/s, rad/s, m).
     fn rigid_field(&mut self, dv: Vec3A, dw: Vec3A, about: Vec3A);
 
@@ -175,9 +181,12 @@ pub(crate) struct DeviceSlot {
     failed: Option<String>,
     /// Substeps it ran on the device.
     pub(crate) substeps: u64,
-    /// Uploads to the device (the first, and each for a grid that no longer fit or a changed
-    /// material, particle count or gravity).
+    /// Uploads to the device (the first, and each for a changed material, particle count,
+    /// gravity or colliders, or a grid the device could not lay out anew).
     uploads: u64,
+    /// Grids laid out anew around particles that outgrew theirs, the particles staying on the
+    /// device.
+    regrids: u64,
 }
 
 impl Clone for DeviceSlot {
@@ -286,10 +295,17 @@ impl Body {
         self.device.substeps
     }
 
-    /// Times its particles were uploaded to the device whole (a new grid, or a changed
-    /// material, particle count or gravity; not the copies written back after a command).
+    /// Times its particles were uploaded to the device whole (a changed material, particle
+    /// count or gravity, or a new grid the device could not lay out in place; not the copies
+    /// written back after a command).
     pub fn device_uploads(&self) -> u64 {
         self.device.uploads
+    }
+
+    /// Times its grid on the device was laid out anew around particles that outgrew it, the
+    /// particles staying there ([`DeviceMpm::regrid`]).
+    pub fn device_regrids(&self) -> u64 {
+        self.device.regrids
     }
 }
 
@@ -332,28 +348,36 @@ fn prepare(
         && (hi + edge).cmple(b.device.extent_m.1).all();
     let margin = MARGIN_CELLS * dx;
     let extent = (lo - margin, hi + margin);
+    // Outgrown, a grid is laid out with two cells more than a move asks for, so it still takes
+    // the same box wherever it lies against the nodes, and the object may swell a little.
+    let grown = (extent.0 - 2.0 * dx, extent.1 + 2.0 * dx);
     let same = (b.device.uploaded.as_ref()).is_some_and(|u| u.matches(b, gravity_m_s2, colliders));
-    if same
-        && let Some(mpm) = b.device.mpm.as_mut()
-        && (inside || mpm.recentre(extent))
-    {
-        if !inside {
+    if same && let Some(mpm) = b.device.mpm.as_mut() {
+        let laid_out = if inside {
+            Some(b.device.extent_m)
+        } else if mpm.recentre(extent) {
+            Some(extent)
+        } else if mpm.regrid(grown) {
+            b.device.regrids += 1;
+            Some(grown)
+        } else {
+            None
+        };
+        if let Some(extent) = laid_out {
             b.device.extent_m = extent;
+            if b.device.at == Residence::Host {
+                mpm.write_particles(&b.particles)?;
+                b.device.at = Residence::Both;
+            }
+            return Ok(true);
         }
-        if b.device.at == Residence::Host {
-            mpm.write_particles(&b.particles)?;
-            b.device.at = Residence::Both;
-        }
-        return Ok(true);
     }
     // A new upload over the particles' box, with room to move.
     b.leave_device();
     if let Some(e) = b.device.failed.take() {
         return Err(DeviceError::Failed(e));
     }
-    // Two cells more than a move asks for, so the grid still takes the same box wherever it
-    // lies against the nodes, and the object may swell a little.
-    let extent = (extent.0 - 2.0 * dx, extent.1 + 2.0 * dx);
+    let extent = grown;
     let mut system = MpmSystem::new(b.particles.clone(), b.materials.clone(), dx);
     system.colliders = colliders.to_vec();
     system.gravity_m_s2 = gravity_m_s2;
