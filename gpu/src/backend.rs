@@ -15,8 +15,11 @@ pub struct GpuBackend {
 }
 
 impl GpuBackend {
-    /// The backend on `ctx`'s device.
+    /// The backend on `ctx`'s device, with the MPM kernels compiled on it now, so the first
+    /// object uploaded does not wait for them mid-run (0.74 s on an NVIDIA H200 whose driver
+    /// had not cached them, 0.2 s on lavapipe).
     pub fn new(ctx: GpuContext) -> Self {
+        ctx.kernels();
         Self { ctx }
     }
 

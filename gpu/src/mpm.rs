@@ -289,25 +289,58 @@ fn grid_buffers(
     )
 }
 
-/// The kernels' bind group over `buffers`, in binding order (`kernels.rs`).
-fn bind(
-    device: &wgpu::Device,
-    kernels: &Kernels,
-    buffers: [&wgpu::Buffer; kernels::STORAGE_BUFFERS as usize],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry {
-            binding: i as u32,
-            resource: b.as_entire_binding(),
+/// The buffers the kernels bind, one field per binding of `kernels.rs`'s layout.
+#[derive(Debug)]
+struct Buffers {
+    params: wgpu::Buffer,
+    xv: wgpu::Buffer,
+    cf: wgpu::Buffer,
+    /// The particles' material indices, the materials and the colliders (bound, never read
+    /// back).
+    fixed: [wgpu::Buffer; 3],
+    grid_sum: wgpu::Buffer,
+    grid_v: wgpu::Buffer,
+    status: wgpu::Buffer,
+    plastic: wgpu::Buffer,
+    moments: wgpu::Buffer,
+}
+
+impl Buffers {
+    /// The buffers in binding order.
+    fn in_binding_order(&self) -> [&wgpu::Buffer; kernels::STORAGE_BUFFERS as usize] {
+        let [pmat, mats, cols] = &self.fixed;
+        [
+            &self.params,
+            &self.xv,
+            &self.cf,
+            pmat,
+            mats,
+            cols,
+            &self.grid_sum,
+            &self.grid_v,
+            &self.status,
+            &self.plastic,
+            &self.moments,
+        ]
+    }
+
+    /// The kernels' bind group over them.
+    fn bind(&self, device: &wgpu::Device, kernels: &Kernels) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = self
+            .in_binding_order()
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("mpm"),
+            layout: &kernels.layout,
+            entries: &entries,
         })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("mpm"),
-        layout: &kernels.layout,
-        entries: &entries,
-    })
+    }
 }
 
 /// An [`MpmSystem`]'s particles, materials and colliders on the GPU.
@@ -316,17 +349,7 @@ pub struct GpuMpm {
     ctx: GpuContext,
     params: Params,
     n_nodes: u32,
-    params_buf: wgpu::Buffer,
-    xv: wgpu::Buffer,
-    cf: wgpu::Buffer,
-    plastic: wgpu::Buffer,
-    moments: wgpu::Buffer,
-    grid_sum: wgpu::Buffer,
-    grid_v: wgpu::Buffer,
-    status: wgpu::Buffer,
-    /// The particles' material indices, the materials and the colliders (bound, never read
-    /// back).
-    fixed: [wgpu::Buffer; 3],
+    buffers: Buffers,
     /// Whether the grid covers the system's domain bound (it then never moves or grows).
     over_domain: bool,
     bind_group: wgpu::BindGroup,
@@ -463,36 +486,22 @@ impl GpuMpm {
             usage: rw,
             mapped_at_creation: false,
         });
-        let fixed = [pmat, mats, cols];
-        let bind_group = bind(
-            device,
-            &kernels,
-            [
-                &params_buf,
-                &xv,
-                &cf,
-                &fixed[0],
-                &fixed[1],
-                &fixed[2],
-                &grid_sum,
-                &grid_v,
-                &status,
-                &plastic,
-                &moments,
-            ],
-        );
-        Ok(Self {
-            params,
-            n_nodes,
-            params_buf,
+        let buffers = Buffers {
+            params: params_buf,
             xv,
             cf,
-            plastic,
-            moments,
+            fixed: [pmat, mats, cols],
             grid_sum,
             grid_v,
             status,
-            fixed,
+            plastic,
+            moments,
+        };
+        let bind_group = buffers.bind(device, &kernels);
+        Ok(Self {
+            params,
+            n_nodes,
+            buffers,
             over_domain: sys
                 .colliders
                 .iter()
@@ -563,7 +572,7 @@ impl GpuMpm {
         self.write_params();
         self.ctx
             .queue
-            .write_buffer(&self.status, 12, bytemuck::bytes_of(&0u32));
+            .write_buffer(&self.buffers.status, 12, bytemuck::bytes_of(&0u32));
     }
 
     /// Counts `count` substeps of `dt_s` queued.
@@ -580,7 +589,7 @@ impl GpuMpm {
     /// Records one substep (P2G, grid update, G2P and the substep counter) into `encoder`,
     /// with the parameters last written.
     fn encode_substep(&self, encoder: &mut wgpu::CommandEncoder) {
-        encoder.clear_buffer(&self.grid_sum, 0, None);
+        encoder.clear_buffer(&self.buffers.grid_sum, 0, None);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("substep"),
             timestamp_writes: None,
@@ -634,6 +643,6 @@ impl GpuMpm {
     fn write_params(&self) {
         self.ctx
             .queue
-            .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+            .write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&self.params));
     }
 }

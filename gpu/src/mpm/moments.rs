@@ -22,7 +22,7 @@ impl GpuMpm {
     /// [`GpuError::Readback`].
     pub fn moments(&mut self, reference: Vec3A) -> Result<(BodyState, f32), GpuError> {
         self.queue_moments(reference);
-        let bytes = self.read_range(&self.moments, 0, 4 * MOMENTS as u64)?;
+        let bytes = self.read_range(&self.buffers.moments, 0, 4 * MOMENTS as u64)?;
         let s: &[f32] = bytemuck::cast_slice(&bytes);
         Ok((self.state_of(s, reference), s[26]))
     }
@@ -49,7 +49,7 @@ impl GpuMpm {
         if size == 0 {
             return Ok((Vec::new(), Vec::new()));
         }
-        let bytes = self.read_range(&self.grid_sum, offset, size)?;
+        let bytes = self.read_range(&self.buffers.grid_sum, offset, size)?;
         Ok(self.contacts_of(bytemuck::cast_slice(&bytes)))
     }
 
@@ -98,11 +98,11 @@ impl GpuMpm {
         self.encode_moments(&mut encoder);
         let (offset, size) = self.collider_range();
         let mut ranges = vec![
-            (&self.status, 0, 16),
-            (&self.moments, 0, 4 * u64::from(MOMENTS)),
+            (&self.buffers.status, 0, 16),
+            (&self.buffers.moments, 0, 4 * u64::from(MOMENTS)),
         ];
         if size > 0 {
-            ranges.push((&self.grid_sum, offset, size));
+            ranges.push((&self.buffers.grid_sum, offset, size));
         }
         let (status, report) = self.read_after(encoder, &ranges, |bytes| {
             let s: &[f32] = bytemuck::cast_slice(bytes[1]);

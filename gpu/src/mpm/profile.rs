@@ -80,7 +80,7 @@ impl GpuMpm {
                     end_of_pass_write_index: None,
                 }),
             });
-            encoder.clear_buffer(&self.grid_sum, 0, None);
+            encoder.clear_buffer(&self.buffers.grid_sum, 0, None);
             for (i, (name, pipeline, groups)) in kernels.iter().enumerate() {
                 let at = base + 1 + 2 * i as u32;
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -178,7 +178,7 @@ impl GpuMpm {
             let kept = std::mem::replace(&mut self.spin, spin);
             let started = Instant::now();
             for _ in 0..count {
-                self.read_range(&self.status, 0, 16)?;
+                self.read_range(&self.buffers.status, 0, 16)?;
             }
             self.spin = kept;
             Ok(started.elapsed().as_secs_f64())

@@ -149,7 +149,7 @@ impl GpuMpm {
     /// [`GpuError::Failed`] when a particle left the grid or a value went non-finite (the
     /// failed particles were left as they were), [`GpuError::Readback`].
     pub fn check(&mut self) -> Result<f32, GpuError> {
-        let bytes = self.read(&self.status)?;
+        let bytes = self.read(&self.buffers.status)?;
         self.take_status(bytemuck::cast_slice(&bytes))
     }
 
@@ -158,7 +158,7 @@ impl GpuMpm {
     pub(crate) fn take_status(&mut self, words: &[u32]) -> Result<f32, GpuError> {
         self.ctx
             .queue
-            .write_buffer(&self.status, 0, bytemuck::cast_slice(&[0u32; 4]));
+            .write_buffer(&self.buffers.status, 0, bytemuck::cast_slice(&[0u32; 4]));
         if words[0] > 0 {
             return Err(GpuError::Failed {
                 substep: self.substeps,
@@ -186,9 +186,9 @@ impl GpuMpm {
             return Ok(());
         }
         let ranges = [
-            (&self.xv, 0, self.xv.size()),
-            (&self.cf, 0, self.cf.size()),
-            (&self.plastic, 0, self.plastic.size()),
+            (&self.buffers.xv, 0, self.buffers.xv.size()),
+            (&self.buffers.cf, 0, self.buffers.cf.size()),
+            (&self.buffers.plastic, 0, self.buffers.plastic.size()),
         ];
         self.read_with(&ranges, |bytes| -> Result<(), GpuError> {
             unpack(into, cast4(bytes[0])?, cast4(bytes[1])?, cast4(bytes[2])?);

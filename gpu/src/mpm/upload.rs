@@ -3,7 +3,7 @@
 use glam::Vec3A;
 use splatphys_core::mpm::Particles;
 
-use super::{GpuMpm, bind, grid_buffers};
+use super::{GpuMpm, grid_buffers};
 use crate::GpuError;
 
 /// Particles as the shader stores them: `xv` (position and mass, velocity and rest volume: two
@@ -66,9 +66,9 @@ impl GpuMpm {
         }
         let Packed { xv, cf, plastic } = pack(particles);
         let queue = &self.ctx.queue;
-        queue.write_buffer(&self.xv, 0, bytemuck::cast_slice(&xv));
-        queue.write_buffer(&self.cf, 0, bytemuck::cast_slice(&cf));
-        queue.write_buffer(&self.plastic, 0, bytemuck::cast_slice(&plastic));
+        queue.write_buffer(&self.buffers.xv, 0, bytemuck::cast_slice(&xv));
+        queue.write_buffer(&self.buffers.cf, 0, bytemuck::cast_slice(&cf));
+        queue.write_buffer(&self.buffers.plastic, 0, bytemuck::cast_slice(&plastic));
         Ok(())
     }
 
@@ -108,28 +108,13 @@ impl GpuMpm {
             return false;
         };
         let device = &self.ctx.device;
-        (self.grid_sum, self.grid_v) = grid_buffers(device, n_nodes, self.params.n_colliders);
+        (self.buffers.grid_sum, self.buffers.grid_v) =
+            grid_buffers(device, n_nodes, self.params.n_colliders);
         self.n_nodes = n_nodes;
         self.params.grid_dims = dims.to_array();
         self.params.grid_origin = (first * dx).to_array();
         self.write_params();
-        self.bind_group = bind(
-            device,
-            &self.kernels,
-            [
-                &self.params_buf,
-                &self.xv,
-                &self.cf,
-                &self.fixed[0],
-                &self.fixed[1],
-                &self.fixed[2],
-                &self.grid_sum,
-                &self.grid_v,
-                &self.status,
-                &self.plastic,
-                &self.moments,
-            ],
-        );
+        self.bind_group = self.buffers.bind(device, &self.kernels);
         true
     }
 }
