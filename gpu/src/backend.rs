@@ -8,7 +8,7 @@ use splatphys_core::world::{BodyState, DeviceBackend, DeviceError, DeviceMpm, De
 use crate::{GpuContext, GpuError, GpuMpm};
 
 /// A GPU for a `World` ([`splatphys_core::world::World::set_device`]); every object on it shares
-/// its device (each has its own buffers and compiled kernels, `GpuMpm`).
+/// its device and compiled kernels (each has its own buffers, `GpuMpm`).
 #[derive(Debug, Clone)]
 pub struct GpuBackend {
     ctx: GpuContext,
