@@ -14,9 +14,10 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     /// What the adapter says it is.
     pub info: wgpu::AdapterInfo,
-    /// The MPM kernels, compiled on the first upload and shared by every later one: every
-    /// object on the device, and an object uploaded again (compiling them took 0.2 s of a
-    /// 0.45 s upload on lavapipe, 0.74 s on an H200 whose driver had not cached them).
+    /// The MPM kernels, compiled once (when a `GpuBackend` opens, or at the first upload) and
+    /// shared by every upload: every object on the device, and an object uploaded again
+    /// (compiling them took 0.2 s of a 0.45 s upload on lavapipe, 0.74 s on an H200 whose
+    /// driver had not cached them).
     kernels: Arc<OnceLock<Arc<Kernels>>>,
 }
 
