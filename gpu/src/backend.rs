@@ -3,7 +3,9 @@
 
 use glam::Vec3A;
 use splatphys_core::mpm::{MpmSystem, Particles};
-use splatphys_core::world::{BodyState, DeviceBackend, DeviceError, DeviceMpm, DeviceReport};
+use splatphys_core::world::{
+    BodyState, DeviceBackend, DeviceError, DeviceMpm, DeviceReport, DeviceRun, RunPlan,
+};
 
 use crate::{GpuContext, GpuError, GpuMpm};
 
@@ -99,5 +101,9 @@ impl DeviceMpm for GpuMpm {
 
     fn read_particles(&mut self, into: &mut Particles) -> Result<(), DeviceError> {
         Ok(GpuMpm::read_particles(self, into)?)
+    }
+
+    fn run(&mut self, plan: &RunPlan) -> Result<Option<DeviceRun>, DeviceError> {
+        Ok(GpuMpm::run(self, plan)?)
     }
 }

@@ -17,6 +17,7 @@ pub(crate) mod kernels;
 mod moments;
 mod profile;
 mod readback;
+mod run;
 mod upload;
 
 use kernels::Kernels;
@@ -79,7 +80,16 @@ struct Params {
     field_dv: [f32; 3],
     _pad0: f32,
     field_dw: [f32; 3],
-    _pad1: f32,
+    /// A run of substeps (`mpm/run.rs`, the shader's `run_check`): it halts after a substep
+    /// whose largest particle speed passes `speed_limit` (m/s), in which snow's Jp fell below
+    /// `plastic_floor`, or in which a collider's contact opened (its impulse past `opens_at`,
+    /// in the momentum's fixed-point units) or closed (bit c of `open_mask`: collider c's is
+    /// open), or, with bit 0 of `run_flags`, that touched any collider.
+    speed_limit: f32,
+    plastic_floor: f32,
+    opens_at: f32,
+    open_mask: u32,
+    run_flags: u32,
 }
 
 /// The shader's `Material`.
@@ -423,7 +433,11 @@ impl GpuMpm {
             field_dv: [0.0; 3],
             _pad0: 0.0,
             field_dw: [0.0; 3],
-            _pad1: 0.0,
+            speed_limit: f32::MAX,
+            plastic_floor: f32::MIN,
+            opens_at: f32::MAX,
+            open_mask: 0,
+            run_flags: 0,
         };
         let allowed = ctx.device.limits().max_storage_buffers_per_shader_stage;
         if allowed < kernels::STORAGE_BUFFERS {
@@ -479,7 +493,11 @@ impl GpuMpm {
             wgpu::BufferUsages::STORAGE,
         );
         let (grid_sum, grid_v) = grid_buffers(device, n_nodes, params.n_colliders);
-        let status = init("status", &[0u8; 16], rw);
+        let status = init(
+            "status",
+            &vec![0u8; 4 * run::status_words(params.n_colliders as usize)],
+            rw,
+        );
         let moments = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("moments"),
             size: 4 * MOMENTS as u64 * (1 + u64::from(params.n_groups)),

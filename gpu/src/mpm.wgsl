@@ -31,6 +31,12 @@ struct Params {
     // The rigid field's uniform velocity (m/s) and angular velocity (rad/s) (sums.wgsl).
     field_dv: vec3<f32>,
     field_dw: vec3<f32>,
+    // When a run of substeps halts (run.wgsl).
+    speed_limit: f32,
+    plastic_floor: f32,
+    opens_at: f32,
+    open_mask: u32,
+    run_flags: u32,
 };
 
 // Material: Lamé mu, lambda (Pa), Kelvin–Voigt viscosity eta (Pa s), model (MODEL_*), and the
@@ -97,7 +103,9 @@ struct Collider {
 // Per node: velocity (m/s), mass (kg).
 @group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
 // [0] particles or nodes that failed (left the grid, not finite), [1] largest speed (f32 bits),
-// [2] first failed particle + 1, [3] substeps done in this batch.
+// [2] first failed particle + 1, [3] substeps done in this batch, [4] whether a run of substeps
+// halted (the substeps after do nothing), [5] whether snow's Jp fell below the run's floor;
+// from word 8, a run's log (run.wgsl).
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 // Per particle: F_p columns 0..2 (the plastic deformation its Gaussians follow), with the model's
 // plastic scalar (snow's Jp, the others' accumulated plastic strain) in the first column's w.
@@ -528,7 +536,7 @@ fn scatter_particle(p: u32, a: mat3x3<f32>) {
 @compute @workgroup_size(64)
 fn p2g(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = flat_index(gid);
-    if p >= params.n_particles {
+    if p >= params.n_particles || halted() {
         return;
     }
     scatter_particle(p, particle_affine_dx(p));
@@ -607,7 +615,7 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d = params.grid_dims;
     let n_nodes = u32(d.x * d.y * d.z);
     let i = flat_index(gid);
-    if i >= n_nodes {
+    if i >= n_nodes || halted() {
         return;
     }
     let slot = i * NODE_WORDS;
@@ -667,7 +675,7 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(64)
 fn g2p(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = flat_index(gid);
-    if p >= params.n_particles {
+    if p >= params.n_particles || halted() {
         return;
     }
     // Ends the substep (as `tick` does without particles): nothing in G2P reads the time.
@@ -718,6 +726,12 @@ fn g2p(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     if returned.changed {
+        // Snow's wave speed grows as Jp falls: below the floor a run's dt was chosen for, the
+        // run halts (run.wgsl).
+        if materials[particle_material[p]].model == MODEL_SNOW
+            && returned.plastic < params.plastic_floor {
+            atomicStore(&status[5], 1u);
+        }
         let fp = mat3x3<f32>(fp0.xyz, plastic[3u * p + 1u].xyz, plastic[3u * p + 2u].xyz);
         let new_fp = after_return_mapping(trial_f, new_f, fp);
         plastic[3u * p] = vec4<f32>(new_fp[0], returned.plastic);
@@ -738,5 +752,8 @@ fn g2p(@builtin(global_invocation_id) gid: vec3<u32>) {
 // Ends a substep without particles (G2P does it otherwise): the next one starts dt later.
 @compute @workgroup_size(1)
 fn tick() {
+    if halted() {
+        return;
+    }
     atomicAdd(&status[3], 1u);
 }

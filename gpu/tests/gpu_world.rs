@@ -168,3 +168,50 @@ fn a_ball_reaching_a_static_slab_steps_on_the_cpu_there_and_matches_the_cpu_worl
     // The slab stopped the ball on both.
     assert!(com_g.last().unwrap()[0] < 0.1);
 }
+
+#[test]
+fn runs_of_substeps_in_one_wait_follow_one_substep_at_a_time() {
+    let Some(gpu) = backend() else {
+        return;
+    };
+    let push = Command::Impulse {
+        object: 0,
+        impulse_n_s: [0.0, 0.05, 0.0],
+        point_m: None,
+    };
+    let (_, in_runs) = pair(&scene(false), gpu);
+    let mut alone = in_runs.clone();
+    alone.set_device_run(1);
+    let (com_a, vel_a, wa) = run(alone, Some(&push));
+    let (com_r, vel_r, wr) = run(in_runs, Some(&push));
+    let (a, r) = (&wa.bodies()[0], &wr.bodies()[0]);
+    let (substeps_a, substeps_r) = (a.stats().substeps_taken, r.stats().substeps_taken);
+    eprintln!(
+        "one at a time: {substeps_a} substeps, {} runs; in runs: {substeps_r} substeps in {} runs",
+        a.device_runs(),
+        r.device_runs()
+    );
+    assert_eq!(a.device_runs(), 0);
+    assert_eq!(r.device_substeps(), substeps_r, "every substep on the GPU");
+    // Free flight and resting take long runs; each bounce's contact opening and closing ends
+    // one (measured: 1,729 substeps in 125 runs on lavapipe).
+    assert!(
+        r.device_runs() > 0 && r.device_runs() * 5 < substeps_r,
+        "{} runs for {substeps_r} substeps",
+        r.device_runs()
+    );
+    // A run's dt is the CFL bound of a speed a little above the present one.
+    assert!(substeps_r >= substeps_a && substeps_r * 100 <= substeps_a * 102);
+    for (f, (c, g)) in com_a.iter().zip(&com_r).enumerate() {
+        let d = distance(*c, *g);
+        eprintln!(
+            "frame {f:2}: z {:.4}/{:.4} m, v_z {:+.3}/{:+.3} m/s, COM apart {d:.2e} m",
+            c[2], g[2], vel_a[f][2], vel_r[f][2]
+        );
+        assert!(d < 1e-3, "frame {f}: COM {c:?} alone, {g:?} in runs");
+    }
+    // The restitution law acted at the same rebounds: each bounce's top speed.
+    let top = |v: &[[f64; 3]]| v.iter().map(|v| v[2]).fold(f64::MIN, f64::max);
+    assert!((top(&vel_a) - top(&vel_r)).abs() < 0.02);
+    assert!((vel_a[7][1] - vel_r[7][1]).abs() < 1e-3);
+}

@@ -1,6 +1,6 @@
-//! The compiled kernels of `mpm.wgsl`, `plastic.wgsl` and `sums.wgsl` and their bind group
-//! layout, one set per device (`GpuContext::kernels`), shared by every [`super::GpuMpm`] on
-//! it. The parameters are bound as a read-only storage buffer (`mpm.wgsl` says why): bound as a
+//! The compiled kernels of `mpm.wgsl`, `plastic.wgsl`, `sums.wgsl` and `run.wgsl` and their
+//! bind group layout, one set per device (`GpuContext::kernels`), shared by every
+//! [`super::GpuMpm`] on it. The parameters are bound as a read-only storage buffer (`mpm.wgsl` says why): bound as a
 //! uniform buffer, lavapipe compiled P2G again at every dispatch and the test binary peaked at
 //! 3.6 GB, against 0.17 GB now.
 
@@ -15,6 +15,7 @@ pub struct Kernels {
     pub(crate) moments_per_group: wgpu::ComputePipeline,
     pub(crate) moments_total: wgpu::ComputePipeline,
     pub(crate) rigid_field: wgpu::ComputePipeline,
+    pub(crate) run_check: wgpu::ComputePipeline,
 }
 
 /// Storage buffers the kernels bind (bindings 0 to 10 of [`Kernels::layout`]): a device must
@@ -59,7 +60,8 @@ impl Kernels {
                 concat!(
                     include_str!("../mpm.wgsl"),
                     include_str!("../plastic.wgsl"),
-                    include_str!("../sums.wgsl")
+                    include_str!("../sums.wgsl"),
+                    include_str!("../run.wgsl")
                 )
                 .into(),
             ),
@@ -87,6 +89,7 @@ impl Kernels {
             moments_per_group: pipeline("moments_per_group"),
             moments_total: pipeline("moments_total"),
             rigid_field: pipeline("rigid_field"),
+            run_check: pipeline("run_check"),
             layout,
         }
     }

@@ -63,7 +63,7 @@ impl GpuMpm {
     }
 
     /// The colliders' sums read back (`words`) as impulses (N s) and node counts.
-    fn contacts_of(&self, words: &[u32]) -> (Vec<DVec3>, Vec<u64>) {
+    pub(super) fn contacts_of(&self, words: &[u32]) -> (Vec<DVec3>, Vec<u64>) {
         let scale = 1.0 / f64::from(self.params.scale_p);
         let value = |k: usize| {
             let bits = u64::from(words[k]) | (u64::from(words[k + 1]) << 32);
@@ -133,7 +133,7 @@ impl GpuMpm {
     }
 
     /// Records the moments about the parameters' reference (`sums.wgsl`) into `encoder`.
-    fn encode_moments(&self, encoder: &mut wgpu::CommandEncoder) {
+    pub(super) fn encode_moments(&self, encoder: &mut wgpu::CommandEncoder) {
         encode_pass(
             encoder,
             &self.bind_group,
@@ -146,14 +146,14 @@ impl GpuMpm {
     }
 
     /// A new command encoder.
-    fn encoder(&self, label: &str) -> wgpu::CommandEncoder {
+    pub(super) fn encoder(&self, label: &str) -> wgpu::CommandEncoder {
         self.ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) })
     }
 
     /// [`GpuMpm::moments`]'s sums `s` about `reference` as a [`BodyState`].
-    fn state_of(&self, s: &[f32], reference: Vec3A) -> BodyState {
+    pub(super) fn state_of(&self, s: &[f32], reference: Vec3A) -> BodyState {
         let f = |k: usize| f64::from(s[k]);
         let v3 = |k: usize| DVec3::new(f(k), f(k + 1), f(k + 2));
         let m = f(0);

@@ -14,11 +14,6 @@ use crate::{GpuError, GpuMpm};
 const SMALL_READ_BYTES: u64 = 64 * 1024;
 
 impl GpuMpm {
-    /// Waits for the GPU and copies `buffer` back.
-    pub(crate) fn read(&self, buffer: &wgpu::Buffer) -> Result<Vec<u8>, GpuError> {
-        self.read_range(buffer, 0, buffer.size())
-    }
-
     /// Waits for the GPU and copies `size` bytes of `buffer` from byte `offset` back.
     pub(crate) fn read_range(
         &self,
@@ -149,7 +144,7 @@ impl GpuMpm {
     /// [`GpuError::Failed`] when a particle left the grid or a value went non-finite (the
     /// failed particles were left as they were), [`GpuError::Readback`].
     pub fn check(&mut self) -> Result<f32, GpuError> {
-        let bytes = self.read(&self.buffers.status)?;
+        let bytes = self.read_range(&self.buffers.status, 0, 16)?;
         self.take_status(bytemuck::cast_slice(&bytes))
     }
 
@@ -158,7 +153,7 @@ impl GpuMpm {
     pub(crate) fn take_status(&mut self, words: &[u32]) -> Result<f32, GpuError> {
         self.ctx
             .queue
-            .write_buffer(&self.buffers.status, 0, bytemuck::cast_slice(&[0u32; 4]));
+            .write_buffer(&self.buffers.status, 0, bytemuck::cast_slice(&[0u32; 8]));
         if words[0] > 0 {
             return Err(GpuError::Failed {
                 substep: self.substeps,

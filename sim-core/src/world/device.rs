@@ -109,6 +109,66 @@ pub trait DeviceMpm: Send + Sync + fmt::Debug {
     /// # Errors
     /// [`DeviceError::Failed`].
     fn read_particles(&mut self, into: &mut Particles) -> Result<(), DeviceError>;
+
+    /// Up to `plan.substeps` substeps of `plan.dt_s` in one submission and one wait, the device
+    /// halting after the first one whose end the host must see ([`RunPlan`]); `None` when it
+    /// does not run them (the caller then takes one substep at a time).
+    ///
+    /// # Errors
+    /// [`DeviceError::Failed`] when a particle left the grid or a value was not finite.
+    fn run(&mut self, _plan: &RunPlan) -> Result<Option<DeviceRun>, DeviceError> {
+        Ok(None)
+    }
+}
+
+/// A run of substeps of one object on the device (`world/device_run.rs`): what the host decided
+/// before it, and when the device halts it. A substep whose end the host must see (a collider
+/// contact opening or closing, a speed or plastic state past what the substep's CFL bound
+/// assumed) ends the run: the substeps after it do nothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunPlan {
+    /// Substeps at most.
+    pub substeps: u32,
+    /// Every substep's length (s).
+    pub dt_s: f32,
+    /// Simulated time at the run's start (s).
+    pub time_s: f64,
+    /// The point the run's report is summed about (m), near the COM.
+    pub reference_m: Vec3A,
+    /// Halt after a substep in which a particle ends faster than this (m/s): dt is within the
+    /// CFL bound up to this speed.
+    pub speed_limit_m_s: f32,
+    /// Halt after a substep in which snow's Jp falls below this (the CFL wave speed grows as
+    /// Jp falls).
+    pub plastic_floor: f32,
+    /// Per grid collider: whether the object's impact there is open (halt after the first
+    /// substep that does not touch it), else halt after the first substep whose normal
+    /// impulse there exceeds [`RunPlan::opens_at_n_s`] (an impact opens).
+    pub open: Vec<bool>,
+    /// See [`RunPlan::open`] (N s).
+    pub opens_at_n_s: f64,
+    /// Halt after any substep touching a collider (rolling resistance acts at every touch).
+    pub halt_on_touch: bool,
+}
+
+/// One substep of a run as the device logged it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunStep {
+    /// The largest particle speed at its end (m/s).
+    pub max_speed_m_s: f32,
+    /// Each grid collider's normal impulse on the object in it (N s).
+    pub impulses_n_s: Vec<DVec3>,
+    /// Each grid collider's nodes with mass inside it.
+    pub nodes: Vec<u64>,
+}
+
+/// What a run reports: each substep that ran, and the full report of the last.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceRun {
+    /// The substeps that ran, in order (at least one).
+    pub steps: Vec<RunStep>,
+    /// After the last of them.
+    pub report: DeviceReport,
 }
 
 /// What the COM layer takes back after an object's substep on the device.
@@ -187,6 +247,11 @@ pub(crate) struct DeviceSlot {
     /// Grids laid out anew around particles that outgrew theirs, the particles staying on the
     /// device.
     regrids: u64,
+    /// A substep the device already ran in a run, which the next substep takes instead of
+    /// running one (`world/device_run.rs`).
+    replay: Option<DeviceReport>,
+    /// Runs of substeps in one submission.
+    runs: u64,
 }
 
 impl Clone for DeviceSlot {
@@ -418,6 +483,9 @@ pub(super) fn substep(
     dt_s: f32,
     time_s: f64,
 ) -> Result<Option<DeviceReport>, DeviceError> {
+    if let Some(report) = replayed(b) {
+        return Ok(Some(report));
+    }
     if !prepare(backend, b, colliders, gravity_m_s2, time_s)? {
         return Ok(None);
     }
@@ -426,12 +494,87 @@ pub(super) fn substep(
         return Ok(None);
     };
     let report = mpm.substep(dt_s, time_s, reference)?;
-    b.device.at = Residence::Device;
-    b.device.state = Some(report.state);
-    b.device.min_plastic = report.min_plastic;
-    b.device.substeps += 1;
-    b.max_speed_m_s = report.max_speed_m_s;
-    Ok(Some(report))
+    Ok(Some(b.took_device_substep(report)))
+}
+
+impl Body {
+    /// Takes `report` of a substep its particles made on the device.
+    fn took_device_substep(&mut self, report: DeviceReport) -> DeviceReport {
+        let b = self;
+        b.device.at = Residence::Device;
+        b.device.state = Some(report.state);
+        b.device.min_plastic = report.min_plastic;
+        b.device.substeps += 1;
+        b.max_speed_m_s = report.max_speed_m_s;
+        report
+    }
+
+    /// Whether its next substep takes a substep the device already ran ([`replay`]).
+    pub(crate) fn replaying(&self) -> bool {
+        self.device.replay.is_some()
+    }
+
+    /// Runs of substeps its MPM took on the device in one submission each.
+    pub fn device_runs(&self) -> u64 {
+        self.device.runs
+    }
+}
+
+/// Body `b`'s next substep takes `report`, of a substep the device already ran in a run.
+pub(super) fn replay(b: &mut Body, report: DeviceReport) {
+    b.device.replay = Some(report);
+}
+
+/// Runs `plan` on `backend` for body `b` (`world/device_run.rs`): `None` when its particles
+/// cannot take it where they are (a grid to move or to upload, a device that does not run
+/// runs: one substep, as ever, does that).
+///
+/// # Errors
+/// [`DeviceError::Failed`] when the device failed.
+pub(super) fn run(
+    backend: &dyn DeviceBackend,
+    b: &mut Body,
+    (colliders, gravity_m_s2): (&[Collider], Vec3A),
+    plan: &RunPlan,
+    travel_m: f32,
+) -> Result<Option<DeviceRun>, DeviceError> {
+    if b.device.at == Residence::Host || !prepare(backend, b, colliders, gravity_m_s2, plan.time_s)?
+    {
+        return Ok(None);
+    }
+    let s = b.measured_bounds();
+    let dx = b.dx_m();
+    let reach = Vec3A::splat(EDGE_CELLS * dx + travel_m);
+    let (lo, hi) = (s.aabb_m.0.as_vec3a() - reach, s.aabb_m.1.as_vec3a() + reach);
+    let Some(mpm) = b.device.mpm.as_mut() else {
+        return Ok(None);
+    };
+    let extent = b.device.extent_m;
+    if !(lo.cmpge(extent.0).all() && hi.cmple(extent.1).all()) {
+        // Moved ahead of the travel, as a substep moves it when the particles near its edge.
+        let margin = Vec3A::splat(MARGIN_CELLS * dx);
+        let (from, to) = (
+            s.aabb_m.0.as_vec3a() - margin,
+            s.aabb_m.1.as_vec3a() + margin,
+        );
+        let covers = from.cmple(lo).all() && to.cmpge(hi).all();
+        if !(covers && mpm.recentre((from, to))) {
+            return Ok(None);
+        }
+        b.device.extent_m = (from, to);
+    }
+    let run = mpm.run(plan)?;
+    if run.is_some() {
+        b.device.runs += 1;
+        b.device.at = Residence::Device;
+    }
+    Ok(run)
+}
+
+/// Body `b`'s substep on the device taken from a run ([`replay`]), if one is waiting.
+fn replayed(b: &mut Body) -> Option<DeviceReport> {
+    let report = b.device.replay.take()?;
+    Some(b.took_device_substep(report))
 }
 
 impl World {

@@ -40,6 +40,7 @@ mod commands;
 pub mod contact;
 mod deformable_pair;
 pub mod device;
+mod device_run;
 pub mod explain;
 mod impact;
 pub(crate) mod islands;
@@ -61,7 +62,9 @@ use glam::Vec3A;
 use background::Background;
 pub use background::{BACKGROUND_FRICTION, BackgroundReport};
 pub use body::{Body, BodyStats, RigidState};
-pub use device::{DeviceBackend, DeviceError, DeviceMpm, DeviceReport};
+pub use device::{
+    DeviceBackend, DeviceError, DeviceMpm, DeviceReport, DeviceRun, RunPlan, RunStep,
+};
 pub use measure::{BodyState, measure};
 pub use sleep::{SLEEP_AFTER_S, SLEEP_SPEED_M_S};
 use step::{ContactMemory, Env};
@@ -252,6 +255,8 @@ pub struct World {
     island: Option<Vec<bool>>,
     /// The device deformable objects' MPM may run on ([`World::set_device`]).
     device: Option<Arc<dyn DeviceBackend>>,
+    /// Substeps a run on the device takes at most ([`World::set_device_run`]).
+    device_run: u32,
 }
 
 crate::clone_reusing::clone_reusing!(World {
@@ -273,6 +278,7 @@ crate::clone_reusing::clone_reusing!(World {
     max_particle_substeps_per_frame,
     island,
     device,
+    device_run,
 });
 
 pub use splatphys_types::limits::MAX_STABLE_SPEED_M_S;
@@ -408,6 +414,7 @@ impl World {
             max_particle_substeps_per_frame: limits::DEFAULT_MAX_PARTICLE_SUBSTEPS_PER_FRAME,
             island: None,
             device: None,
+            device_run: device_run::default_substeps(),
         })
     }
 
@@ -550,9 +557,14 @@ impl World {
                 substeps += self.advance_islands(&islands, sync_s, keep_going)?;
                 continue;
             }
-            self.substep_on_pool(end - self.time_s)?;
-            substeps += 1;
-            self.check_stable()?;
+            // Several substeps of a lone object on the device in one wait (`device_run.rs`).
+            if let Some(n) = self.device_run(end)? {
+                substeps += n;
+            } else {
+                self.substep_on_pool(end - self.time_s)?;
+                substeps += 1;
+                self.check_stable()?;
+            }
             if !keep_going() {
                 return Err(WorldError::Interrupted { frame: self.frame });
             }

@@ -369,10 +369,10 @@ fn obstacles_near<'a>(
     obstacles(env, bodies, received, bounds(particles), friction, dx_m)
 }
 
-/// Whether deformable `k` of `bodies` may step on the device this substep (`device.rs`): no box
-/// collider thinner than two of its cells, no solid, background or other deformable object
-/// within reach of its particles.
-fn device_may_step(env: &Env, bodies: &[Body], k: usize) -> bool {
+/// Whether deformable `k` of `bodies` may step on the device this substep (`device.rs`), and
+/// over the next `travel_m` (m) of its motion: no box collider thinner than two of its cells,
+/// no solid, background or other deformable object within reach of its particles.
+pub(super) fn device_may_step(env: &Env, bodies: &[Body], k: usize, travel_m: f32) -> bool {
     let b = &bodies[k];
     let dx = b.dx_m();
     let barrier = env.settings.surface_contact == SurfaceContact::Barrier;
@@ -380,7 +380,11 @@ fn device_may_step(env: &Env, bodies: &[Body], k: usize) -> bool {
         return false;
     }
     let s = b.measured_bounds();
-    let (lo, hi) = (s.aabb_m.0.as_vec3a(), s.aabb_m.1.as_vec3a());
+    let travel = Vec3A::splat(travel_m);
+    let (lo, hi) = (
+        s.aabb_m.0.as_vec3a() - travel,
+        s.aabb_m.1.as_vec3a() + travel,
+    );
     if !obstacles(env, bodies, &[], (lo, hi), b.friction, dx)
         .0
         .is_empty()
@@ -392,7 +396,7 @@ fn device_may_step(env: &Env, bodies: &[Body], k: usize) -> bool {
         if j == k || o.kind != ObjectKind::Deformable || o.particles.is_empty() {
             return true;
         }
-        let margin = 4.0 * f64::from(dx.max(o.dx_m()));
+        let margin = 4.0 * f64::from(dx.max(o.dx_m())) + f64::from(travel_m);
         let t = o.measured_bounds();
         let m = glam::DVec3::splat(margin);
         !((s.aabb_m.0 - m).cmple(t.aabb_m.1).all() && (t.aabb_m.0 - m).cmple(s.aabb_m.1).all())
@@ -410,8 +414,9 @@ fn device_substep(
     k: usize,
     dt_s: f32,
 ) -> Result<Option<Vec<Touch>>, WorldError> {
+    // A substep the device already ran in a run (`device_run.rs`) is taken as it ran.
     if let Some(backend) = env.device
-        && device_may_step(env, bodies, k)
+        && (bodies[k].replaying() || device_may_step(env, bodies, k, 0.0))
     {
         let started = std::time::Instant::now();
         let b = &mut bodies[k];

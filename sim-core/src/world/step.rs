@@ -166,6 +166,14 @@ impl World {
         let Parts { env, bodies, .. } = self.parts();
         kinematic::drive(&env, bodies);
         let dt = self.time_step(max_dt_s)?;
+        self.substep_of(dt)
+    }
+
+    /// A substep of `dt` (s) after the kinematic drives: [`World::substep`] once dt is chosen.
+    ///
+    /// # Errors
+    /// As [`World::substep`].
+    pub(super) fn substep_of(&mut self, dt: f32) -> Result<f64, WorldError> {
         let dt_s = dt as f64;
         let Parts { env, bodies, .. } = self.parts();
         rigid_gravity(&env, bodies, dt_s);
