@@ -250,8 +250,9 @@ pub(crate) struct DeviceSlot {
     /// A substep the device already ran in a run, which the next substep takes instead of
     /// running one (`world/device_run.rs`).
     replay: Option<DeviceReport>,
-    /// Runs of substeps in one submission.
+    /// Runs of substeps in one submission, and the substeps they took.
     runs: u64,
+    run_substeps: u64,
 }
 
 impl Clone for DeviceSlot {
@@ -518,6 +519,11 @@ impl Body {
     pub fn device_runs(&self) -> u64 {
         self.device.runs
     }
+
+    /// Substeps its MPM took on the device in runs ([`Body::device_runs`]).
+    pub fn device_run_substeps(&self) -> u64 {
+        self.device.run_substeps
+    }
 }
 
 /// Body `b`'s next substep takes `report`, of a substep the device already ran in a run.
@@ -564,9 +570,11 @@ pub(super) fn run(
         b.device.extent_m = (from, to);
     }
     let run = mpm.run(plan)?;
-    if run.is_some() {
+    if let Some(r) = &run {
         b.device.runs += 1;
         b.device.at = Residence::Device;
+        let ran = r.steps.len() as u32;
+        b.device.run_substeps += u64::from(ran);
     }
     Ok(run)
 }

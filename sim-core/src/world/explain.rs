@@ -113,8 +113,11 @@ impl World {
                 };
                 if b.device_substeps() > 0 {
                     modelled_as.push_str(&format!(
-                        "; {} substeps on the device ({} upload(s))",
+                        "; {} substeps on the device, {} of them in {} runs of one wait each \
+                         ({} upload(s))",
                         b.device_substeps(),
+                        b.device_run_substeps(),
+                        b.device_runs(),
                         b.device_uploads()
                     ));
                 }
