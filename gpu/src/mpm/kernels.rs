@@ -1,8 +1,8 @@
 //! The compiled kernels of `mpm.wgsl`, `plastic.wgsl`, `sums.wgsl` and `run.wgsl` and their
 //! bind group layout, one set per device (`GpuContext::kernels`), shared by every
-//! [`super::GpuMpm`] on it. The parameters are bound as a read-only storage buffer (`mpm.wgsl` says why): bound as a
-//! uniform buffer, lavapipe compiled P2G again at every dispatch and the test binary peaked at
-//! 3.6 GB, against 0.17 GB now.
+//! [`super::GpuMpm`] on it. The parameters are bound as a read-only storage buffer (`mpm.wgsl`
+//! says why): bound as a uniform buffer, lavapipe compiled P2G again at every dispatch and the
+//! test binary peaked at 3.6 GB, against 0.17 GB now.
 
 /// The layout of the shader's bindings and a pipeline per entry point.
 #[derive(Debug)]

@@ -86,14 +86,15 @@ impl GpuMpm {
             )
         })?;
         self.take_status(&status)?;
-        let ran = run.steps.len() as u32;
-        self.end_batch(ran, plan.dt_s);
-        Ok(Some(run))
+        if let Some(run) = &run {
+            self.end_batch(run.steps.len() as u32, plan.dt_s);
+        }
+        Ok(run)
     }
 
     /// The run read back: the status words with its log (`status`) and the moments after it
-    /// about `reference` (m).
-    fn run_of(&self, status: &[u32], moments: &[f32], reference: Vec3A) -> DeviceRun {
+    /// about `reference` (m); `None` if no substep ran.
+    fn run_of(&self, status: &[u32], moments: &[f32], reference: Vec3A) -> Option<DeviceRun> {
         let entry = log_words(self.params.n_colliders as usize);
         let ran = (status[3] as usize).min((status.len() - RUN_HEADER) / entry);
         let mut steps: Vec<RunStep> = (0..ran)
@@ -107,11 +108,7 @@ impl GpuMpm {
                 }
             })
             .collect();
-        let last = steps.pop().unwrap_or(RunStep {
-            max_speed_m_s: 0.0,
-            impulses_n_s: Vec::new(),
-            nodes: Vec::new(),
-        });
+        let last = steps.pop()?;
         let report = DeviceReport {
             state: self.state_of(moments, reference),
             max_speed_m_s: moments[26],
@@ -120,6 +117,6 @@ impl GpuMpm {
             nodes: last.nodes.clone(),
         };
         steps.push(last);
-        DeviceRun { steps, report }
+        Some(DeviceRun { steps, report })
     }
 }

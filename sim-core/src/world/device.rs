@@ -10,9 +10,10 @@
 //! than two cells (the particles' crossing check, `contact/crossing.rs`, runs on the CPU). Its
 //! particles then stay on the device; what the COM layer needs crosses back each substep in one
 //! small read-back ([`DeviceReport`]): the object's moments ([`BodyState`] and its largest
-//! speed) and each collider's normal impulse and nodes (the restitution law's touches). The restitution law and rolling
-//! resistance change the object by a rigid field (v += δv + δω × r, C += \[δω\]×), applied on
-//! the device. Everything else (publishing, commands and events, sleep, another object coming
+//! speed) and each collider's normal impulse and nodes (the restitution law's touches). While
+//! it is all that moves, a run of substeps shares one read-back (`device_run.rs`). The
+//! restitution law and rolling resistance change the object by a rigid field (v += δv + δω × r,
+//! C += \[δω\]×), applied on the device. Everything else (publishing, commands and events, sleep, another object coming
 //! near) first brings the particles back (`Body::leave_device`): at the end of every frame
 //! they are copied back, and the next substep on the device reuses its copy unless the host's
 //! changed.
@@ -501,12 +502,11 @@ pub(super) fn substep(
 impl Body {
     /// Takes `report` of a substep its particles made on the device.
     fn took_device_substep(&mut self, report: DeviceReport) -> DeviceReport {
-        let b = self;
-        b.device.at = Residence::Device;
-        b.device.state = Some(report.state);
-        b.device.min_plastic = report.min_plastic;
-        b.device.substeps += 1;
-        b.max_speed_m_s = report.max_speed_m_s;
+        self.device.at = Residence::Device;
+        self.device.state = Some(report.state);
+        self.device.min_plastic = report.min_plastic;
+        self.device.substeps += 1;
+        self.max_speed_m_s = report.max_speed_m_s;
         report
     }
 
@@ -531,9 +531,9 @@ pub(super) fn replay(b: &mut Body, report: DeviceReport) {
     b.device.replay = Some(report);
 }
 
-/// Runs `plan` on `backend` for body `b` (`world/device_run.rs`): `None` when its particles
-/// cannot take it where they are (a grid to move or to upload, a device that does not run
-/// runs: one substep, as ever, does that).
+/// Runs `plan` on `backend` for body `b` (`world/device_run.rs`), its particles uploaded or
+/// its grid moved first as a substep would, and the grid then covering `travel_m` (m) more:
+/// `None` when it cannot, or the device does not run runs (one substep, as ever, then).
 ///
 /// # Errors
 /// [`DeviceError::Failed`] when the device failed.
@@ -544,8 +544,7 @@ pub(super) fn run(
     plan: &RunPlan,
     travel_m: f32,
 ) -> Result<Option<DeviceRun>, DeviceError> {
-    if b.device.at == Residence::Host || !prepare(backend, b, colliders, gravity_m_s2, plan.time_s)?
-    {
+    if !prepare(backend, b, colliders, gravity_m_s2, plan.time_s)? {
         return Ok(None);
     }
     let s = b.measured_bounds();
@@ -573,8 +572,7 @@ pub(super) fn run(
     if let Some(r) = &run {
         b.device.runs += 1;
         b.device.at = Residence::Device;
-        let ran = r.steps.len() as u32;
-        b.device.run_substeps += u64::from(ran);
+        b.device.run_substeps += r.steps.len() as u64;
     }
     Ok(run)
 }

@@ -136,7 +136,7 @@ impl World {
         {
             return None;
         }
-        // One object moves, deformable, its particles on the device.
+        // One object moves, and it is deformable.
         let mut awake = self
             .bodies
             .iter()
