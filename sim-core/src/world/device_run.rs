@@ -3,7 +3,7 @@
 //! host waits once, not after every substep.
 //!
 //! A substep on the device ends with a read-back of what the COM layer needs (`device.rs`),
-//! and that wait, not the kernels, set the pace of small objects (a captured donut's 10,648
+//! and that wait, not the kernels, set the pace of small objects (a captured donut's 11,733
 //! particles). Most of those substeps the host only records: free flight, or resting on a
 //! collider, it takes the impulses and the speed and changes nothing. So the host plans a run
 //! ([`RunPlan`]): one dt for all of it, chosen by the CFL bound for a speed above the object's
