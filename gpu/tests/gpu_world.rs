@@ -81,6 +81,15 @@ fn run(mut w: World, command: Option<&Command>) -> (Vec<[f64; 3]>, Vec<[f64; 3]>
     (com, vel, w)
 }
 
+/// A sideways push on the ball (0.05 N s on about 0.27 kg).
+fn push() -> Command {
+    Command::Impulse {
+        object: 0,
+        impulse_n_s: [0.0, 0.05, 0.0],
+        point_m: None,
+    }
+}
+
 fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
     (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
 }
@@ -98,11 +107,7 @@ fn a_ball_bouncing_on_a_plane_follows_the_cpu_world_and_takes_a_command() {
     let Some(gpu) = backend() else {
         return;
     };
-    let push = Command::Impulse {
-        object: 0,
-        impulse_n_s: [0.0, 0.05, 0.0],
-        point_m: None,
-    };
+    let push = push();
     let (cpu, on_gpu) = pair(&scene(false), gpu);
     let (com_c, vel_c, _) = run(cpu, Some(&push));
     let (com_g, vel_g, w) = run(on_gpu, Some(&push));
@@ -174,11 +179,7 @@ fn runs_of_substeps_in_one_wait_follow_one_substep_at_a_time() {
     let Some(gpu) = backend() else {
         return;
     };
-    let push = Command::Impulse {
-        object: 0,
-        impulse_n_s: [0.0, 0.05, 0.0],
-        point_m: None,
-    };
+    let push = push();
     let (_, in_runs) = pair(&scene(false), gpu);
     let mut alone = in_runs.clone();
     alone.set_device_run(1);

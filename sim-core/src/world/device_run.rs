@@ -25,7 +25,7 @@
 use std::time::Instant;
 
 use super::body::Body;
-use super::device::{self, DeviceReport, RunPlan};
+use super::device::{self, DeviceReport, DeviceRun, RunPlan};
 use super::sleep::SLEEP_AFTER_S;
 use super::step::Parts;
 use super::{World, WorldError, kinematic, mpm_step};
@@ -103,18 +103,19 @@ impl World {
         let wall_s = started.elapsed().as_secs_f64();
         self.stats.mpm_wall_s += wall_s;
         self.bodies[k].stats.mpm_wall_s += wall_s;
-        let n = run.steps.len();
-        for (i, step) in run.steps.into_iter().enumerate() {
-            let report = if i + 1 == n {
-                run.report.clone()
-            } else {
-                DeviceReport {
-                    max_speed_m_s: step.max_speed_m_s,
-                    impulses_n_s: step.impulses_n_s,
-                    nodes: step.nodes,
-                    ..run.report.clone()
-                }
-            };
+        let DeviceRun { mut steps, report } = run;
+        // The last substep is the report's; the others take its state (module docs).
+        steps.pop();
+        let n = steps.len() + 1;
+        let (state, min_plastic) = (report.state, report.min_plastic);
+        let before_last = steps.into_iter().map(|step| DeviceReport {
+            state,
+            max_speed_m_s: step.max_speed_m_s,
+            min_plastic,
+            impulses_n_s: step.impulses_n_s,
+            nodes: step.nodes,
+        });
+        for report in before_last.chain(std::iter::once(report)) {
             device::replay(&mut self.bodies[k], report);
             let Parts { env, bodies, .. } = self.parts();
             kinematic::drive(&env, bodies);
