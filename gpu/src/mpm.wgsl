@@ -126,10 +126,13 @@ const COLLIDER_WORDS: u32 = 7u;
 // (mpm/reach.rs REACH_TOLERANCE).
 const REACH_TOLERANCE: f32 = 0.25;
 // A gated collider's rule also acts at nodes up to OUTSIDE cells outside it, but not within
-// ON_SURFACE cells of it, and only where the node's normal is within 60° of the gap's
-// (mpm/reach.rs OUTSIDE, ON_SURFACE, NodeGaps::takes_outside).
+// ON_SURFACE cells of it, and only where the node's normal is within 60° of the gap's; a node
+// whose normal is more than 120° from the gap's, inside or up to BEHIND cells outside, lies
+// behind a thin box and takes the near face's normal (mpm/reach.rs OUTSIDE, ON_SURFACE,
+// BEHIND, NodeGaps::rule_normal).
 const OUTSIDE: f32 = 0.5;
 const ON_SURFACE: f32 = 1.0e-3;
+const BEHIND: f32 = 1.5;
 // Low bits of a node's gap word that hold its normal's code (encode_gap).
 const GAP_NORMAL_MASK: u32 = 0x3FFu;
 // Workgroups per row of a dispatch (the limit per dimension); work items are numbered row by
@@ -638,10 +641,17 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
         let inside = dot(n, n) > 0.0;
         if inside {
             atomicAdd(&grid_sum[n_nodes * NODE_WORDS + COLLIDER_WORDS * k + 6u], 1u);
+            // Past the middle of a thin box, as seen from the material that reaches it.
+            if c.gated != 0u && dot(node_gap_normal(slot), n) < -0.5 {
+                n = -n;
+            }
         } else if c.gated != 0u {
             let sd = collider_distance(c, x - collider_offset(c, t));
-            if sd.w >= ON_SURFACE * params.dx && sd.w <= OUTSIDE * params.dx
-                && dot(node_gap_normal(slot), sd.xyz) > 0.5 {
+            let facing = dot(node_gap_normal(slot), sd.xyz);
+            if facing < -0.5 && sd.w <= BEHIND * params.dx {
+                n = -sd.xyz;
+            } else if sd.w >= ON_SURFACE * params.dx && sd.w <= OUTSIDE * params.dx
+                && facing > 0.5 {
                 n = sd.xyz;
             }
         }

@@ -253,7 +253,8 @@ fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
     // A floor that lets material leave (its nodes take the rule only where material reaches
     // them: the gap check) with Coulomb friction: a plane 0.4 of a cell above a node layer, one
     // a tenth of a cell below the next (where the nodes half a cell outside it take its rule
-    // too), and a box with its top there.
+    // too), a box with its top there, and a plate 1 mm thick with its top there (no node
+    // inside it: the nodes behind it hold the material).
     let top = 6.9 * dx;
     let floors = [
         (
@@ -271,6 +272,17 @@ fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
             top,
             Shape::Box(
                 BoxShape::new(Vec3A::new(0.05, 0.05, 0.1), Vec3A::new(0.95, 0.95, top)).unwrap(),
+            ),
+        ),
+        (
+            "1 mm plate below a node layer",
+            top,
+            Shape::Box(
+                BoxShape::new(
+                    Vec3A::new(0.05, 0.05, top - 0.001),
+                    Vec3A::new(0.95, 0.95, top),
+                )
+                .unwrap(),
             ),
         ),
     ];

@@ -86,6 +86,13 @@ impl Collider {
             && !matches!(self.surface, Surface::Clamp | Surface::Sticky)
     }
 
+    /// Whether it has a far side that material can be behind (a box; a plane's half-space and
+    /// the domain bound's outside have none): the grid's nodes behind a thin one hold the
+    /// material on its near side ([`crate::mpm::reach::NodeGaps::behind_normal`]).
+    pub fn has_far_side(&self) -> bool {
+        matches!(self.shape, Shape::Box(_))
+    }
+
     /// Whether it meets deformable material through the particle barrier when the scene asks
     /// for it (`[simulation] surface_contact = "barrier"`, `contact::barrier`): a plane or a box
     /// whose rule lets the material leave and does not glue it ("separate").

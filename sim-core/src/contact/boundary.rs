@@ -17,7 +17,11 @@
 //!
 //! Such a solid's rule also acts at nodes up to half a cell outside it, once the material
 //! reaches the surface ([`crate::mpm::reach::OUTSIDE`]), so where an object rests does not
-//! depend on where the surface lies in a cell.
+//! depend on where the surface lies in a cell; and nodes past the middle of a solid thinner
+//! than a particle's stencil, or up to [`crate::mpm::reach::BEHIND`] cells beyond its far face,
+//! hold the material on the near side along the near face's normal, so the grid stops material
+//! at a plate that holds no node (the particles' sweeps, [`super::crossing`], keep each
+//! particle on its side).
 //!
 //! An awake rigid object is movable and meets the grid two-way: each node's impulse is shared by
 //! the node's mass and the node's share of the solid's mass and inertia, over a few Jacobi
@@ -147,13 +151,16 @@ impl Reaction {
 /// substep dt in s), a node inside an immovable procedural obstacle that lets material leave
 /// takes the rule only where material meets the surface within the substep
 /// ([`crate::mpm::reach`]); inside any other obstacle (awake rigid, sticky, a sampled level set)
-/// every node takes it.
+/// every node takes it, and with `sides` (the node gaps against the immovable exact solids that
+/// hold every node, [`sides`]) so does a node behind a thin one
+/// ([`NodeGaps::behind_normal`]).
 pub fn apply(
     grid: &mut SparseGrid,
     dx_m: f32,
     v_ref: Vec3A,
     obstacles: &[Obstacle],
     reach: Option<(&NodeGaps, f32)>,
+    sides: Option<&NodeGaps>,
 ) -> Vec<Reaction> {
     let n = obstacles.len();
     if n == 0 {
@@ -201,18 +208,27 @@ pub fn apply(
                     let pose = o.placed.pose;
                     let (phi, n0) = o.placed.geometry.distance(pose.to_rest(x));
                     // Where the rule acts only where material reaches the surface, a node up to
-                    // half a cell outside it takes the rule too (module docs), unless it lies on
-                    // the surface but for round-off (its normal is then any feature's) or faces
-                    // away from the material that reaches it (beyond a thin plate's far face).
+                    // half a cell outside it takes the rule too, and one past a thin solid's
+                    // middle or beyond its far face holds the material on the near side
+                    // (module docs; `NodeGaps::rule_normal`).
                     let gate = reach.filter(|_| gated(o));
-                    let normal = pose.rotation * n0;
                     let node = block * BLOCK_NODES + l;
-                    if !phi.is_finite()
-                        || !(phi <= 0.0
-                            || gate.is_some_and(|(g, _)| g.takes_outside(node, phi, normal, dx_m)))
-                    {
+                    if !phi.is_finite() {
                         continue;
                     }
+                    let n0 = pose.rotation * n0;
+                    let behind = || {
+                        sides
+                            .filter(|_| held(o))
+                            .and_then(|s| s.behind_normal(node, phi, n0, dx_m))
+                    };
+                    let Some(normal) = (match gate {
+                        Some((g, _)) => g.rule_normal(node, phi, n0, dx_m),
+                        None if phi <= 0.0 => behind().or(Some(n0)),
+                        None => behind(),
+                    }) else {
+                        continue;
+                    };
                     let r = x - pose.com_m;
                     // Material inside the solid touches it (the restitution law's contact
                     // lasts while any node does), even where it does not reach the surface yet.
@@ -225,10 +241,10 @@ pub fn apply(
                         if !gaps.reaches(node, v_n, dt_s) {
                             continue;
                         }
-                        if phi > 0.0 {
-                            // It holds material at the surface: a contact, as a node inside is.
-                            out[k].nodes += 1;
-                        }
+                    }
+                    if phi > 0.0 {
+                        // It holds material at the surface: a contact, as a node inside is.
+                        out[k].nodes += 1;
                     }
                     if o.is_movable() {
                         touches.push(Touch {
@@ -277,13 +293,38 @@ pub fn gaps(
     obstacles: &[Obstacle],
     barrier: bool,
 ) -> Option<NodeGaps> {
-    if !obstacles.iter().any(gated) {
+    node_gaps(grid, dx_m, particles, obstacles, barrier, gated)
+}
+
+/// The node gaps of `particles` on `grid` (cell `dx_m`) against those of `obstacles` that are
+/// immovable and exact but hold every node inside them (sticky, clamp): only which side of such
+/// a solid the material lies on is read from them, for the nodes behind a thin one
+/// ([`NodeGaps::behind_normal`]); `None` when there is none.
+pub fn sides(
+    grid: &SparseGrid,
+    dx_m: f32,
+    particles: &Particles,
+    obstacles: &[Obstacle],
+) -> Option<NodeGaps> {
+    node_gaps(grid, dx_m, particles, obstacles, false, held)
+}
+
+/// The node gaps of `particles` against the `obstacles` that `which` picks ([`gaps`]).
+fn node_gaps(
+    grid: &SparseGrid,
+    dx_m: f32,
+    particles: &Particles,
+    obstacles: &[Obstacle],
+    barrier: bool,
+    which: fn(&Obstacle) -> bool,
+) -> Option<NodeGaps> {
+    if !obstacles.iter().any(which) {
         return None;
     }
     Some(NodeGaps::new(grid, dx_m, particles, |x| {
         obstacles
             .iter()
-            .filter(|o| gated(o))
+            .filter(|o| which(o))
             .filter_map(|o| {
                 let (lo, hi) = o.placed.bounds_m;
                 let margin = 2.0 * dx_m;
@@ -312,6 +353,12 @@ fn gated(o: &Obstacle) -> bool {
     o.placed.geometry.is_exact()
         && !o.is_movable()
         && !matches!(o.surface, Surface::Clamp | Surface::Sticky)
+}
+
+/// Whether `o` is immovable and exact but holds every node inside it (sticky, clamp): the
+/// obstacles of [`sides`].
+fn held(o: &Obstacle) -> bool {
+    o.placed.geometry.is_exact() && !o.is_movable() && !gated(o)
 }
 
 /// A node of a block touching a movable obstacle.
@@ -703,7 +750,7 @@ pub(crate) mod tests {
         for ratio in [0.5f32, 1.0, 2.0, 3.0] {
             let obstacles = [free_slab(&g, 1.0, Vec3A::new(0.0, 0.0, -0.25))];
             let mut grid = grid_with(&[(0, ratio, Vec3A::new(0.0, 0.0, -1.0))]);
-            let r = apply(&mut grid, 0.01, Vec3A::ZERO, &obstacles, None);
+            let r = apply(&mut grid, 0.01, Vec3A::ZERO, &obstacles, None, None);
             let common = -(ratio as f64) / (ratio as f64 + 1.0);
             let v_solid = r[0].impulse_n_s.z;
             assert!(
@@ -740,7 +787,7 @@ pub(crate) mod tests {
         let mut grid = grid_with(&nodes);
         let dx = 0.01;
         let x = |l: usize| Vec3A::new((l % 4) as f32, ((l / 4) % 4) as f32, 0.0) * dx;
-        let r = apply(&mut grid, dx, Vec3A::ZERO, &obstacles, None);
+        let r = apply(&mut grid, dx, Vec3A::ZERO, &obstacles, None, None);
         let (mut p0, mut p1, mut l0, mut l1, mut e0, mut e1) =
             (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
         for &(l, m, v) in &nodes {

@@ -21,9 +21,9 @@
 //!
 //! The position is moved, which MPM otherwise never does here (moving a particle without its
 //! deformation gradient stores no strain for the move), but only for a particle that has
-//! crossed a solid, where the alternative is tunnelling. The grid itself still does not see a
-//! solid that lies between its nodes, so the material stopped this way carries no strain for
-//! it: a soft ball thrown onto such a plate holds but lands flat (docs/design/com-layer.md).
+//! crossed a solid, where the alternative is tunnelling. The grid stops the material at such a
+//! plate too, at the nodes behind it ([`crate::mpm::reach::NodeGaps::behind_normal`]), so the
+//! material stores the strain of the stop and a soft ball keeps its shape on it.
 
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;

@@ -33,8 +33,11 @@ pub struct ColliderImpulses {
 /// normal impulse on the grid. With `gaps` (the grid's particles against the colliders' surfaces),
 /// a node inside a plane or box collider takes its rule only where material meets the surface
 /// within the substep ([`super::reach`]), and so does a node up to half a cell outside it
-/// ([`super::reach::OUTSIDE`]); the domain bound holds every node outside it. Returns
-/// the first non-finite node velocity's block index if any.
+/// ([`super::reach::OUTSIDE`]); the domain bound holds every node outside it. With `sides` (the
+/// grid's particles against the boxes that hold every node inside them), a node behind such a
+/// thin box holds the material on its near side, as one behind a thin gated box does
+/// ([`NodeGaps::behind_normal`]). Returns the first non-finite node velocity's block index if
+/// any.
 #[allow(clippy::too_many_arguments)]
 pub fn update(
     grid: &mut SparseGrid,
@@ -46,7 +49,7 @@ pub fn update(
     time_s: f64,
     v_ref: Vec3A,
     impulses: &mut ColliderImpulses,
-    gaps: Option<&NodeGaps>,
+    (gaps, sides): (Option<&NodeGaps>, Option<&NodeGaps>),
 ) -> Option<usize> {
     let SparseGrid {
         keys,
@@ -112,20 +115,50 @@ pub fn update(
                                 let i = gb * BLOCK_NODES + l;
                                 let gate = gaps.filter(|_| collider.is_gated());
                                 let inside = collider.contact_normal(node, time_s);
-                                let n = match inside {
-                                    Some(n) => {
-                                        pushed[ci].1 += 1;
-                                        n
+                                if inside.is_some() {
+                                    pushed[ci].1 += 1;
+                                }
+                                // A gated collider's rule also acts up to half a cell outside
+                                // it, and behind a thin one (`NodeGaps::rule_normal`).
+                                let n = match (inside, gate) {
+                                    (Some(n), None) => sides
+                                        .filter(|_| collider.has_far_side())
+                                        .and_then(|s| s.behind_normal(i, 0.0, n, dx_m))
+                                        .unwrap_or(n),
+                                    (None, None) => {
+                                        let behind = sides
+                                            .filter(|_| collider.has_far_side())
+                                            .and_then(|s| {
+                                                let (phi, n) =
+                                                    collider.signed_distance(node, time_s)?;
+                                                let phi = phi.max(f32::MIN_POSITIVE);
+                                                s.behind_normal(i, phi, n, dx_m)
+                                            });
+                                        match behind {
+                                            Some(n) => {
+                                                pushed[ci].1 += 1;
+                                                n
+                                            }
+                                            None => continue,
+                                        }
                                     }
-                                    // A gated collider's rule also acts up to half a cell
-                                    // outside it (`reach::OUTSIDE`).
-                                    None => match gate.and_then(|g| {
-                                        let (phi, n) = collider.signed_distance(node, time_s)?;
-                                        g.takes_outside(i, phi, n, dx_m).then_some(n)
-                                    }) {
-                                        Some(n) => n,
-                                        None => continue,
-                                    },
+                                    (_, Some(g)) => {
+                                        // Inside by the contact test, whatever the distance's
+                                        // round-off says, and the other way round.
+                                        let rule = match inside {
+                                            Some(n) => g.rule_normal(i, 0.0, n, dx_m),
+                                            None => collider
+                                                .signed_distance(node, time_s)
+                                                .and_then(|(phi, n)| {
+                                                    let phi = phi.max(f32::MIN_POSITIVE);
+                                                    g.rule_normal(i, phi, n, dx_m)
+                                                }),
+                                        };
+                                        match rule {
+                                            Some(n) => n,
+                                            None => continue,
+                                        }
+                                    }
                                 };
                                 let vc = collider.velocity_at(time_s);
                                 if let Some(g) = gate {

@@ -167,11 +167,11 @@ impl MpmSolver {
             .map_err(|particle| MpmError::OutOfGrid { particle })?;
         self.grid.rebuild(&self.bins);
         self.v_ref = mean_velocity(particles);
-        let gaps = input
-            .colliders
-            .iter()
-            .any(|c| c.is_gated() && c.is_active(input.time_s))
-            .then(|| collider_gaps(&self.grid, self.dx_m, particles, input));
+        let gaps = collider_gaps(&self.grid, self.dx_m, particles, input, Collider::is_gated);
+        // The boxes that hold every node inside them: only which side the material is on.
+        let sides = collider_gaps(&self.grid, self.dx_m, particles, input, |c| {
+            !c.is_gated() && c.has_far_side()
+        });
         p2g::scatter(
             particles,
             &self.bins,
@@ -191,7 +191,7 @@ impl MpmSolver {
             input.time_s,
             self.v_ref,
             &mut self.collider_impulses,
-            gaps.as_ref(),
+            (gaps.as_ref(), sides.as_ref()),
         ) {
             Some(block) => Err(MpmError::NonFiniteGrid { block }),
             None => Ok(()),
@@ -263,25 +263,30 @@ impl MpmSolver {
     }
 }
 
-/// The node gaps of `particles` on `grid` (cell `dx_m`) against `input`'s plane and box
-/// colliders at the start of the substep ([`super::reach`]).
+/// The node gaps of `particles` on `grid` (cell `dx_m`) against those of `input`'s colliders
+/// that `which` picks, at the start of the substep ([`super::reach`]); `None` where none is
+/// active.
 fn collider_gaps(
     grid: &SparseGrid,
     dx_m: f32,
     particles: &Particles,
     input: &SubstepInput<'_>,
-) -> NodeGaps {
-    NodeGaps::new(grid, dx_m, particles, |x| {
-        input
-            .colliders
-            .iter()
-            .filter(|c| c.is_gated())
-            .filter_map(|c| {
-                let (phi, n) = c.signed_distance(x, input.time_s)?;
-                let barrier = input.barrier && c.takes_barrier();
-                Some((phi, n, if barrier { BARRIER_REACH } else { NODE_REACH }))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
+    which: fn(&Collider) -> bool,
+) -> Option<NodeGaps> {
+    let picked = |c: &&Collider| which(c) && c.is_active(input.time_s);
+    input.colliders.iter().any(|c| picked(&c)).then(|| {
+        NodeGaps::new(grid, dx_m, particles, |x| {
+            input
+                .colliders
+                .iter()
+                .filter(picked)
+                .filter_map(|c| {
+                    let (phi, n) = c.signed_distance(x, input.time_s)?;
+                    let barrier = input.barrier && c.takes_barrier();
+                    Some((phi, n, if barrier { BARRIER_REACH } else { NODE_REACH }))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        })
     })
 }
 

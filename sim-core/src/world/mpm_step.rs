@@ -125,8 +125,16 @@ fn apply_obstacles(
     let v_ref = solver.reference_velocity_m_s();
     let dx = solver.dx_m;
     let gaps = boundary::gaps(solver.grid(), dx, particles, obstacles, barrier);
+    let sides = boundary::sides(solver.grid(), dx, particles, obstacles);
     let reach = gaps.as_ref().map(|g| (g, dt_s));
-    let r = boundary::apply(solver.grid_mut(), dx, v_ref, obstacles, reach);
+    let r = boundary::apply(
+        solver.grid_mut(),
+        dx,
+        v_ref,
+        obstacles,
+        reach,
+        sides.as_ref(),
+    );
     let mut touched = Vec::new();
     for ((r, &k), o) in r.iter().zip(of.iter()).zip(obstacles.iter_mut()) {
         o.receive(r);
