@@ -253,9 +253,10 @@ fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
     // A floor that lets material leave (its nodes take the rule only where material reaches
     // them: the gap check) with Coulomb friction: a plane 0.4 of a cell above a node layer, one
     // a tenth of a cell below the next (where the nodes half a cell outside it take its rule
-    // too), a box with its top there, and a plate 1 mm thick with its top there (no node
-    // inside it: the nodes behind it hold the material).
+    // too), a box with its top there, and a plate 1 mm thick 0.6 of a cell below a node layer
+    // (no node inside it or within half a cell above: the nodes behind it hold the material).
     let top = 6.9 * dx;
+    let plate = 6.4 * dx;
     let floors = [
         (
             "plane",
@@ -275,12 +276,12 @@ fn a_cube_thrown_onto_a_plane_with_friction_matches_the_cpu_solver() {
             ),
         ),
         (
-            "1 mm plate below a node layer",
-            top,
+            "1 mm plate",
+            plate,
             Shape::Box(
                 BoxShape::new(
-                    Vec3A::new(0.05, 0.05, top - 0.001),
-                    Vec3A::new(0.95, 0.95, top),
+                    Vec3A::new(0.05, 0.05, plate - 0.001),
+                    Vec3A::new(0.95, 0.95, plate),
                 )
                 .unwrap(),
             ),
