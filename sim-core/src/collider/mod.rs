@@ -86,11 +86,25 @@ impl Collider {
             && !matches!(self.surface, Surface::Clamp | Surface::Sticky)
     }
 
-    /// Whether it has a far side that material can be behind (a box; a plane's half-space and
-    /// the domain bound's outside have none): the grid's nodes behind a thin one hold the
-    /// material on its near side ([`crate::mpm::reach::NodeGaps::behind_normal`]).
-    pub fn has_far_side(&self) -> bool {
-        matches!(self.shape, Shape::Box(_))
+    /// Whether material can lie behind it on a grid of cell `dx_m` (m): a box thinner than
+    /// twice [`crate::mpm::reach::BEHIND`] cells along an axis, so that a node behind it, or
+    /// past its middle, can lie in the stencil of a particle on its near side (a plane's
+    /// half-space and the domain bound's outside have no far side). The grid's nodes behind
+    /// such a box hold the material on its near side
+    /// ([`crate::mpm::reach::NodeGaps::behind_normal`]).
+    pub fn is_thin(&self, dx_m: f32) -> bool {
+        match &self.shape {
+            Shape::Box(b) => {
+                (b.max_m - b.min_m).min_element() < 2.0 * crate::mpm::reach::BEHIND * dx_m
+            }
+            Shape::Plane(_) | Shape::DomainBound(_) => false,
+        }
+    }
+
+    /// Whether the grid reads which side of it material lies on although its rule holds every
+    /// node inside it (sticky, clamp): a thin box ([`Self::is_thin`]) that is not gated.
+    pub fn takes_sides(&self, dx_m: f32) -> bool {
+        !self.is_gated() && self.is_thin(dx_m)
     }
 
     /// Whether it meets deformable material through the particle barrier when the scene asks

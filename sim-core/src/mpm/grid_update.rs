@@ -122,12 +122,12 @@ pub fn update(
                                 // it, and behind a thin one (`NodeGaps::rule_normal`).
                                 let n = match (inside, gate) {
                                     (Some(n), None) => sides
-                                        .filter(|_| collider.has_far_side())
+                                        .filter(|_| collider.takes_sides(dx_m))
                                         .and_then(|s| s.behind_normal(i, 0.0, n, dx_m))
                                         .unwrap_or(n),
                                     (None, None) => {
                                         let behind = sides
-                                            .filter(|_| collider.has_far_side())
+                                            .filter(|_| collider.takes_sides(dx_m))
                                             .and_then(|s| {
                                                 let (phi, n) =
                                                     collider.signed_distance(node, time_s)?;

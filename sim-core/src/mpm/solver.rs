@@ -167,11 +167,10 @@ impl MpmSolver {
             .map_err(|particle| MpmError::OutOfGrid { particle })?;
         self.grid.rebuild(&self.bins);
         self.v_ref = mean_velocity(particles);
-        let gaps = collider_gaps(&self.grid, self.dx_m, particles, input, Collider::is_gated);
-        // The boxes that hold every node inside them: only which side the material is on.
-        let sides = collider_gaps(&self.grid, self.dx_m, particles, input, |c| {
-            !c.is_gated() && c.has_far_side()
-        });
+        let dx = self.dx_m;
+        let gaps = collider_gaps(&self.grid, dx, particles, input, Collider::is_gated);
+        // The thin boxes that hold every node inside them: only which side the material is on.
+        let sides = collider_gaps(&self.grid, dx, particles, input, |c| c.takes_sides(dx));
         p2g::scatter(
             particles,
             &self.bins,
@@ -271,7 +270,7 @@ fn collider_gaps(
     dx_m: f32,
     particles: &Particles,
     input: &SubstepInput<'_>,
-    which: fn(&Collider) -> bool,
+    which: impl Fn(&Collider) -> bool + Sync,
 ) -> Option<NodeGaps> {
     let picked = |c: &&Collider| which(c) && c.is_active(input.time_s);
     input.colliders.iter().any(|c| picked(&c)).then(|| {
