@@ -124,6 +124,18 @@ impl Shape {
         Ok(())
     }
 
+    /// Its thickness, m: the smallest extent across it (a box's shortest side, a sphere's
+    /// diameter, a cylinder's diameter or height, whichever is less).
+    pub fn thickness_m(&self) -> f32 {
+        match *self {
+            Shape::Sphere { radius_m, .. } => 2.0 * radius_m,
+            Shape::Box { min_m, max_m } => (Vec3::from(max_m) - Vec3::from(min_m)).min_element(),
+            Shape::Cylinder {
+                radius_m, height_m, ..
+            } => (2.0 * radius_m).min(height_m),
+        }
+    }
+
     /// The centre of its bounding box, m: what `rotation_deg` turns it about.
     pub fn center(&self) -> Vec3 {
         let (lo, hi) = self.aabb();

@@ -86,25 +86,23 @@ impl Collider {
             && !matches!(self.surface, Surface::Clamp | Surface::Sticky)
     }
 
-    /// Whether material can lie behind it on a grid of cell `dx_m` (m): a box thinner than
-    /// twice [`crate::mpm::reach::BEHIND`] cells along an axis, so that a node behind it, or
-    /// past its middle, can lie in the stencil of a particle on its near side (a plane's
-    /// half-space and the domain bound's outside have no far side). The grid's nodes behind
-    /// such a box hold the material on its near side
-    /// ([`crate::mpm::reach::NodeGaps::behind_normal`]).
-    pub fn is_thin(&self, dx_m: f32) -> bool {
+    /// Whether it is a box thinner than `thickness_m` (m) along an axis (a plane's half-space and
+    /// the domain bound's outside have no far side and are never thin).
+    pub fn is_thinner_than(&self, thickness_m: f32) -> bool {
         match &self.shape {
-            Shape::Box(b) => {
-                (b.max_m - b.min_m).min_element() < 2.0 * crate::mpm::reach::BEHIND * dx_m
-            }
+            Shape::Box(b) => (b.max_m - b.min_m).min_element() < thickness_m,
             Shape::Plane(_) | Shape::DomainBound(_) => false,
         }
     }
 
-    /// Whether the grid reads which side of it material lies on although its rule holds every
-    /// node inside it (sticky, clamp): a thin box ([`Self::is_thin`]) that is not gated.
+    /// Whether the grid of cell `dx_m` (m) reads which side of it material lies on although its
+    /// rule holds every node inside it (sticky, clamp): a box that is not gated and is thinner
+    /// than twice [`crate::mpm::reach::BEHIND`] cells, so that a node behind it, or past its
+    /// middle, can lie in the stencil of a particle on its near side. The grid's nodes behind
+    /// such a box hold the material on its near side
+    /// ([`crate::mpm::reach::NodeGaps::behind_normal`]).
     pub fn takes_sides(&self, dx_m: f32) -> bool {
-        !self.is_gated() && self.is_thin(dx_m)
+        !self.is_gated() && self.is_thinner_than(2.0 * crate::mpm::reach::BEHIND * dx_m)
     }
 
     /// Whether it meets deformable material through the particle barrier when the scene asks

@@ -58,7 +58,7 @@ use crate::collider::{Surface, apply_surface};
 use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};
 use crate::mpm::grid::SparseGrid;
-use crate::mpm::reach::{BARRIER_REACH, NODE_REACH, NodeGaps};
+use crate::mpm::reach::{BARRIER_REACH, BEHIND, NODE_REACH, NodeGaps};
 
 /// A solid as a grid boundary.
 #[derive(Debug, Clone, Copy)]
@@ -151,9 +151,8 @@ impl Reaction {
 /// substep dt in s), a node inside an immovable procedural obstacle that lets material leave
 /// takes the rule only where material meets the surface within the substep
 /// ([`crate::mpm::reach`]); inside any other obstacle (awake rigid, sticky, a sampled level set)
-/// every node takes it, and with `sides` (the node gaps against the immovable exact solids that
-/// hold every node, [`sides`]) so does a node behind a thin one
-/// ([`NodeGaps::behind_normal`]).
+/// every node takes it, and with `sides` (the node gaps against the thin solids that hold every
+/// node, [`sides`]) so does a node behind one ([`NodeGaps::behind_normal`]).
 pub fn apply(
     grid: &mut SparseGrid,
     dx_m: f32,
@@ -219,7 +218,7 @@ pub fn apply(
                     let n0 = pose.rotation * n0;
                     let behind = || {
                         sides
-                            .filter(|_| held(o))
+                            .filter(|_| held(o, dx_m))
                             .and_then(|s| s.behind_normal(node, phi, n0, dx_m))
                     };
                     let Some(normal) = (match gate {
@@ -297,8 +296,8 @@ pub fn gaps(
 }
 
 /// The node gaps of `particles` on `grid` (cell `dx_m`) against those of `obstacles` that are
-/// immovable and exact but hold every node inside them (sticky, clamp): only which side of such
-/// a solid the material lies on is read from them, for the nodes behind a thin one
+/// immovable but hold every node inside them (sticky, clamp) and are thin ([`held`]): only
+/// which side of such a solid the material lies on is read from them, for the nodes behind it
 /// ([`NodeGaps::behind_normal`]); `None` when there is none.
 pub fn sides(
     grid: &SparseGrid,
@@ -306,7 +305,7 @@ pub fn sides(
     particles: &Particles,
     obstacles: &[Obstacle],
 ) -> Option<NodeGaps> {
-    node_gaps(grid, dx_m, particles, obstacles, false, held)
+    node_gaps(grid, dx_m, particles, obstacles, false, |o| held(o, dx_m))
 }
 
 /// The node gaps of `particles` against the `obstacles` that `which` picks ([`gaps`]).
@@ -316,9 +315,9 @@ fn node_gaps(
     particles: &Particles,
     obstacles: &[Obstacle],
     barrier: bool,
-    which: fn(&Obstacle) -> bool,
+    which: impl Fn(&Obstacle) -> bool + Sync,
 ) -> Option<NodeGaps> {
-    if !obstacles.iter().any(which) {
+    if !obstacles.iter().any(&which) {
         return None;
     }
     Some(NodeGaps::new(grid, dx_m, particles, |x| {
@@ -355,10 +354,12 @@ fn gated(o: &Obstacle) -> bool {
         && !matches!(o.surface, Surface::Clamp | Surface::Sticky)
 }
 
-/// Whether `o` is immovable and exact but holds every node inside it (sticky, clamp): the
+/// Whether `o` is immovable but holds every node inside it (sticky, clamp), and is exact and
+/// thin enough on a grid of cell `dx_m` (m) for a node behind it to lie in the stencil of a
+/// particle on its near side (thinner than twice [`crate::mpm::reach::BEHIND`] cells): the
 /// obstacles of [`sides`].
-fn held(o: &Obstacle) -> bool {
-    o.placed.geometry.is_exact() && !o.is_movable() && !gated(o)
+fn held(o: &Obstacle, dx_m: f32) -> bool {
+    !gated(o) && !o.is_movable() && o.placed.geometry.is_thinner_than(2.0 * BEHIND * dx_m)
 }
 
 /// A node of a block touching a movable obstacle.

@@ -91,6 +91,17 @@ impl Geometry {
         matches!(self, Geometry::Analytic(_) | Geometry::Turned { .. })
     }
 
+    /// Whether it is exact and thinner than `thickness_m` (m) across: material can then lie
+    /// behind it within a particle's stencil ([`crate::mpm::reach::NodeGaps::behind_normal`]).
+    pub fn is_thinner_than(&self, thickness_m: f32) -> bool {
+        match self {
+            Geometry::Analytic(shape) | Geometry::Turned { shape, .. } => {
+                shape.thickness_m() < thickness_m
+            }
+            Geometry::Sampled(_) => false,
+        }
+    }
+
     /// Signed distance (m, negative inside) at rest-frame point `x0` and the outward unit
     /// normal there (any unit vector where it is undefined).
     pub fn distance(&self, x0: Vec3A) -> (f32, Vec3A) {

@@ -240,9 +240,9 @@ fn push_at_surfaces(
 /// ([`boundary::project_particles`]), and adds the momentum this takes to the solids'
 /// `reactions`. Returns the solids the crossings touched, with the normal impulse they gave
 /// the particles (N s), for the restitution law: a plate thinner than a cell may hold no grid
-/// node, and these are then its only touches.
+/// node, and these are then its only touches. `dx_m` is the deformable's grid cell (m).
 fn project_out_of_solids(
-    step: Step<'_>,
+    (step, dx_m): (Step<'_>, f32),
     particles: &mut Particles,
     (obstacles, of): &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
     reactions: &mut [Reaction],
@@ -250,13 +250,13 @@ fn project_out_of_solids(
     let end_s = step.time_s + step.dt_s as f64;
     let mut touched = Vec::new();
     let by_colliders =
-        crossing::stop_collider_crossings(particles, step.colliders, end_s, step.dt_s);
+        crossing::stop_collider_crossings(particles, step.colliders, end_s, step.dt_s, dx_m);
     for (c, j) in by_colliders.into_iter().enumerate() {
         if j != DVec3::ZERO {
             touched.push((ObstacleOf::Collider(c), j));
         }
     }
-    let crossed = crossing::stop_crossings(particles, obstacles, step.dt_s);
+    let crossed = crossing::stop_crossings(particles, obstacles, step.dt_s, dx_m);
     let projected = boundary::project_particles(particles, obstacles);
     for ((c, p), &k) in crossed.iter().zip(&projected).zip(of) {
         if c.normal_impulse_n_s != DVec3::ZERO {
@@ -504,7 +504,8 @@ pub(super) fn per_object(
         }
         let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
         if r.is_ok() {
-            let t = project_out_of_solids(step, &mut particles, &solids, &mut reactions);
+            let at = (step, solver.dx_m);
+            let t = project_out_of_solids(at, &mut particles, &solids, &mut reactions);
             touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
         }
         let b = &mut bodies[k];
@@ -592,7 +593,8 @@ pub(super) fn multi_field(
         if r.is_ok() {
             let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
             let solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx_m);
-            let t = project_out_of_solids(step, &mut particles, &solids, &mut reactions);
+            let at = (step, bodies[k].solver.dx_m);
+            let t = project_out_of_solids(at, &mut particles, &solids, &mut reactions);
             touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
             bodies[k].particles = particles;
         }
