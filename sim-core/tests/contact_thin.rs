@@ -29,7 +29,7 @@ fn ball_onto(top_m: f32) -> SceneBuilder {
 /// above a radius over it after the impact (a rebound at a fifth of the 5 m/s it came at would
 /// lift it 5 cm) and keeping its shape: the grid holds the material at the plate (where only the
 /// particles' sweeps stopped it, it carried no strain for the stop and lay flat, its COM
-/// 13–21 mm over the plate). The undamped ball rings after its landing, so its COM is averaged
+/// 12–17 mm over the plate). The undamped ball rings after its landing, so its COM is averaged
 /// over the last 0.1 s, and must stay above three quarters of its 4 cm radius.
 fn stays_on_the_plate(scene: &Scene, (lo, hi): (f32, f32), what: &str) {
     let mut w = World::from_scene(scene).expect("world");

@@ -59,7 +59,7 @@ pub const OUTSIDE: f32 = 0.5;
 /// cells ([`NodeGaps::rule_normal`]): the reach of a particle's stencil. A plate thinner than a
 /// cell may hold no node; then only the particles' sweeps stopped the material (it stored no
 /// strain for the stop, and a 4 cm jelly ball thrown at 5 m/s onto a 1 mm plate lay flat on it,
-/// its COM 13–21 mm above it), while the nodes beyond the plate kept the material's fall and
+/// its COM 12–17 mm above it), while the nodes beyond the plate kept the material's fall and
 /// stretched it.
 pub const BEHIND: f32 = 1.5;
 
