@@ -296,9 +296,9 @@ pub fn gaps(
 }
 
 /// The node gaps of `particles` on `grid` (cell `dx_m`) against those of `obstacles` that are
-/// immovable but hold every node inside them (sticky, clamp) and are thin ([`held`]): only
-/// which side of such a solid the material lies on is read from them, for the nodes behind it
-/// ([`NodeGaps::behind_normal`]); `None` when there is none.
+/// immovable but hold every node inside them (sticky, clamp) and are thin enough to have nodes
+/// behind them: only which side of such a solid the material lies on is read from them, for the
+/// nodes behind it ([`NodeGaps::behind_normal`]); `None` when there is none.
 pub fn sides(
     grid: &SparseGrid,
     dx_m: f32,
