@@ -28,6 +28,7 @@ pub mod exact;
 pub mod geometry;
 pub mod level_set;
 pub mod manifold;
+mod obstacle_gaps;
 pub mod patch;
 pub mod rows;
 pub mod settings;
