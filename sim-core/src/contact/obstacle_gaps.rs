@@ -24,8 +24,8 @@ pub fn gaps(
     node_gaps(grid, dx_m, particles, obstacles, barrier, gated)
 }
 
-/// The node gaps of `particles` on `grid` (cell `dx_m`) against those of `obstacles` that are
-/// immovable but hold every node inside them (sticky, clamp) and are thin enough to have nodes
+/// The node gaps of `particles` on `grid` (cell `dx_m`) against those of `obstacles` that hold
+/// every node inside them (sticky, clamp, awake rigid) and are thin enough to have nodes
 /// behind them: only which side of such a solid the material lies on is read from them, for the
 /// nodes behind it ([`NodeGaps::behind_normal`]); `None` when there is none.
 pub fn sides(
@@ -83,10 +83,12 @@ pub(super) fn gated(o: &Obstacle) -> bool {
         && !matches!(o.surface, Surface::Clamp | Surface::Sticky)
 }
 
-/// Whether `o` is immovable but holds every node inside it (sticky, clamp), and is exact and
-/// thin enough on a grid of cell `dx_m` (m) for a node behind it to lie in the stencil of a
-/// particle on its near side (thinner than twice [`crate::mpm::reach::BEHIND`] cells): the
-/// obstacles of [`sides`].
+/// Whether `o` holds every node inside it (sticky, clamp, or movable: an awake rigid solid) and
+/// is exact and thin enough on a grid of cell `dx_m` (m) for a node behind it to lie in the
+/// stencil of a particle on its near side (thinner than twice [`crate::mpm::reach::BEHIND`]
+/// cells): the obstacles of [`sides`]. In an awake rigid plate whose middle lies on a node
+/// layer, those nodes took the far face's normal, held a jelly ball's rebound against the plate
+/// and so threw the plate up with it.
 pub(super) fn held(o: &Obstacle, dx_m: f32) -> bool {
-    !gated(o) && !o.is_movable() && o.placed.geometry.is_thinner_than(2.0 * BEHIND * dx_m)
+    !gated(o) && o.placed.geometry.is_thinner_than(2.0 * BEHIND * dx_m)
 }
