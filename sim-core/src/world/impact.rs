@@ -22,11 +22,12 @@
 //! energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
 //! contact force). Against an awake rigid solid the excess is removed between the two, with the
 //! pair's reduced mass (at the solid's COM): the object's share alone would throw a solid lighter
-//! than it. But where the solid leans on immovable ones along n (its supports, from the last
-//! contact pass), they gave the rebound: up to what they pushed it with along n over the contact
-//! beyond its own momentum change, the excess goes back to them, the solid held as immovable
-//! (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly ball landing
-//! on it at e = 0). A resting object never ends its contact and is not touched; a contact older
+//! than it. But where the solid leans on others along n (a floor, a box under it), they gave
+//! the rebound: up to what they pushed it with along n over the contact (its momentum change
+//! less the object's impulse and gravity's), the excess goes back to them, the solid held as
+//! immovable (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly ball
+//! landing on it at e = 0). A resting object never ends its contact and is not touched; a
+//! contact older
 //! than [`IMPACT_SETTLES_S`], or one a command interrupts (an impulse or a velocity on the
 //! object), ends without the law.
 
@@ -166,20 +167,18 @@ pub(super) fn boundary_restitution(
             continue;
         }
         // The impulse that removes the excess: the object's mass alone against an immovable
-        // solid; against an awake rigid one, first what its supports pushed it with along n
-        // over the contact beyond its own momentum change (they answered the object's push, and
-        // their push less that stays ≥ 0), then the rest between the two with the reduced mass
-        // (at the solid's COM).
+        // solid; against an awake rigid one, first what others than the object (its supports)
+        // pushed it with along n over the contact, besides gravity: they answered the object's
+        // push, and their push less that stays ≥ 0. Then the rest between the two with the
+        // reduced mass (at the solid's COM).
         let (j_held, j_shared) = match solid {
             SolidOf::Object(o) if bodies[o].kind == ObjectKind::Rigid && !bodies[o].sleeping => {
                 let solid = &bodies[o];
                 let m_solid = solid.rigid.mass_kg.max(f64::MIN_POSITIVE);
-                let held = if solid.supports.iter().any(|p| p.normal.dot(normal) > 0.0) {
-                    let gained = m_solid * (solid.rigid.velocity_m_s - imp.solid_velocity_m_s);
-                    (imp.impulse_n_s + gained).dot(normal).max(0.0)
-                } else {
-                    0.0
-                };
+                let gained = solid.rigid.velocity_m_s
+                    - imp.solid_velocity_m_s
+                    - env.gravity_m_s2.as_dvec3() * (env.time_s - imp.start_s);
+                let held = (imp.impulse_n_s + gained * m_solid).dot(normal).max(0.0);
                 let j_held = (excess * s.mass_kg).min(held);
                 let rest = excess - j_held / s.mass_kg;
                 (j_held, rest / (1.0 / s.mass_kg + 1.0 / m_solid))
