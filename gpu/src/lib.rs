@@ -19,8 +19,9 @@
 //! SVD they need is the CPU's one-sided Jacobi, `plastic.wgsl`); plane, box and domain-bound
 //! colliders, static or moving within an active window, with the sticky, slip and separate rules
 //! and Coulomb friction, with the CPU's gap check (a plane or box that lets material leave takes
-//! its rule only at nodes where material reaches it, `splatphys_core::mpm::reach`), on a dense
-//! grid over the domain bound. What does not (and is refused with [`GpuError::Unsupported`],
+//! its rule only at nodes where material reaches it, `splatphys_core::mpm::reach`, and the
+//! nodes behind a box thinner than three cells hold the material on its near side, for every
+//! rule), on a dense grid over the domain bound. What does not (and is refused with [`GpuError::Unsupported`],
 //! naming it, so the caller can stay on the CPU): a system without a domain bound.
 //!
 //! P2G adds into fixed-point sums of two 32-bit words that need no carry (each term's part

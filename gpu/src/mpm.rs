@@ -104,6 +104,14 @@ struct GpuMaterial {
     p: [f32; 4],
 }
 
+/// A collider's `gated`: its nodes take the rule only where material reaches the surface
+/// ([`splatphys_core::collider::Collider::is_gated`]).
+const GAPS_GATED: u32 = 1;
+/// A collider's `gated`: it holds every node inside it, but is a box thin enough that the grid
+/// reads which side of it the material lies on
+/// ([`splatphys_core::collider::Collider::takes_sides`]).
+const GAPS_SIDES: u32 = 2;
+
 /// The shader's `Collider`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -111,6 +119,7 @@ struct GpuCollider {
     kind: u32,
     surface: u32,
     friction: f32,
+    /// 0, [`GAPS_GATED`] or [`GAPS_SIDES`]: what the node gaps are read for.
     gated: u32,
     a: [f32; 4],
     b: [f32; 4],
@@ -211,7 +220,13 @@ fn colliders(
             kind,
             surface,
             friction: c.surface.friction(c.friction),
-            gated: u32::from(c.is_gated()),
+            gated: if c.is_gated() {
+                GAPS_GATED
+            } else if c.takes_sides(sys.solver.dx_m) {
+                GAPS_SIDES
+            } else {
+                0
+            },
             a: a.extend(0.0).to_array(),
             b: b.extend(0.0).to_array(),
             velocity: c
@@ -426,7 +441,11 @@ impl GpuMpm {
             scale_p,
             inv_scale_m: 1.0 / scale_m,
             inv_scale_p: 1.0 / scale_p,
-            n_gated: sys.colliders.iter().filter(|c| c.is_gated()).count() as u32,
+            n_gated: sys
+                .colliders
+                .iter()
+                .filter(|c| c.is_gated() || c.takes_sides(dx))
+                .count() as u32,
             t0: 0.0,
             reference: [0.0; 3],
             n_groups: n.div_ceil(WORKGROUP).clamp(1, MOMENT_GROUPS),

@@ -62,8 +62,12 @@ const MODEL_VON_MISES: u32 = 4u;
 
 // Collider: kind (0 plane: a = point, b = outward normal; 1 box: a = min, b = max; 2 domain
 // bound: a = min, b = max), surface (0 sticky, 1 slip, 2 separate, 3 clamp), Coulomb friction
-// (a sticky collider's already raised to STICKY_FRICTION), and
-// whether its nodes take the rule only where material reaches the surface (mpm/reach.rs).
+// (a sticky collider's already raised to STICKY_FRICTION), and what the node gaps are read
+// for (`gated`): 1 where its nodes take the rule only where material reaches the surface
+// (mpm/reach.rs), 2 for a box that holds every node inside it (sticky, clamp) but is thin
+// enough for the grid to read which side of it the material lies on (Collider::takes_sides),
+// 0 for neither. Both kinds share one gap per node: a node near a gated collider and a thin
+// sticky box at once reads the smaller gap of the two (the CPU keeps two maps).
 // A moving collider (w of `velocity` = 1) acts within [window.x, window.y) s and is displaced
 // by velocity × (t − window.x) (collider/mod.rs).
 struct Collider {
@@ -91,10 +95,10 @@ struct Collider {
 @group(0) @binding(5) var<storage, read> colliders: array<Collider>;
 // Per node 15 words: the mass as an unsigned fixed-point sum of two words (add_magnitude);
 // px, py, pz each as two such sums, of the positive terms and of the negative terms' magnitudes
-// (read as their difference); then the node's gap to the gated colliders (the bitwise NOT of an
-// order-preserving u32 form of the f32, so that 0 is "no particle's column reaches it" and
-// atomicMax takes the smallest gap, with the code of the normal there in its low bits:
-// encode_gap).
+// (read as their difference); then the node's gap to the colliders that read gaps (`gated`; the
+// bitwise NOT of an order-preserving u32 form of the f32, so that 0 is "no particle's column
+// reaches it" and atomicMax takes the smallest gap, with the code of the normal there in its
+// low bits: encode_gap).
 // After the nodes, per collider 7 words: the normal impulse it gave the grid in the substep,
 // n n·Δp summed over its nodes (grid_update.rs's collider impulses), as three 64-bit sums at the
 // momentum scale, then the count of nodes with mass inside it (whether or not they took its
@@ -440,9 +444,9 @@ fn collider_distance(c: Collider, x: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(n, q[axis]);
 }
 
-// The node gaps of one particle against the nearest gated collider (mpm/reach.rs): each node of
-// its 3x3x3 stencil in its column along the surface normal, about inside the solid, gets the
-// particle's gap phi - (1/2 + REACH_TOLERANCE) size.
+// The node gaps of one particle against the nearest collider that reads them (`gated` 1 or 2;
+// mpm/reach.rs): each node of its 3x3x3 stencil in its column along the surface normal, about
+// inside the solid, gets the particle's gap phi - (1/2 + REACH_TOLERANCE) size.
 fn scatter_gaps(x: vec3<f32>, volume0: f32, s: Stencil) {
     var best = vec4<f32>(0.0, 0.0, 1.0, 3.0e38);
     let t = substep_time();
@@ -650,15 +654,15 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
             let facing = dot(node_gap_normal(slot), sd.xyz);
             if facing < -0.5 && sd.w <= BEHIND * params.dx {
                 n = -sd.xyz;
-            } else if sd.w >= ON_SURFACE * params.dx && sd.w <= OUTSIDE * params.dx
-                && facing > 0.5 {
+            } else if c.gated == 1u && sd.w >= ON_SURFACE * params.dx
+                && sd.w <= OUTSIDE * params.dx && facing > 0.5 {
                 n = sd.xyz;
             }
         }
         if dot(n, n) > 0.0 {
             let vc = collider_velocity(c, t);
             // A gated collider's rule only where material meets its surface within the substep.
-            if c.gated != 0u && !(node_gap(slot) <= max(-dot(v - vc, n), 0.0) * params.dt) {
+            if c.gated == 1u && !(node_gap(slot) <= max(-dot(v - vc, n), 0.0) * params.dt) {
                 continue;
             }
             if !inside {
