@@ -25,7 +25,8 @@
 //!
 //! An awake rigid object is movable and meets the grid two-way: each node's impulse is shared by
 //! the node's mass and the node's share of the solid's mass and inertia, over a few Jacobi
-//! sweeps in which the solid's velocity follows ([`super::coupling`]), so a solid lighter than
+//! sweeps in which the solid's velocity follows ([`super::coupling`]; over the grids of every
+//! deformable object touching it at once, [`super::grid_coupling`]), so a solid lighter than
 //! the material it meets is not treated as a wall (which handed it 1 − m/M + (m/M)² of its
 //! kinetic energy, more than it had once the node mass m passed M). Within the sweeps the
 //! solid is held where it leaned on immovable solids in the last contact pass
@@ -49,10 +50,10 @@
 use glam::{DMat3, DVec3, IVec3, Vec3A};
 use rayon::prelude::*;
 
-use super::coupling::{
-    COUPLING_CONVERGED_M_S, COUPLING_SWEEPS, Hold, SolidShare, Support, node_impulse,
-};
+use super::coupling::{COUPLING_SWEEPS, Hold, SolidShare, Support, node_impulse};
 use super::geometry::Placed;
+use super::grid_coupling::Solids;
+pub use super::grid_coupling::{CoupledGrid, couple};
 pub use super::obstacle_gaps::{gaps, sides};
 use super::obstacle_gaps::{gated, held};
 use crate::collider::{Surface, apply_surface};
@@ -92,7 +93,7 @@ impl Obstacle<'_> {
 
     /// The part of it a node or particle of mass share `w` (of the mass touching it) meets:
     /// inverse mass and inertia divided by w (mass splitting, [`super::coupling`]).
-    fn share(&self, w: f64) -> SolidShare {
+    pub(super) fn share(&self, w: f64) -> SolidShare {
         SolidShare {
             inverse_mass: self.inverse_mass / w,
             inverse_inertia: self.inverse_inertia * (1.0 / w),
@@ -106,7 +107,7 @@ impl Obstacle<'_> {
     }
 
     /// Holds a movable solid's velocities `v` and `w` on its supports ([`Hold`]).
-    fn hold_motion(&self, hold: &mut Hold, v: &mut DVec3, w: &mut DVec3) {
+    pub(super) fn hold_motion(&self, hold: &mut Hold, v: &mut DVec3, w: &mut DVec3) {
         if self.is_movable() && !self.supports.is_empty() {
             hold.apply(v, w, self.inverse_mass, self.inverse_inertia, self.supports);
         }
@@ -137,7 +138,7 @@ impl Reaction {
         self.normal_impulse_n_s -= n * n.dot(dp_n_s);
     }
 
-    fn add(&mut self, o: &Reaction) {
+    pub(super) fn add(&mut self, o: &Reaction) {
         self.impulse_n_s += o.impulse_n_s;
         self.angular_impulse_n_m_s += o.angular_impulse_n_m_s;
         self.normal_impulse_n_s += o.normal_impulse_n_s;
@@ -162,9 +163,42 @@ pub fn apply(
     reach: Option<(&NodeGaps, f32)>,
     sides: Option<&NodeGaps>,
 ) -> Vec<Reaction> {
+    let (mut total, touches) = apply_one_way(grid, dx_m, v_ref, obstacles, reach, sides);
+    if touches.iter().any(|t| !t.is_empty()) {
+        let SparseGrid {
+            mass_kg,
+            velocity_m_s,
+            ..
+        } = grid;
+        let solid_of: Vec<usize> = (0..obstacles.len()).collect();
+        let mut one = [CoupledGrid {
+            mass_kg,
+            velocity_m_s,
+            v_ref,
+            obstacles,
+            solid_of: &solid_of,
+            touches: &touches,
+            total: &mut total,
+        }];
+        couple(&mut one, obstacles);
+    }
+    total
+}
+
+/// [`apply`] but for the movable obstacles' two-way solve: each obstacle's reaction from the
+/// immovable ones' rule, in order, and the nodes that touch movable ones, for a solve
+/// ([`couple`]) that may take in the grids of other deformable objects touching the same solids.
+pub fn apply_one_way(
+    grid: &mut SparseGrid,
+    dx_m: f32,
+    v_ref: Vec3A,
+    obstacles: &[Obstacle],
+    reach: Option<(&NodeGaps, f32)>,
+    sides: Option<&NodeGaps>,
+) -> (Vec<Reaction>, GridTouches) {
     let n = obstacles.len();
     if n == 0 {
-        return Vec::new();
+        return (Vec::new(), Vec::new());
     }
     let SparseGrid {
         keys,
@@ -266,137 +300,26 @@ pub fn apply(
             (out, touches)
         })
         .collect();
-    let (parts, touches): (Vec<Vec<Reaction>>, Vec<Vec<Touch>>) = per_block.into_iter().unzip();
-    let mut total = sum_in_order(&parts, n);
-    if touches.iter().any(|t| !t.is_empty()) {
-        couple(
-            mass_kg,
-            velocity_m_s,
-            v_ref,
-            obstacles,
-            &touches,
-            &mut total,
-        );
-    }
-    total
+    let (parts, touches): (Vec<Vec<Reaction>>, GridTouches) = per_block.into_iter().unzip();
+    (sum_in_order(&parts, n), touches)
 }
 
 /// A node of a block touching a movable obstacle.
 #[derive(Debug, Clone, Copy)]
-struct Touch {
+pub struct Touch {
     /// The node, within its block.
-    node: u16,
+    pub(super) node: u16,
     /// The obstacle.
-    obstacle: u16,
+    pub(super) obstacle: u16,
     /// The obstacle's outward normal there.
-    normal: Vec3A,
+    pub(super) normal: Vec3A,
     /// The node's offset from the obstacle's COM (m).
-    r_m: Vec3A,
+    pub(super) r_m: Vec3A,
 }
 
-/// The two-way solve of the `touches` (per block) of movable obstacles with the grid's nodes
-/// (`mass_kg`, `velocity_m_s` relative to `v_ref`): Jacobi sweeps with mass splitting, at most
-/// [`COUPLING_SWEEPS`] ([`super::coupling`]); adds the impulses to `total`.
-fn couple(
-    mass_kg: &[f32],
-    velocity_m_s: &mut [Vec3A],
-    v_ref: Vec3A,
-    obstacles: &[Obstacle],
-    touches: &[Vec<Touch>],
-    total: &mut [Reaction],
-) {
-    let n = obstacles.len();
-    // Each obstacle's touching node mass Σ m, in block order: a node's share is m / Σ m.
-    let mut contact_mass = vec![0.0f64; n];
-    for (b, ts) in touches.iter().enumerate() {
-        for t in ts {
-            contact_mass[t.obstacle as usize] += mass_kg[b * BLOCK_NODES + t.node as usize] as f64;
-        }
-    }
-    let mut solids = Solids::new(obstacles);
-    for _ in 0..COUPLING_SWEEPS {
-        let (parts, changes): (Vec<Vec<Reaction>>, Vec<f32>) = mass_kg
-            .par_chunks(BLOCK_NODES)
-            .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
-            .zip(touches.par_iter())
-            .map(|((mass, vel), ts)| {
-                if ts.is_empty() {
-                    return (Vec::new(), 0.0);
-                }
-                let mut out = vec![Reaction::default(); n];
-                let mut change = 0.0f32;
-                for t in ts {
-                    let k = t.obstacle as usize;
-                    let (o, m) = (&obstacles[k], mass[t.node as usize]);
-                    let solid = o.share(m as f64 / contact_mass[k]);
-                    let (v_solid, w_solid) = solids.motion[k];
-                    let at = (v_solid + w_solid.cross(t.r_m.as_dvec3())).as_vec3a();
-                    let v = vel[t.node as usize] + v_ref;
-                    let j = node_impulse(v - at, t.normal, m, t.r_m, &solid, o.surface, o.friction);
-                    vel[t.node as usize] += j / m;
-                    change = change.max((j / m).length());
-                    out[k].receive(j.as_dvec3(), t.r_m, t.normal);
-                }
-                (out, change)
-            })
-            .unzip();
-        if solids.follow(obstacles, &parts, &changes, total) {
-            break;
-        }
-    }
-}
-
-/// The obstacles' motion over a two-way solve: each one's velocity and angular velocity as the
-/// sweeps have left it, held on its supports.
-struct Solids {
-    /// Velocity (m/s) and angular velocity (rad/s) of each obstacle.
-    motion: Vec<(DVec3, DVec3)>,
-    /// Each obstacle's hold on its supports.
-    holds: Vec<Hold>,
-}
-
-impl Solids {
-    /// The obstacles as they start the solve, held on their supports.
-    fn new(obstacles: &[Obstacle]) -> Self {
-        let (motion, holds) = obstacles
-            .iter()
-            .map(|o| {
-                let mut hold = Hold::new(o.supports);
-                let (mut v, mut w) = (o.velocity_m_s.as_dvec3(), o.omega_rad_s.as_dvec3());
-                o.hold_motion(&mut hold, &mut v, &mut w);
-                ((v, w), hold)
-            })
-            .unzip();
-        Self { motion, holds }
-    }
-
-    /// After a sweep whose per-part reactions are `parts` and largest velocity changes (m/s)
-    /// `changes`: each obstacle takes the sweep's impulses and is held on its supports, and
-    /// `total` gains them. Whether the solve has converged ([`COUPLING_CONVERGED_M_S`]).
-    fn follow(
-        &mut self,
-        obstacles: &[Obstacle],
-        parts: &[Vec<Reaction>],
-        changes: &[f32],
-        total: &mut [Reaction],
-    ) -> bool {
-        let sweep = sum_in_order(parts, obstacles.len());
-        for (((o, r), (v, w)), hold) in obstacles
-            .iter()
-            .zip(&sweep)
-            .zip(&mut self.motion)
-            .zip(&mut self.holds)
-        {
-            *v += r.impulse_n_s * o.inverse_mass;
-            *w += o.inverse_inertia * r.angular_impulse_n_m_s;
-            o.hold_motion(hold, v, w);
-        }
-        for (t, r) in total.iter_mut().zip(&sweep) {
-            t.add(r);
-        }
-        changes.iter().all(|&c| c <= COUPLING_CONVERGED_M_S)
-    }
-}
+/// Per grid block, the nodes that touch movable obstacles, for the two-way solve
+/// ([`super::grid_coupling`]).
+pub type GridTouches = Vec<Vec<Touch>>;
 
 /// The `n` obstacles' reactions summed over `parts` in their order (so the sums do not depend
 /// on how the parts were scheduled).

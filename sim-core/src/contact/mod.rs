@@ -26,6 +26,7 @@ pub mod crossing;
 pub mod energy;
 pub mod exact;
 pub mod geometry;
+pub mod grid_coupling;
 pub mod level_set;
 pub mod manifold;
 mod obstacle_gaps;

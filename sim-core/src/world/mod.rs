@@ -50,6 +50,7 @@ pub mod measure;
 mod mpm_step;
 mod output;
 pub mod overlap;
+mod per_object;
 pub(crate) mod rigid;
 mod rolling;
 mod sleep;

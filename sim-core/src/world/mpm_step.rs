@@ -21,25 +21,25 @@ use crate::mpm::{MpmError, MpmSolver, Particles, SubstepInput, SubstepReport, mu
 use crate::scene::ObjectKind;
 
 /// Whether `b` runs MPM this substep.
-fn simulated(b: &Body) -> bool {
+pub(super) fn simulated(b: &Body) -> bool {
     b.is_active() && b.kind == ObjectKind::Deformable
 }
 
 /// What every solver call of one substep shares: colliders, gravity (m/s²), dt (s) and the time
 /// at the start of the substep (s).
 #[derive(Clone, Copy)]
-struct Step<'a> {
+pub(super) struct Step<'a> {
     colliders: &'a [Collider],
     gravity_m_s2: Vec3A,
     dt_s: f32,
     time_s: f64,
     /// Whether "separate" surfaces meet the material through the particle barrier
     /// ([`barrier`], `[simulation] surface_contact`).
-    barrier: bool,
+    pub(super) barrier: bool,
 }
 
 impl<'a> Step<'a> {
-    fn new(env: &Env<'a>, dt_s: f32) -> Self {
+    pub(super) fn new(env: &Env<'a>, dt_s: f32) -> Self {
         Self {
             colliders: env.colliders,
             gravity_m_s2: env.gravity_m_s2,
@@ -50,7 +50,7 @@ impl<'a> Step<'a> {
     }
 
     /// The solver input for `materials`.
-    fn input(self, materials: &'a [Material]) -> SubstepInput<'a> {
+    pub(super) fn input(self, materials: &'a [Material]) -> SubstepInput<'a> {
         SubstepInput {
             materials,
             colliders: self.colliders,
@@ -72,7 +72,7 @@ impl<'a> Step<'a> {
     }
 
     /// Records body `b`'s result in it and in `stats`, or names it in the error.
-    fn finish(
+    pub(super) fn finish(
         self,
         stats: &mut WorldStats,
         b: &mut Body,
@@ -88,7 +88,7 @@ impl<'a> Step<'a> {
 /// Deformable `k`'s touches of grid colliders in its last grid update, from each collider's
 /// normal impulse on it (N s) and its grid nodes with mass inside the collider: (k, collider,
 /// impulse) where either is not zero, for the restitution law (`impact.rs`).
-fn collider_touches<'a>(
+pub(super) fn collider_touches<'a>(
     k: usize,
     impulses_n_s: &'a [DVec3],
     nodes: &'a [u64],
@@ -193,7 +193,7 @@ pub(super) fn barrier_energy_j(env: &Env, bodies: &[Body], k: usize, dt_s: f32) 
 /// colliders and `solids` that meet it at its surface ([`barrier`]), adds the momentum this
 /// takes to the solids' `reactions`, and returns the touches for the restitution law and
 /// rolling resistance (deformable, solid, normal impulse the deformable received in N s).
-fn push_at_surfaces(
+pub(super) fn push_at_surfaces(
     step: Step<'_>,
     k: usize,
     particles: &mut Particles,
@@ -241,7 +241,7 @@ fn push_at_surfaces(
 /// `reactions`. Returns the solids the crossings touched, with the normal impulse they gave
 /// the particles (N s), for the restitution law: a plate thinner than a cell may hold no grid
 /// node, and these are then its only touches. `dx_m` is the deformable's grid cell (m).
-fn project_out_of_solids(
+pub(super) fn project_out_of_solids(
     (step, dx_m): (Step<'_>, f32),
     particles: &mut Particles,
     (obstacles, of): &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
@@ -271,10 +271,10 @@ fn project_out_of_solids(
 }
 
 /// Which solid an obstacle is.
-type ObstacleOf = super::impact::SolidOf;
+pub(super) type ObstacleOf = super::impact::SolidOf;
 
 /// A grid contact: (deformable, solid, impulse the grid gave the deformable in N s).
-type Touch = (usize, ObstacleOf, DVec3);
+pub(super) type Touch = (usize, ObstacleOf, DVec3);
 
 /// What the deformable objects' grids did to the solids in one substep: `reactions[k]` the
 /// impulse and angular impulse solid k received, `touches` each grid contact as (deformable,
@@ -363,7 +363,7 @@ fn obstacles<'a>(
 /// The solids near `particles` as boundaries for a deformable of friction `friction` on a grid
 /// of cell `dx_m` (m), with which solid each is; none for no particles. Found once per substep:
 /// the obstacles' margin (two cells) covers how far G2P then moves the particles.
-fn obstacles_near<'a>(
+pub(super) fn obstacles_near<'a>(
     env: &Env<'a>,
     bodies: &'a [Body],
     received: &[Reaction],
@@ -415,7 +415,7 @@ pub(super) fn device_may_step(env: &Env, bodies: &[Body], k: usize, travel_m: f3
 /// Deformable `k`'s substep on the device (`device.rs`) when `env` has one and its situation
 /// allows: its collider touches, or `None` to step on the CPU (the device's copy, if any, is
 /// then brought back).
-fn device_substep(
+pub(super) fn device_substep(
     env: &Env,
     bodies: &mut [Body],
     stats: &mut WorldStats,
@@ -448,73 +448,6 @@ fn device_substep(
     }
     bodies[k].leave_device();
     Ok(None)
-}
-
-/// Method `com`: every awake deformable object of `bodies` runs a whole substep of `dt_s` on its
-/// own grid, with the solids as boundaries; on the device where `env` has one and the object's
-/// situation allows ([`device_may_step`]).
-pub(super) fn per_object(
-    env: &Env,
-    bodies: &mut [Body],
-    stats: &mut WorldStats,
-    dt_s: f32,
-) -> Result<GridContacts, WorldError> {
-    let mut reactions = vec![Reaction::default(); bodies.len()];
-    let mut touches = Vec::new();
-    for k in 0..bodies.len() {
-        if !env.stepping(k) {
-            continue;
-        }
-        if !simulated(&bodies[k]) {
-            bodies[k].stats.substeps_skipped += 1;
-            continue;
-        }
-        if let Some(t) = device_substep(env, bodies, stats, k, dt_s)? {
-            touches.extend(t);
-            continue;
-        }
-        let started = std::time::Instant::now();
-        let b = &mut bodies[k];
-        let dx = b.solver.dx_m;
-        let mut solver = std::mem::replace(&mut b.solver, MpmSolver::new(dx));
-        let mut particles = std::mem::take(&mut b.particles);
-        let friction = b.friction;
-        let step = Step::new(env, dt_s);
-        let materials = &bodies[k].materials;
-        let mut solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx);
-        touches.extend(push_at_surfaces(
-            step,
-            k,
-            &mut particles,
-            materials,
-            dx,
-            &solids,
-            &mut reactions,
-        ));
-        let r = solver.scatter_and_update(&particles, &step.input(materials));
-        if r.is_ok() {
-            let (j, n) = (solver.collider_impulses_n_s(), solver.collider_nodes());
-            touches.extend(collider_touches(k, j, n));
-            let t = apply_obstacles(
-                (&mut solver, &particles, dt_s, step.barrier),
-                &mut solids,
-                &mut reactions,
-            );
-            touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
-        }
-        let r = r.and_then(|()| solver.gather(&mut particles, &step.input(materials)));
-        if r.is_ok() {
-            let at = (step, solver.dx_m);
-            let t = project_out_of_solids(at, &mut particles, &solids, &mut reactions);
-            touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
-        }
-        let b = &mut bodies[k];
-        b.solver = solver;
-        b.particles = particles;
-        b.stats.mpm_wall_s += started.elapsed().as_secs_f64();
-        step.finish(stats, b, r)?;
-    }
-    Ok(GridContacts { reactions, touches })
 }
 
 /// Method `multi-field`: per-object P2G and grid update, multi-field contact at shared nodes,

@@ -15,7 +15,8 @@ use super::contact::{ContactCache, ContactReport};
 use super::deformable_pair::{self, RestingPatch};
 use super::impact::{Impact, SolidOf};
 use super::{
-    World, WorldError, WorldStats, contact, impact, kinematic, mpm_step, rigid, rolling, sleep,
+    World, WorldError, WorldStats, contact, impact, kinematic, mpm_step, per_object, rigid,
+    rolling, sleep,
 };
 use crate::collider::Collider;
 use crate::contact::boundary::Reaction;
@@ -205,7 +206,7 @@ impl World {
                 let Parts {
                     env, bodies, stats, ..
                 } = self.parts();
-                mpm_step::per_object(&env, bodies, stats, dt)?
+                per_object::per_object(&env, bodies, stats, dt)?
             }
         };
         let t1 = Instant::now();
