@@ -26,10 +26,11 @@
 //! the rebound: up to what they pushed it with along n over the contact (its momentum change
 //! less the object's impulse and gravity's), the excess goes back to them, the solid held as
 //! immovable (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly ball
-//! landing on it at e = 0). A resting object never ends its contact and is not touched; a
-//! contact older
-//! than [`IMPACT_SETTLES_S`], or one a command interrupts (an impulse or a velocity on the
-//! object), ends without the law.
+//! landing on it at e = 0).
+//!
+//! A resting object never ends its contact and is not touched; a contact older than
+//! [`IMPACT_SETTLES_S`], or one a command interrupts (an impulse or a velocity on the object),
+//! ends without the law.
 
 use std::collections::HashMap;
 

@@ -1,9 +1,10 @@
 //! The MPM part of a world substep, one function per method: `com` (every awake deformable
-//! object on its own grid), `multi-field` (per-object fields coupled at shared nodes, Bardenhagen
-//! et al. 2000, [`crate::mpm::multi_field`]) and `mpm` (every awake deformable object on one
-//! shared grid, contact through the grid). Rigid and static objects and the captured background
-//! are boundaries on these grids ([`crate::contact::boundary`]); each function returns the
-//! reaction every object received, for the rigid step.
+//! object on its own grid, [`super::per_object`], with the helpers here), `multi-field`
+//! (per-object fields coupled at shared nodes, Bardenhagen et al. 2000,
+//! [`crate::mpm::multi_field`]) and `mpm` (every awake deformable object on one shared grid,
+//! contact through the grid). Rigid and static objects and the captured background are
+//! boundaries on these grids ([`crate::contact::boundary`]); each function returns the reaction
+//! every object received, for the rigid step.
 
 use glam::{DMat3, DVec3, Vec3A};
 
