@@ -112,9 +112,9 @@ pub(super) fn per_object(
         }
         two_way(bodies, &mut taken, &solids, &mut reactions);
         let mut gathered = Vec::with_capacity(taken.len());
-        for (t, (_, of)) in taken.iter_mut().zip(&solids) {
+        for (t, near) in taken.iter_mut().zip(&mut solids) {
             let started = Instant::now();
-            for (r, &o) in t.boundary.0.iter().zip(of) {
+            for (r, &o) in t.boundary.0.iter().zip(&near.1) {
                 if r.nodes > 0 {
                     // The grid's normal impulse on the deformable is the solid's reversed.
                     t.touches.push((t.k, o, -r.normal_impulse_n_s));
@@ -124,10 +124,17 @@ pub(super) fn per_object(
             let r = std::mem::replace(&mut t.scattered, Ok(()))
                 .and_then(|()| t.solver.gather(&mut t.particles, &step.input(&b.materials)));
             if r.is_ok() {
-                // The solids as every grid's two-way solve left them.
-                let dx = t.solver.dx_m;
-                let near = obstacles_near(env, bodies, &reactions, &t.particles, b.friction, dx);
-                let c = project_out_of_solids((step, dx), &mut t.particles, &near, &mut reactions);
+                // The solids as every grid's two-way solve (and the push-outs of the grids
+                // before) left them; their margin covers how far G2P moved the particles.
+                for (o, &which) in near.0.iter_mut().zip(&near.1) {
+                    if let ObstacleOf::Object(k) = which
+                        && o.is_movable()
+                    {
+                        *o = received(o, &bodies[k], &reactions[k]);
+                    }
+                }
+                let at = (step, t.solver.dx_m);
+                let c = project_out_of_solids(at, &mut t.particles, near, &mut reactions);
                 t.touches.extend(c.into_iter().map(|(o, j)| (t.k, o, j)));
             }
             t.wall_s += started.elapsed().as_secs_f64();
@@ -207,11 +214,7 @@ fn two_way(
             }
             if index[k] == usize::MAX {
                 index[k] = movable.len();
-                let mut start = *o;
-                start.velocity_m_s = bodies[k].rigid.velocity_m_s.as_vec3a();
-                start.omega_rad_s = bodies[k].rigid.omega_rad_s.as_vec3a();
-                start.receive(&reactions[k]);
-                movable.push(start);
+                movable.push(received(o, &bodies[k], &reactions[k]));
             }
             *slot = index[k];
         }
@@ -256,4 +259,13 @@ fn two_way(
             }
         }
     }
+}
+
+/// Movable obstacle `o` (solid `b`) as it moves once it has received `reaction` this substep.
+fn received<'a>(o: &Obstacle<'a>, b: &Body, reaction: &Reaction) -> Obstacle<'a> {
+    let mut o = *o;
+    o.velocity_m_s = b.rigid.velocity_m_s.as_vec3a();
+    o.omega_rad_s = b.rigid.omega_rad_s.as_vec3a();
+    o.receive(reaction);
+    o
 }
