@@ -124,6 +124,9 @@ pub struct Reaction {
     /// The normal part of `impulse_n_s`: Σ n (n·Δp) over the nodes, each with the solid's
     /// surface normal there (N s; what the restitution law takes its normal from).
     pub normal_impulse_n_s: DVec3,
+    /// The moment of `normal_impulse_n_s` about the solid's COM, Σ r × n (n·Δp) reversed
+    /// (N m s; where the restitution law finds the contact's lever arm).
+    pub normal_moment_n_m_s: DVec3,
     /// Grid nodes with mass inside the solid (whether or not they took its rule).
     pub nodes: u64,
 }
@@ -135,13 +138,16 @@ impl Reaction {
         self.impulse_n_s -= dp_n_s;
         self.angular_impulse_n_m_s -= r_m.as_dvec3().cross(dp_n_s);
         let n = normal.as_dvec3();
-        self.normal_impulse_n_s -= n * n.dot(dp_n_s);
+        let normal_dp = n * n.dot(dp_n_s);
+        self.normal_impulse_n_s -= normal_dp;
+        self.normal_moment_n_m_s -= r_m.as_dvec3().cross(normal_dp);
     }
 
     pub(super) fn add(&mut self, o: &Reaction) {
         self.impulse_n_s += o.impulse_n_s;
         self.angular_impulse_n_m_s += o.angular_impulse_n_m_s;
         self.normal_impulse_n_s += o.normal_impulse_n_s;
+        self.normal_moment_n_m_s += o.normal_moment_n_m_s;
         self.nodes += o.nodes;
     }
 }
@@ -170,7 +176,7 @@ pub fn apply(
             velocity_m_s,
             ..
         } = grid;
-        let solid_of: Vec<usize> = (0..obstacles.len()).collect();
+        let solid_of: Vec<Option<usize>> = (0..obstacles.len()).map(Some).collect();
         let mut one = [CoupledGrid {
             mass_kg,
             velocity_m_s,

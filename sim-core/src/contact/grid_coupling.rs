@@ -28,8 +28,9 @@ pub struct CoupledGrid<'g, 'o> {
     pub v_ref: Vec3A,
     /// The obstacles as this grid meets them (its pair friction and rule).
     pub obstacles: &'g [Obstacle<'o>],
-    /// Per obstacle, which of the solve's solids it is (only movable obstacles are touched).
-    pub solid_of: &'g [usize],
+    /// Per obstacle, which of the solve's solids it is; `None` for one the solve leaves alone
+    /// (an immovable obstacle, whose rule the grid has taken already).
+    pub solid_of: &'g [Option<usize>],
     /// Per grid block, the nodes touching movable obstacles.
     pub touches: &'g GridTouches,
     /// Per obstacle, the reaction it received from this grid: the solve adds to it.
@@ -48,8 +49,9 @@ pub fn couple(grids: &mut [CoupledGrid], solids: &[Obstacle]) {
     for g in grids.iter() {
         for (b, ts) in g.touches.iter().enumerate() {
             for t in ts {
-                contact_mass[g.solid_of[t.obstacle as usize]] +=
-                    g.mass_kg[b * BLOCK_NODES + t.node as usize] as f64;
+                if let Some(s) = g.solid_of[t.obstacle as usize] {
+                    contact_mass[s] += g.mass_kg[b * BLOCK_NODES + t.node as usize] as f64;
+                }
             }
         }
     }
@@ -61,8 +63,8 @@ pub fn couple(grids: &mut [CoupledGrid], solids: &[Obstacle]) {
             let (parts, changes) = sweep_grid(g, solids, &motion, &contact_mass);
             for (k, r) in sum_in_order(&parts, g.obstacles.len()).iter().enumerate() {
                 g.total[k].add(r);
-                if r != &Reaction::default() {
-                    sweep[g.solid_of[k]].add(r);
+                if let Some(s) = g.solid_of[k] {
+                    sweep[s].add(r);
                 }
             }
             converged &= changes.iter().all(|&c| c <= COUPLING_CONVERGED_M_S);
@@ -96,7 +98,9 @@ fn sweep_grid(
             let mut change = 0.0f32;
             for t in ts {
                 let k = t.obstacle as usize;
-                let s = solid_of[k];
+                let Some(s) = solid_of[k] else {
+                    continue;
+                };
                 let (o, m) = (&obstacles[k], mass[t.node as usize]);
                 let solid = solids[s].share(m as f64 / contact_mass[s]);
                 let (v_solid, w_solid) = motion.motion[s];

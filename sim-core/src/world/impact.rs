@@ -5,11 +5,14 @@
 //! table for ever whatever e says. The law is applied at the object level, as the paper does for
 //! object pairs:
 //! - when the grid first gives a deformable object an impulse at a solid (more than
-//!   [`NEGLIGIBLE_TOUCH_M_S`] of velocity), its velocity relative to the solid is recorded; the
-//!   contact lasts while any of the object's grid nodes with mass lies inside the solid;
+//!   [`NEGLIGIBLE_TOUCH_M_S`] of velocity), its velocity relative to the solid's at the contact
+//!   point is recorded; the contact lasts while any of the object's grid nodes with mass lies
+//!   inside the solid;
 //! - over the contact, the normal impulses the grid gives it (each node's Δp along the solid's
-//!   normal there) are summed; the direction of the sum is the contact normal n, from the solid
-//!   into the object. (The whole impulse leans with the friction of an oblique impact: taken
+//!   normal there) and their moments about the solid's COM are summed; the direction of the sum
+//!   is the contact normal n, from the solid into the object, and its line of action the
+//!   contact point (lever arm r from the solid's COM, [`lever_m`]), where a turning solid's
+//!   velocity v + ω × r is the one the object's is taken against. (The whole impulse leans with the friction of an oblique impact: taken
 //!   along the first substep's whole impulse, the law let a jelly thrown at 45° onto a plane with
 //!   friction leave at 0.80 to 1.17 m/s for e = 0.5 and a 1 m/s approach.)
 //! - when the contact ends, the approach speed a is the recorded velocity along n, and a
@@ -21,8 +24,11 @@
 //! That change leaves the object's deformation and angular momentum alone and only ever removes
 //! energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
 //! contact force). Against an awake rigid solid the excess is removed between the two, with the
-//! pair's reduced mass (at the solid's COM): the object's share alone would throw a solid lighter
-//! than it. But where the solid leans on others along n (a floor, a box under it), they gave
+//! effective mass at the contact, 1 / (1/m + 1/M + (r × n)·I⁻¹(r × n)), the solid taking its
+//! impulse at the contact point, so it turns (the impulse of Mirtich 1996): the object's share alone
+//! would throw a solid lighter than it, and the solid's COM velocity alone let a jelly ball
+//! landing at e = 0 on the end of a free plank leave with the plank's end falling away twice as
+//! fast as it. But where the solid leans on others along n (a floor, a box under it), they gave
 //! the rebound: up to what they pushed it with along n over the contact (its momentum change
 //! less the object's impulse and gravity's), the excess goes back to them, the solid held as
 //! immovable (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly ball
@@ -37,6 +43,8 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::body::Body;
+use super::measure::inverse_or_zero;
+use super::mpm_step::Touch;
 use super::{Env, World};
 use crate::contact::mix_restitution;
 use crate::scene::ObjectKind;
@@ -62,6 +70,9 @@ pub struct Impact {
     /// Normal impulse the grid gave the object so far (N s); its direction is the contact
     /// normal, from the solid into the object.
     pub impulse_n_s: DVec3,
+    /// The moment of `impulse_n_s` about the solid's COM, summed as it went (N m s): where the
+    /// contact is, [`lever_m`].
+    pub moment_n_m_s: DVec3,
     /// When it began (simulated s).
     pub start_s: f64,
 }
@@ -75,10 +86,14 @@ pub const IMPACT_SETTLES_S: f64 = 0.5;
 /// contact.
 pub const NEGLIGIBLE_TOUCH_M_S: f64 = 1e-6;
 
-/// The velocity of `solid` (m/s): a rigid or kinematic object's COM velocity, a collider's.
-fn solid_velocity(env: &Env, bodies: &[Body], solid: SolidOf) -> DVec3 {
+/// The velocity (m/s) of `solid` at `lever_m` (m) from its COM: a rigid or kinematic object's
+/// v + ω × r, a collider's.
+fn solid_velocity(env: &Env, bodies: &[Body], solid: SolidOf, lever_m: DVec3) -> DVec3 {
     match solid {
-        SolidOf::Object(k) if bodies[k].moves_rigidly() => bodies[k].rigid.velocity_m_s,
+        SolidOf::Object(k) if bodies[k].moves_rigidly() => {
+            let rigid = &bodies[k].rigid;
+            rigid.velocity_m_s + rigid.omega_rad_s.cross(lever_m)
+        }
         SolidOf::Collider(c) => env.colliders[c].velocity_at(env.time_s).as_dvec3(),
         _ => DVec3::ZERO,
     }
@@ -91,20 +106,35 @@ impl World {
     }
 }
 
-/// Opens and closes `impacts` from this substep's `touches` (deformable, solid, impulse the grid
-/// gave the deformable in N s) and applies the law to the closed ones (module docs).
+/// The lever arm (m) from a solid's COM to the line of action of a normal impulse `j_n_s`
+/// (N s) whose moment about that COM is `moment_n_m_s` (N m s): r's part across j, from
+/// j × (r × j) = r |j|² − j (j·r). Zero for no impulse.
+pub(super) fn lever_m(j_n_s: DVec3, moment_n_m_s: DVec3) -> DVec3 {
+    let jj = j_n_s.length_squared();
+    let r = j_n_s.cross(moment_n_m_s) / jj;
+    if jj > 0.0 && r.is_finite() {
+        r
+    } else {
+        DVec3::ZERO
+    }
+}
+
+/// Opens and closes `impacts` from this substep's `touches` and applies the law to the closed
+/// ones (module docs).
 pub(super) fn boundary_restitution(
     env: &Env,
     bodies: &mut [Body],
     impacts: &mut HashMap<(usize, SolidOf), Impact>,
-    touches: &[(usize, SolidOf, DVec3)],
+    touches: &[Touch],
 ) {
-    for &(k, solid, j) in touches {
-        if !j.is_finite() {
+    for t in touches {
+        let (k, solid, j) = (t.object, t.solid, t.impulse_n_s);
+        if !(j.is_finite() && t.moment_n_m_s.is_finite()) {
             continue;
         }
         if let Some(open) = impacts.get_mut(&(k, solid)) {
             open.impulse_n_s += j;
+            open.moment_n_m_s += t.moment_n_m_s;
             continue;
         }
         // A contact opens at its first impulse (the grid's nodes reach into the solid a cell
@@ -115,13 +145,14 @@ pub(super) fn boundary_restitution(
             continue;
         }
         let v = bodies[k].measured_bounds().velocity_m_s;
-        let solid_v = solid_velocity(env, bodies, solid);
+        let at = solid_velocity(env, bodies, solid, lever_m(j, t.moment_n_m_s));
         impacts.insert(
             (k, solid),
             Impact {
-                touch_velocity_m_s: v - solid_v,
-                solid_velocity_m_s: solid_v,
+                touch_velocity_m_s: v - at,
+                solid_velocity_m_s: solid_velocity(env, bodies, solid, DVec3::ZERO),
                 impulse_n_s: j,
+                moment_n_m_s: t.moment_n_m_s,
                 start_s: env.time_s,
             },
         );
@@ -129,7 +160,7 @@ pub(super) fn boundary_restitution(
     let mut ended: Vec<((usize, SolidOf), Impact)> = impacts
         .iter()
         .filter(|(key, _)| {
-            env.stepping(key.0) && !touches.iter().any(|(k, s, _)| (*k, *s) == **key)
+            env.stepping(key.0) && !touches.iter().any(|t| (t.object, t.solid) == **key)
         })
         .map(|(key, imp)| (*key, *imp))
         .collect();
@@ -155,7 +186,9 @@ pub(super) fn boundary_restitution(
         let touch = imp.touch_velocity_m_s.dot(normal);
         let approach = (-touch).max(0.0);
         let s = b.measured_bounds();
-        let separation = (s.velocity_m_s - solid_velocity(env, bodies, solid)).dot(normal);
+        let lever = lever_m(imp.impulse_n_s, imp.moment_n_m_s);
+        let at = solid_velocity(env, bodies, solid, lever);
+        let separation = (s.velocity_m_s - at).dot(normal);
         let e_solid = match solid {
             SolidOf::Object(o) => bodies[o].restitution,
             SolidOf::Collider(_) | SolidOf::Background => 0.0,
@@ -171,7 +204,7 @@ pub(super) fn boundary_restitution(
         // solid; against an awake rigid one, first what others than the object (its supports)
         // pushed it with along n over the contact, besides gravity: they answered the object's
         // push, and their push less that stays ≥ 0. Then the rest between the two with the
-        // reduced mass (at the solid's COM).
+        // effective mass at the contact, 1 / (1/m + 1/M + (r × n)·I⁻¹(r × n)).
         let (j_held, j_shared) = match solid {
             SolidOf::Object(o) if bodies[o].kind == ObjectKind::Rigid && !bodies[o].sleeping => {
                 let solid = &bodies[o];
@@ -182,7 +215,9 @@ pub(super) fn boundary_restitution(
                 let held = (imp.impulse_n_s + gained * m_solid).dot(normal).max(0.0);
                 let j_held = (excess * s.mass_kg).min(held);
                 let rest = excess - j_held / s.mass_kg;
-                (j_held, rest / (1.0 / s.mass_kg + 1.0 / m_solid))
+                let arm = lever.cross(normal);
+                let turn = arm.dot(inverse_or_zero(solid.rigid_world_inertia()) * arm);
+                (j_held, rest / (1.0 / s.mass_kg + 1.0 / m_solid + turn))
             }
             _ => (excess * s.mass_kg, 0.0),
         };
@@ -196,10 +231,10 @@ pub(super) fn boundary_restitution(
             b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
         }
         if let SolidOf::Object(o) = solid {
-            let com = bodies[o].rigid.com_m;
-            bodies[o].record_contact(normal * j, com);
+            let point = bodies[o].rigid.com_m + lever;
+            bodies[o].record_contact(normal * j, point);
             if bodies[o].kind == ObjectKind::Rigid && !bodies[o].sleeping {
-                bodies[o].apply_rigid_impulse(normal * j_shared, com);
+                bodies[o].apply_rigid_impulse(normal * j_shared, point);
             }
         }
     }

@@ -87,8 +87,8 @@ impl<'a> Step<'a> {
 }
 
 /// Deformable `k`'s touches of grid colliders in its last grid update, from each collider's
-/// normal impulse on it (N s) and its grid nodes with mass inside the collider: (k, collider,
-/// impulse) where either is not zero, for the restitution law (`impact.rs`).
+/// normal impulse on it (N s) and its grid nodes with mass inside the collider: one where
+/// either is not zero, for the restitution law (`impact.rs`).
 pub(super) fn collider_touches<'a>(
     k: usize,
     impulses_n_s: &'a [DVec3],
@@ -99,7 +99,7 @@ pub(super) fn collider_touches<'a>(
         .zip(nodes)
         .enumerate()
         .filter(|(_, (j, n))| **j != DVec3::ZERO || **n > 0)
-        .map(move |(c, (j, _))| (k, ObstacleOf::Collider(c), *j))
+        .map(move |(c, (j, _))| Touch::collider(k, c, *j))
 }
 
 /// The box around `particles`' positions (m).
@@ -114,12 +114,12 @@ fn bounds(particles: &Particles) -> (Vec3A, Vec3A) {
 /// `particles` in a substep of `dt_s` (with `barrier`: after the particle barrier, [`barrier`]),
 /// adds their reactions to `reactions`, moves the movable
 /// ones by theirs (for the particle push-out after G2P) and returns the solids touched with the
-/// normal impulse the grid gave the deformable there (N s).
+/// reaction each received.
 fn apply_obstacles(
     (solver, particles, dt_s, barrier): (&mut MpmSolver, &Particles, f32, bool),
     (obstacles, of): &mut (Vec<Obstacle<'_>>, Vec<ObstacleOf>),
     reactions: &mut [Reaction],
-) -> Vec<(ObstacleOf, DVec3)> {
+) -> Vec<(ObstacleOf, Reaction)> {
     if obstacles.is_empty() {
         return Vec::new();
     }
@@ -140,8 +140,7 @@ fn apply_obstacles(
     for ((r, &k), o) in r.iter().zip(of.iter()).zip(obstacles.iter_mut()) {
         o.receive(r);
         if r.nodes > 0 {
-            // The grid's normal impulse on the deformable is the solid's reversed.
-            touched.push((k, -r.normal_impulse_n_s));
+            touched.push((k, *r));
         }
         if let ObstacleOf::Object(k) = k {
             reactions[k].impulse_n_s += r.impulse_n_s;
@@ -224,9 +223,8 @@ pub(super) fn push_at_surfaces(
     let r = barrier::push(particles, materials, &walls, dx_m, step.dt_s, motion);
     let mut touched = Vec::new();
     for (r, &solid) in r.iter().zip(&which) {
-        // The solid's normal impulse is the deformable's reversed.
         if r.normal_impulse_n_s != DVec3::ZERO {
-            touched.push((k, solid, -r.normal_impulse_n_s));
+            touched.push(Touch::of(k, solid, r));
         }
         if let ObstacleOf::Object(s) = solid {
             reactions[s].impulse_n_s += r.impulse_n_s;
@@ -239,33 +237,33 @@ pub(super) fn push_at_surfaces(
 /// After G2P of `step`: puts back `particles` whose path crossed a thin collider or one of
 /// `solids` ([`crossing`]), removes the velocity into the solids of those that lie inside them
 /// ([`boundary::project_particles`]), and adds the momentum this takes to the solids'
-/// `reactions`. Returns the solids the crossings touched, with the normal impulse they gave
-/// the particles (N s), for the restitution law: a plate thinner than a cell may hold no grid
-/// node, and these are then its only touches. `dx_m` is the deformable's grid cell (m).
+/// `reactions`. Returns deformable `k`'s touches of the solids the crossings met, for the
+/// restitution law: a plate thinner than a cell may hold no grid node, and these are then its
+/// only touches. `dx_m` is the deformable's grid cell (m).
 pub(super) fn project_out_of_solids(
-    (step, dx_m): (Step<'_>, f32),
+    (step, k, dx_m): (Step<'_>, usize, f32),
     particles: &mut Particles,
     (obstacles, of): &(Vec<Obstacle<'_>>, Vec<ObstacleOf>),
     reactions: &mut [Reaction],
-) -> Vec<(ObstacleOf, DVec3)> {
+) -> Vec<Touch> {
     let end_s = step.time_s + step.dt_s as f64;
     let mut touched = Vec::new();
     let by_colliders =
         crossing::stop_collider_crossings(particles, step.colliders, end_s, step.dt_s, dx_m);
     for (c, j) in by_colliders.into_iter().enumerate() {
         if j != DVec3::ZERO {
-            touched.push((ObstacleOf::Collider(c), j));
+            touched.push(Touch::collider(k, c, j));
         }
     }
     let crossed = crossing::stop_crossings(particles, obstacles, step.dt_s, dx_m);
     let projected = boundary::project_particles(particles, obstacles);
-    for ((c, p), &k) in crossed.iter().zip(&projected).zip(of) {
+    for ((c, p), &solid) in crossed.iter().zip(&projected).zip(of) {
         if c.normal_impulse_n_s != DVec3::ZERO {
-            touched.push((k, -c.normal_impulse_n_s));
+            touched.push(Touch::of(k, solid, c));
         }
-        if let ObstacleOf::Object(k) = k {
-            reactions[k].impulse_n_s += c.impulse_n_s + p.impulse_n_s;
-            reactions[k].angular_impulse_n_m_s += c.angular_impulse_n_m_s + p.angular_impulse_n_m_s;
+        if let ObstacleOf::Object(s) = solid {
+            reactions[s].impulse_n_s += c.impulse_n_s + p.impulse_n_s;
+            reactions[s].angular_impulse_n_m_s += c.angular_impulse_n_m_s + p.angular_impulse_n_m_s;
         }
     }
     touched
@@ -274,16 +272,49 @@ pub(super) fn project_out_of_solids(
 /// Which solid an obstacle is.
 pub(super) type ObstacleOf = super::impact::SolidOf;
 
-/// A grid contact: (deformable, solid, impulse the grid gave the deformable in N s).
-pub(super) type Touch = (usize, ObstacleOf, DVec3);
+/// A deformable object's contact with a solid in one substep, for the restitution law and
+/// rolling resistance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Touch {
+    /// The deformable object.
+    pub(super) object: usize,
+    /// The solid.
+    pub(super) solid: ObstacleOf,
+    /// The normal impulse the deformable received there (N s).
+    pub(super) impulse_n_s: DVec3,
+    /// Its moment about the solid's COM (N m s; zero at a grid collider, which has none).
+    pub(super) moment_n_m_s: DVec3,
+}
+
+impl Touch {
+    /// Deformable `object`'s touch of `solid`, from the `reaction` the solid received: the
+    /// deformable's normal impulse and its moment are the solid's reversed.
+    pub(super) fn of(object: usize, solid: ObstacleOf, reaction: &Reaction) -> Self {
+        Self {
+            object,
+            solid,
+            impulse_n_s: -reaction.normal_impulse_n_s,
+            moment_n_m_s: -reaction.normal_moment_n_m_s,
+        }
+    }
+
+    /// Deformable `object`'s touch of grid collider `c` with normal impulse `impulse_n_s`.
+    fn collider(object: usize, c: usize, impulse_n_s: DVec3) -> Self {
+        Self {
+            object,
+            solid: ObstacleOf::Collider(c),
+            impulse_n_s,
+            moment_n_m_s: DVec3::ZERO,
+        }
+    }
+}
 
 /// What the deformable objects' grids did to the solids in one substep: `reactions[k]` the
-/// impulse and angular impulse solid k received, `touches` each grid contact as (deformable,
-/// solid, impulse the grid gave the deformable in N s) for the restitution law and rolling
-/// resistance.
+/// impulse and angular impulse solid k received, `touches` each contact of a deformable object
+/// with a solid, for the restitution law and rolling resistance.
 pub(super) struct GridContacts {
     pub(super) reactions: Vec<Reaction>,
-    pub(super) touches: Vec<(usize, ObstacleOf, DVec3)>,
+    pub(super) touches: Vec<Touch>,
 }
 
 /// The solids of `bodies` and the background near `bounds` (m) as boundaries for a deformable
@@ -513,7 +544,7 @@ pub(super) fn multi_field(
             &mut solids,
             &mut reactions,
         );
-        touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
+        touches.extend(t.iter().map(|(o, r)| Touch::of(k, *o, r)));
         let b = &mut bodies[k];
         b.solver = solver;
         b.particles = particles;
@@ -527,16 +558,16 @@ pub(super) fn multi_field(
         if r.is_ok() {
             let (friction, mut particles) = (b.friction, std::mem::take(&mut b.particles));
             let solids = obstacles_near(env, bodies, &reactions, &particles, friction, dx_m);
-            let at = (step, bodies[k].solver.dx_m);
+            let at = (step, k, bodies[k].solver.dx_m);
             let t = project_out_of_solids(at, &mut particles, &solids, &mut reactions);
-            touches.extend(t.into_iter().map(|(o, j)| (k, o, j)));
+            touches.extend(t);
             bodies[k].particles = particles;
         }
         step.finish(stats, &mut bodies[k], r)?;
     }
     // Each object's touches together (rolling resistance takes them object by object): the
     // passes above list all objects' barrier touches, then their grid's, then their crossings'.
-    touches.sort_by_key(|t| t.0);
+    touches.sort_by_key(|t| t.object);
     Ok(GridContacts { reactions, touches })
 }
 

@@ -116,8 +116,7 @@ pub(super) fn per_object(
             let started = Instant::now();
             for (r, &o) in t.boundary.0.iter().zip(&near.1) {
                 if r.nodes > 0 {
-                    // The grid's normal impulse on the deformable is the solid's reversed.
-                    t.touches.push((t.k, o, -r.normal_impulse_n_s));
+                    t.touches.push(Touch::of(t.k, o, r));
                 }
             }
             let b = &bodies[t.k];
@@ -133,9 +132,9 @@ pub(super) fn per_object(
                         *o = received(o, &bodies[k], &reactions[k]);
                     }
                 }
-                let at = (step, t.solver.dx_m);
+                let at = (step, t.k, t.solver.dx_m);
                 let c = project_out_of_solids(at, &mut t.particles, near, &mut reactions);
-                t.touches.extend(c.into_iter().map(|(o, j)| (t.k, o, j)));
+                t.touches.extend(c);
             }
             t.wall_s += started.elapsed().as_secs_f64();
             gathered.push(r);
@@ -202,9 +201,9 @@ fn two_way(
     // The movable solids of every grid, each once, as they start the solve.
     let mut index = vec![usize::MAX; bodies.len()];
     let mut movable: Vec<Obstacle> = Vec::new();
-    let mut solid_of: Vec<Vec<usize>> = Vec::with_capacity(taken.len());
+    let mut solid_of: Vec<Vec<Option<usize>>> = Vec::with_capacity(taken.len());
     for (obstacles, of) in solids {
-        let mut map = vec![0; obstacles.len()];
+        let mut map = vec![None; obstacles.len()];
         for ((o, &which), slot) in obstacles.iter().zip(of).zip(&mut map) {
             let ObstacleOf::Object(k) = which else {
                 continue;
@@ -216,7 +215,7 @@ fn two_way(
                 index[k] = movable.len();
                 movable.push(received(o, &bodies[k], &reactions[k]));
             }
-            *slot = index[k];
+            *slot = Some(index[k]);
         }
         solid_of.push(map);
     }

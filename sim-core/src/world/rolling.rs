@@ -32,6 +32,7 @@ use super::body::Body;
 use super::coherence;
 use super::impact::SolidOf;
 use super::measure::inverse_or_zero;
+use super::mpm_step::Touch;
 use crate::contact::boundary::Reaction;
 use crate::scene::ObjectKind;
 
@@ -57,25 +58,24 @@ fn solid_rolling(bodies: &[Body], solid: SolidOf) -> (f32, DVec3, DMat3) {
     }
 }
 
-/// Applies rolling resistance for this substep's `touches` (deformable, solid, normal impulse
-/// the grid gave the deformable in N s; module docs); the couple a solid object receives is
-/// added to its entry of `reactions`.
+/// Applies rolling resistance for this substep's `touches` (module docs); the couple a solid
+/// object receives is added to its entry of `reactions`.
 pub(super) fn rolling_resistance(
     env: &Env,
     bodies: &mut [Body],
-    touches: &[(usize, SolidOf, DVec3)],
+    touches: &[Touch],
     reactions: &mut [Reaction],
 ) {
     // The substep functions list each object's touches together, in object order.
-    for own in touches.chunk_by(|x, y| x.0 == y.0) {
-        let k = own[0].0;
+    for own in touches.chunk_by(|x, y| x.object == y.object) {
+        let k = own[0].object;
         let b = &bodies[k];
         if b.kind != ObjectKind::Deformable || b.sleeping || !env.stepping(k) {
             continue;
         }
         // The pair's lever arm b for each touch (0: no rolling resistance there).
-        let arm = |&(_, solid, j): &(usize, SolidOf, DVec3)| {
-            let b_solid = solid_rolling(bodies, solid).0;
+        let arm = |t: &Touch| {
+            let (b_solid, j) = (solid_rolling(bodies, t.solid).0, t.impulse_n_s);
             let arm = f64::from(b.rolling_resistance_m.max(b_solid));
             if j.is_finite() && j != DVec3::ZERO {
                 arm
@@ -93,8 +93,8 @@ pub(super) fn rolling_resistance(
         let mut omega = s.angular_velocity();
         let inverse_inertia = inverse_or_zero(s.inertia);
         let mut total = DVec3::ZERO;
-        for touch @ &(_, solid, j) in own {
-            let arm = arm(touch);
+        for touch in own {
+            let (arm, solid, j) = (arm(touch), touch.solid, touch.impulse_n_s);
             if arm <= 0.0 {
                 continue;
             }
