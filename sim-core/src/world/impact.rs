@@ -12,9 +12,10 @@
 //!   normal there) and their moments about the solid's COM are summed; the direction of the sum
 //!   is the contact normal n, from the solid into the object, and its line of action the
 //!   contact point (lever arm r from the solid's COM, [`lever_m`]), where a turning solid's
-//!   velocity v + ω × r is the one the object's is taken against. (The whole impulse leans with the friction of an oblique impact: taken
-//!   along the first substep's whole impulse, the law let a jelly thrown at 45° onto a plane with
-//!   friction leave at 0.80 to 1.17 m/s for e = 0.5 and a 1 m/s approach.)
+//!   velocity v + ω × r is the one the object's is taken against. (The whole impulse leans with
+//!   the friction of an oblique impact: taken along the first substep's whole impulse, the law
+//!   let a jelly thrown at 45° onto a plane with friction leave at 0.80 to 1.17 m/s for e = 0.5
+//!   and a 1 m/s approach.)
 //! - when the contact ends, the approach speed a is the recorded velocity along n, and a
 //!   separation speed s above e·a (e = max(e_object, e_solid); a grid collider's and the
 //!   background's e is 0, so the object's own applies; above the normal velocity at first touch
@@ -25,14 +26,19 @@
 //! energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
 //! contact force). Against an awake rigid solid the excess is removed between the two, with the
 //! effective mass at the contact, 1 / (1/m + 1/M + (r × n)·I⁻¹(r × n)), the solid taking its
-//! impulse at the contact point, so it turns (the impulse of Mirtich 1996): the object's share alone
-//! would throw a solid lighter than it, and the solid's COM velocity alone let a jelly ball
-//! landing at e = 0 on the end of a free plank leave with the plank's end falling away twice as
-//! fast as it. But where the solid leans on others along n (a floor, a box under it), they gave
-//! the rebound: up to what they pushed it with along n over the contact (its momentum change
-//! less the object's impulse and gravity's), the excess goes back to them, the solid held as
-//! immovable (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly ball
-//! landing on it at e = 0).
+//! impulse at the contact point, so it turns (the impulse of Mirtich 1996): the object's share
+//! alone would throw a solid lighter than it, and against the solid's COM velocity alone a jelly
+//! ball landing at e = 0 on the end of a free plank left with the plank's end falling away at
+//! 2.5 times its speed. But where the solid leans on others along n (a floor, a box under it),
+//! they gave the rebound: up to what they pushed it with along n over the contact (its momentum
+//! change less the object's impulse and gravity's), the excess goes back to them, the solid held
+//! as immovable (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly
+//! ball landing on it at e = 0).
+//!
+//! Until the contact ends the grid's impact is nearly elastic, so a light solid that meets a
+//! third body during it does so with the elastic kick (a see-saw's end striking the floor).
+//! Taken in every substep of the contact instead, the law made objects resting on light rigid
+//! solids land lower and drift on them in the first half second.
 //!
 //! A resting object never ends its contact and is not touched; a contact older than
 //! [`IMPACT_SETTLES_S`], or one a command interrupts (an impulse or a velocity on the object),
@@ -109,13 +115,24 @@ impl World {
 /// The lever arm (m) from a solid's COM to the line of action of a normal impulse `j_n_s`
 /// (N s) whose moment about that COM is `moment_n_m_s` (N m s): r's part across j, from
 /// j × (r × j) = r |j|² − j (j·r). Zero for no impulse.
-pub(super) fn lever_m(j_n_s: DVec3, moment_n_m_s: DVec3) -> DVec3 {
+fn lever_m(j_n_s: DVec3, moment_n_m_s: DVec3) -> DVec3 {
     let jj = j_n_s.length_squared();
     let r = j_n_s.cross(moment_n_m_s) / jj;
     if jj > 0.0 && r.is_finite() {
         r
     } else {
         DVec3::ZERO
+    }
+}
+
+/// [`lever_m`] of a contact on `solid`, no longer than an object's reach from its COM
+/// ([`Body::arm_m`]): normal impulses from opposite sides that nearly cancel leave a moment
+/// whose line of action lies far off the body.
+fn lever_on(bodies: &[Body], solid: SolidOf, j_n_s: DVec3, moment_n_m_s: DVec3) -> DVec3 {
+    let r = lever_m(j_n_s, moment_n_m_s);
+    match solid {
+        SolidOf::Object(o) => r.clamp_length_max(bodies[o].arm_m()),
+        SolidOf::Collider(_) | SolidOf::Background => r,
     }
 }
 
@@ -145,7 +162,12 @@ pub(super) fn boundary_restitution(
             continue;
         }
         let v = bodies[k].measured_bounds().velocity_m_s;
-        let at = solid_velocity(env, bodies, solid, lever_m(j, t.moment_n_m_s));
+        let at = solid_velocity(
+            env,
+            bodies,
+            solid,
+            lever_on(bodies, solid, j, t.moment_n_m_s),
+        );
         impacts.insert(
             (k, solid),
             Impact {
@@ -186,7 +208,7 @@ pub(super) fn boundary_restitution(
         let touch = imp.touch_velocity_m_s.dot(normal);
         let approach = (-touch).max(0.0);
         let s = b.measured_bounds();
-        let lever = lever_m(imp.impulse_n_s, imp.moment_n_m_s);
+        let lever = lever_on(bodies, solid, imp.impulse_n_s, imp.moment_n_m_s);
         let at = solid_velocity(env, bodies, solid, lever);
         let separation = (s.velocity_m_s - at).dot(normal);
         let e_solid = match solid {
