@@ -33,7 +33,8 @@
 //! they gave the rebound: up to what they pushed it with along n over the contact (its momentum
 //! change less the object's impulse and gravity's), the excess goes back to them, the solid held
 //! as immovable (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly
-//! ball landing on it at e = 0).
+//! ball landing on it at e = 0). Held, its contact point keeps the velocity it had at first
+//! touch, so only the object's separation from that is taken back this way.
 //!
 //! Until the contact ends the grid's impact is nearly elastic, so a light solid that meets a
 //! third body during it does so with the elastic kick (a see-saw's end striking the floor).
@@ -73,6 +74,8 @@ pub struct Impact {
     pub touch_velocity_m_s: DVec3,
     /// The solid's own COM velocity at first touch (m/s).
     pub solid_velocity_m_s: DVec3,
+    /// The solid's velocity at the contact point at first touch (m/s).
+    pub solid_point_velocity_m_s: DVec3,
     /// Normal impulse the grid gave the object so far (N s); its direction is the contact
     /// normal, from the solid into the object.
     pub impulse_n_s: DVec3,
@@ -173,6 +176,7 @@ pub(super) fn boundary_restitution(
             Impact {
                 touch_velocity_m_s: v - at,
                 solid_velocity_m_s: solid_velocity(env, bodies, solid, DVec3::ZERO),
+                solid_point_velocity_m_s: at,
                 impulse_n_s: j,
                 moment_n_m_s: t.moment_n_m_s,
                 start_s: env.time_s,
@@ -218,7 +222,8 @@ pub(super) fn boundary_restitution(
         let e = mix_restitution(b.restitution, e_solid) as f64;
         // A touch while already separating (the far side of a ringing object grazing the
         // boundary again) keeps the speed it came with: the law caps what a contact adds.
-        let excess = separation - (e * approach).max(touch);
+        let allowed = (e * approach).max(touch);
+        let excess = separation - allowed;
         if excess <= 0.0 || !excess.is_finite() {
             continue;
         }
@@ -235,7 +240,13 @@ pub(super) fn boundary_restitution(
                     - imp.solid_velocity_m_s
                     - env.gravity_m_s2.as_dvec3() * (env.time_s - imp.start_s);
                 let held = (imp.impulse_n_s + gained * m_solid).dot(normal).max(0.0);
-                let j_held = (excess * s.mass_kg).min(held);
+                // Held, the solid's contact point keeps its velocity at first touch: only the
+                // object's separation from that is the supports' rebound (a see-saw's end
+                // falling away from a jelly is not, and taking that back threw the jelly down
+                // faster than it came).
+                let held_excess = (s.velocity_m_s - imp.solid_point_velocity_m_s).dot(normal);
+                let held_excess = (held_excess - allowed).clamp(0.0, excess);
+                let j_held = (held_excess * s.mass_kg).min(held);
                 let rest = excess - j_held / s.mass_kg;
                 let arm = lever.cross(normal);
                 let turn = arm.dot(inverse_or_zero(solid.rigid_world_inertia()) * arm);
