@@ -615,10 +615,8 @@ fn a_jelly_ball_landing_off_centre_on_a_free_plank_turns_it_as_a_point_impulse_w
 
 /// A 3 cm ball (113 g, e = 0; a jelly of E 2e5 Pa or rigid) at 2 m/s onto the end of a
 /// 30 × 6 × 2 cm rigid plank (114 g) lying across a 2 cm static fulcrum `height_m` tall on a
-/// floor, 1 cm cells: the plank's fastest turn (rad/s) and its COM's highest rise (m) over
-/// 0.1 s, the point impulse's turn at e = 0 about the fulcrum's edge, and the ball's and
-/// plank's energy (kinetic and gravitational) at the end over that at the start.
-fn ball_onto_a_see_saw(kind: ObjectKind, height_m: f32) -> (f64, f64, f64, f64) {
+/// floor, 1 cm cells, over 0.1 s.
+fn ball_onto_a_see_saw(kind: ObjectKind, height_m: f32) -> SeeSaw {
     let floor = ColliderSpec::plane("floor", [0.0; 3], [0.0, 0.0, 1.0])
         .surface(Surface::Separate)
         .friction(0.5);
@@ -679,7 +677,31 @@ fn ball_onto_a_see_saw(kind: ObjectKind, height_m: f32) -> (f64, f64, f64, f64) 
     let inertia = i_plank + m_plank * 2.0 * 0.01f64.powi(2);
     let d = 0.11;
     let j = 2.0 / (1.0 / m + d * d / inertia);
-    (spin, rise, j * d / inertia, energy(&w.objects()) / start)
+    let end = w.objects();
+    SeeSaw {
+        spin,
+        rise,
+        point: j * d / inertia,
+        gain: energy(&end) / start,
+        ball_v_z: end[0].velocity_m_s[2],
+        end_spin: end[1].angular_velocity_rad_s[1],
+    }
+}
+
+/// What [`ball_onto_a_see_saw`] measured.
+struct SeeSaw {
+    /// The plank's fastest turn (rad/s).
+    spin: f64,
+    /// Its COM's highest rise (m).
+    rise: f64,
+    /// The point impulse's turn at e = 0 about the fulcrum's edge (rad/s).
+    point: f64,
+    /// The ball's and plank's energy (kinetic and gravitational) at the end over the start.
+    gain: f64,
+    /// The ball's vertical velocity at the end (m/s).
+    ball_v_z: f64,
+    /// The plank's turn at the end (rad/s).
+    end_spin: f64,
 }
 
 #[test]
@@ -700,13 +722,19 @@ fn a_ball_landing_on_a_see_saw_never_spins_it_past_the_elastic_answer() {
         .par_iter()
         .map(|&(k, h)| ball_onto_a_see_saw(k, h))
         .collect();
-    for ((kind, h), (spin, rise, point, gain)) in cases.iter().zip(runs) {
+    for ((kind, h), r) in cases.iter().zip(runs) {
+        let SeeSaw {
+            spin, point, gain, ..
+        } = r;
         println!(
             "{kind:?} ball, fulcrum {h} m: the plank's fastest turn {spin:.2} rad/s (point \
              impulse at e = 0 {point:.2}, elastic {:.2}), its COM {:.1} mm over its start at \
-             most; energy at the end over the start {gain:.3}",
+             most; at 0.1 s the ball at {:+.2} m/s, the plank at {:.2} rad/s; energy at the \
+             end over the start {gain:.3}",
             2.0 * point,
-            rise * 1e3
+            r.rise * 1e3,
+            r.ball_v_z,
+            r.end_spin
         );
         assert!(
             spin > 0.5 * point && spin < 2.0 * point,
