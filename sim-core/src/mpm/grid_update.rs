@@ -12,17 +12,20 @@ use super::p2g::{Region, region_index};
 use super::reach::NodeGaps;
 use crate::collider::Collider;
 
-/// The normal impulse each grid collider gave a grid in its last update, Σ m n (n·Δv) over the
-/// nodes it touched, n the collider's normal at each (N s). Kept by the solver between updates,
-/// so that no substep allocates for it.
+/// The impulse each grid collider gave a grid in its last update, split at each node it touched
+/// into the normal part Σ m n (n·Δv), n the collider's normal there, and the rest, its friction
+/// (N s). Kept by the solver between updates, so that no substep allocates for it.
 #[derive(Debug, Clone, Default)]
 pub struct ColliderImpulses {
-    /// `[blocks × colliders]` per grid block (one slot when there is no collider): the impulse
-    /// and the nodes with mass inside the collider.
-    per_block: Vec<(glam::DVec3, u32)>,
-    /// `[colliders]` their sums over the blocks, in block order (independent of the thread
-    /// count).
+    /// `[blocks × colliders]` per grid block (one slot when there is no collider): the normal
+    /// impulse, the friction impulse and the nodes with mass inside the collider.
+    per_block: Vec<(glam::DVec3, glam::DVec3, u32)>,
+    /// `[colliders]` the normal impulses summed over the blocks, in block order (independent of
+    /// the thread count).
     pub total_n_s: Vec<glam::DVec3>,
+    /// `[colliders]` the friction impulses (each node's impulse less its normal part), summed
+    /// as `total_n_s` is.
+    pub friction_n_s: Vec<glam::DVec3>,
     /// `[colliders]` grid nodes with mass inside each, whether or not they took its rule (a
     /// gated collider's rule waits for material to reach it), and those outside it that took
     /// its rule ([`super::reach::OUTSIDE`]): the material touching it.
@@ -60,9 +63,10 @@ pub fn update(
     } = grid;
     let stride = colliders.len().max(1);
     impulses.per_block.clear();
-    impulses
-        .per_block
-        .resize(keys.len() * stride, (glam::DVec3::ZERO, 0));
+    impulses.per_block.resize(
+        keys.len() * stride,
+        (glam::DVec3::ZERO, glam::DVec3::ZERO, 0),
+    );
     let bad = mass_kg
         .par_chunks_mut(BLOCK_NODES)
         .zip(velocity_m_s.par_chunks_mut(BLOCK_NODES))
@@ -116,7 +120,7 @@ pub fn update(
                                 let gate = gaps.filter(|_| collider.is_gated());
                                 let inside = collider.contact_normal(node, time_s);
                                 if inside.is_some() {
-                                    pushed[ci].1 += 1;
+                                    pushed[ci].2 += 1;
                                 }
                                 // A gated collider's rule also acts up to half a cell outside
                                 // it, and behind a thin one (`NodeGaps::rule_normal`).
@@ -136,7 +140,7 @@ pub fn update(
                                             });
                                         match behind {
                                             Some(n) => {
-                                                pushed[ci].1 += 1;
+                                                pushed[ci].2 += 1;
                                                 n
                                             }
                                             None => continue,
@@ -168,12 +172,14 @@ pub fn update(
                                     if inside.is_none() {
                                         // It holds material at the surface: a contact, as a
                                         // node inside is.
-                                        pushed[ci].1 += 1;
+                                        pushed[ci].2 += 1;
                                     }
                                 }
                                 let before = v;
                                 v = collider.apply_along(n, v + v_ref, time_s) - v_ref;
-                                pushed[ci].0 += (n * n.dot(v - before) * sum.w).as_dvec3();
+                                let normal = n * n.dot(v - before) * sum.w;
+                                pushed[ci].0 += normal.as_dvec3();
+                                pushed[ci].1 += ((v - before) * sum.w - normal).as_dvec3();
                             }
                             finite &= v.is_finite();
                             v
@@ -191,16 +197,22 @@ pub fn update(
     impulses
         .total_n_s
         .resize(colliders.len(), glam::DVec3::ZERO);
+    impulses.friction_n_s.clear();
+    impulses
+        .friction_n_s
+        .resize(colliders.len(), glam::DVec3::ZERO);
     impulses.nodes.clear();
     impulses.nodes.resize(colliders.len(), 0);
     for block in impulses.per_block.chunks(stride) {
-        for ((total, nodes), (j, n)) in impulses
+        for (((total, friction), nodes), (j, f, n)) in impulses
             .total_n_s
             .iter_mut()
+            .zip(impulses.friction_n_s.iter_mut())
             .zip(impulses.nodes.iter_mut())
             .zip(block)
         {
             *total += *j;
+            *friction += *f;
             *nodes += u64::from(*n);
         }
     }

@@ -243,6 +243,13 @@ impl MpmSolver {
         &self.collider_impulses.total_n_s
     }
 
+    /// The friction impulse each grid collider gave this grid in the last grid update (N s:
+    /// each node's impulse less its part along the collider's normal there; one entry per
+    /// collider, empty before the first update).
+    pub fn collider_friction_n_s(&self) -> &[glam::DVec3] {
+        &self.collider_impulses.friction_n_s
+    }
+
     /// Grid nodes with mass inside each grid collider in the last update (one entry per
     /// collider; empty before the first update): the material touching it.
     pub fn collider_nodes(&self) -> &[u64] {

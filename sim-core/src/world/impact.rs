@@ -22,8 +22,12 @@
 //!   when the object was already separating then, so a grazing second touch does not take a
 //!   rebound away) is removed by a uniform velocity change −(s − e a) n.
 //!
-//! That change leaves the object's deformation and angular momentum alone and only ever removes
-//! energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
+//! When the law acts, the friction the grid gave the object over the contact is also held to μ
+//! times the normal impulse the object keeps, the excess given back at the contact point
+//! (`impact_friction.rs`): the grid's friction acted on the elastic rebound too.
+//!
+//! The normal change leaves the object's deformation and angular momentum alone, and the law
+//! only ever removes energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
 //! contact force). Against an awake rigid solid the excess is removed between the two, with the
 //! effective mass at the contact, 1 / (1/m + 1/M + (r × n)·I⁻¹(r × n)), the solid taking its
 //! impulse at the contact point, so it turns (the impulse of Mirtich 1996): the object's share
@@ -47,13 +51,15 @@
 
 use std::collections::HashMap;
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 use super::body::Body;
+use super::impact_friction::{Side, after, give_back};
 use super::measure::inverse_or_zero;
 use super::mpm_step::Touch;
 use super::{Env, World};
-use crate::contact::mix_restitution;
+use crate::collider::Surface;
+use crate::contact::{mix_friction, mix_restitution};
 use crate::scene::ObjectKind;
 
 /// A solid a deformable object touched.
@@ -82,6 +88,8 @@ pub struct Impact {
     /// The moment of `impulse_n_s` about the solid's COM, summed as it went (N m s): where the
     /// contact is, [`lever_m`].
     pub moment_n_m_s: DVec3,
+    /// Friction impulse the grid gave the object so far (N s; `impact_friction.rs`).
+    pub friction_n_s: DVec3,
     /// When it began (simulated s).
     pub start_s: f64,
 }
@@ -106,6 +114,109 @@ fn solid_velocity(env: &Env, bodies: &[Body], solid: SolidOf, lever_m: DVec3) ->
         SolidOf::Collider(c) => env.colliders[c].velocity_at(env.time_s).as_dvec3(),
         _ => DVec3::ZERO,
     }
+}
+
+/// The friction impulse the law gives back to deformable `k` as its impact `imp` on `solid`
+/// ends (N s, on the object; `impact_friction.rs`), and the contact point (m) where that and
+/// the law's normal impulse act, after the law took normal impulse `j` (N s) off the object,
+/// `j_shared` of it shared with an awake rigid solid. The contact point lies on the normal
+/// impulses' line of action ([`lever_m`]; through the object's COM at a collider or the
+/// background), where the object's bounding box reaches furthest toward the solid.
+fn friction_given_back(
+    env: &Env,
+    bodies: &[Body],
+    (k, solid): (usize, SolidOf),
+    imp: &Impact,
+    (j, j_shared): (f64, f64),
+) -> (DVec3, DVec3) {
+    let normal = imp.impulse_n_s.normalize_or_zero();
+    let state = bodies[k].measured();
+    let (lo, hi) = state.aabb_m;
+    let nearest = (lo * normal).min(hi * normal);
+    let reach = state.com_m.dot(normal) - (nearest.x + nearest.y + nearest.z);
+    let foot = state.com_m - normal * reach;
+    let immovable = |velocity_m_s: DVec3, omega_rad_s: DVec3, arm_m: DVec3| Side {
+        inverse_mass: 0.0,
+        inverse_inertia: DMat3::ZERO,
+        velocity_m_s,
+        omega_rad_s,
+        arm_m,
+    };
+    let (point, solid_side) = match solid {
+        SolidOf::Object(o) => {
+            let b = &bodies[o];
+            let com = b.rigid.com_m;
+            let lever = lever_on(bodies, solid, imp.impulse_n_s, imp.moment_n_m_s);
+            let point = com + lever + normal * (foot - com).dot(normal);
+            let (v, w) = if b.moves_rigidly() {
+                (b.rigid.velocity_m_s, b.rigid.omega_rad_s)
+            } else {
+                (DVec3::ZERO, DVec3::ZERO)
+            };
+            let mut side = immovable(v, w, point - com);
+            if b.kind == ObjectKind::Rigid && !b.sleeping {
+                side.inverse_mass = 1.0 / b.rigid.mass_kg.max(f64::MIN_POSITIVE);
+                side.inverse_inertia = inverse_or_zero(b.rigid_world_inertia());
+            }
+            (point, side)
+        }
+        SolidOf::Collider(_) | SolidOf::Background => {
+            let v = solid_velocity(env, bodies, solid, DVec3::ZERO);
+            (foot, immovable(v, DVec3::ZERO, DVec3::ZERO))
+        }
+    };
+    let Some(mu) = pair_friction(env, bodies, k, solid) else {
+        return (DVec3::ZERO, point);
+    };
+    let object = Side {
+        inverse_mass: 1.0 / state.mass_kg,
+        inverse_inertia: inverse_or_zero(state.inertia),
+        velocity_m_s: state.velocity_m_s,
+        omega_rad_s: state.angular_velocity(),
+        arm_m: point - state.com_m,
+    };
+    // The kinetic energy the normal part removes, relative to the solid's contact point: the
+    // held part against the solid as immovable, then the shared part between the two (the
+    // object's change is uniform: its COM's).
+    let k_object = object.inverse_mass;
+    let u_n = (object.velocity_m_s - solid_side.point_velocity()).dot(normal);
+    let held = j - j_shared;
+    let k_shared = k_object + solid_side.inverse_mass_along(normal);
+    let removed = held * u_n - 0.5 * held * held * k_object + j_shared * (u_n - held * k_object)
+        - 0.5 * j_shared * j_shared * k_shared;
+    let object = Side {
+        velocity_m_s: object.velocity_m_s - normal * (j * k_object),
+        ..object
+    };
+    let solid_side = after(&solid_side, normal * j_shared);
+    let kept = imp.impulse_n_s.length() - j;
+    let friction = give_back(
+        (imp.friction_n_s, normal),
+        kept,
+        mu,
+        (&object, &solid_side),
+        imp.touch_velocity_m_s,
+        removed,
+    );
+    (friction, point)
+}
+
+/// The friction μ the grid's rule applied between deformable `k` and `solid` (the surface's
+/// rule, [`crate::collider::Surface::friction`]); `None` for a clamp, which holds without
+/// bound.
+fn pair_friction(env: &Env, bodies: &[Body], k: usize, solid: SolidOf) -> Option<f64> {
+    let (surface, mu) = match solid {
+        SolidOf::Object(o) => (
+            bodies[o].surface,
+            mix_friction(bodies[k].friction, bodies[o].friction),
+        ),
+        SolidOf::Collider(c) => (env.colliders[c].surface, env.colliders[c].friction),
+        SolidOf::Background => (
+            Surface::Separate,
+            mix_friction(bodies[k].friction, env.background.friction),
+        ),
+    };
+    (surface != Surface::Clamp).then(|| f64::from(surface.friction(mu)))
 }
 
 impl World {
@@ -149,12 +260,13 @@ pub(super) fn boundary_restitution(
 ) {
     for t in touches {
         let (k, solid, j) = (t.object, t.solid, t.impulse_n_s);
-        if !(j.is_finite() && t.moment_n_m_s.is_finite()) {
+        if !(j.is_finite() && t.moment_n_m_s.is_finite() && t.friction_n_s.is_finite()) {
             continue;
         }
         if let Some(open) = impacts.get_mut(&(k, solid)) {
             open.impulse_n_s += j;
             open.moment_n_m_s += t.moment_n_m_s;
+            open.friction_n_s += t.friction_n_s;
             continue;
         }
         // A contact opens at its first impulse (the grid's nodes reach into the solid a cell
@@ -179,6 +291,7 @@ pub(super) fn boundary_restitution(
                 solid_point_velocity_m_s: at,
                 impulse_n_s: j,
                 moment_n_m_s: t.moment_n_m_s,
+                friction_n_s: t.friction_n_s,
                 start_s: env.time_s,
             },
         );
@@ -255,19 +368,26 @@ pub(super) fn boundary_restitution(
             _ => (excess * s.mass_kg, 0.0),
         };
         let j = j_held + j_shared;
-        let dv = (normal * -(j / s.mass_kg)).as_vec3a();
+        let (friction, point) = friction_given_back(env, bodies, (k, solid), &imp, (j, j_shared));
+        let (dv, dw) = {
+            let full = bodies[k].measured();
+            let dw = inverse_or_zero(full.inertia) * (point - full.com_m).cross(friction);
+            (normal * -(j / s.mass_kg) + friction / s.mass_kg, dw)
+        };
         let b = &mut bodies[k];
         if b.on_device() {
-            b.device_rigid_field(dv.as_dvec3(), DVec3::ZERO, s.com_m);
+            b.device_rigid_field(dv, dw, s.com_m);
         } else {
-            b.particles.v.iter_mut().for_each(|v| *v += dv);
+            let (dv, dw, com) = (dv.as_vec3a(), dw.as_vec3a(), s.com_m.as_vec3a());
+            for (v, x) in b.particles.v.iter_mut().zip(&b.particles.x) {
+                *v += dv + dw.cross(*x - com);
+            }
             b.max_speed_m_s = b.particles.v.iter().map(|v| v.length()).fold(0.0, f32::max);
         }
         if let SolidOf::Object(o) = solid {
-            let point = bodies[o].rigid.com_m + lever;
-            bodies[o].record_contact(normal * j, point);
+            bodies[o].record_contact(normal * j - friction, point);
             if bodies[o].kind == ObjectKind::Rigid && !bodies[o].sleeping {
-                bodies[o].apply_rigid_impulse(normal * j_shared, point);
+                bodies[o].apply_rigid_impulse(normal * j_shared - friction, point);
             }
         }
     }

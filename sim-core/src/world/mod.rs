@@ -43,6 +43,7 @@ pub mod device;
 mod device_run;
 pub mod explain;
 mod impact;
+mod impact_friction;
 pub(crate) mod islands;
 pub(crate) mod kinematic;
 pub(crate) mod limits;

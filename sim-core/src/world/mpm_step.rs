@@ -87,11 +87,12 @@ impl<'a> Step<'a> {
 }
 
 /// Deformable `k`'s touches of grid colliders in its last grid update, from each collider's
-/// normal impulse on it (N s) and its grid nodes with mass inside the collider: one where
-/// either is not zero, for the restitution law (`impact.rs`).
+/// normal and friction impulse on it (N s; no friction where `friction_n_s` is empty) and its
+/// grid nodes with mass inside the collider: one where either impulse or node count is not
+/// zero, for the restitution law (`impact.rs`).
 pub(super) fn collider_touches<'a>(
     k: usize,
-    impulses_n_s: &'a [DVec3],
+    (impulses_n_s, friction_n_s): (&'a [DVec3], &'a [DVec3]),
     nodes: &'a [u64],
 ) -> impl Iterator<Item = Touch> + 'a {
     impulses_n_s
@@ -99,7 +100,10 @@ pub(super) fn collider_touches<'a>(
         .zip(nodes)
         .enumerate()
         .filter(|(_, (j, n))| **j != DVec3::ZERO || **n > 0)
-        .map(move |(c, (j, _))| Touch::collider(k, c, *j))
+        .map(move |(c, (j, _))| {
+            let friction = friction_n_s.get(c).copied().unwrap_or(DVec3::ZERO);
+            Touch::collider(k, c, *j, friction)
+        })
 }
 
 /// The box around `particles`' positions (m).
@@ -252,7 +256,7 @@ pub(super) fn project_out_of_solids(
         crossing::stop_collider_crossings(particles, step.colliders, end_s, step.dt_s, dx_m);
     for (c, j) in by_colliders.into_iter().enumerate() {
         if j != DVec3::ZERO {
-            touched.push(Touch::collider(k, c, j));
+            touched.push(Touch::collider(k, c, j, DVec3::ZERO));
         }
     }
     let crossed = crossing::stop_crossings(particles, obstacles, step.dt_s, dx_m);
@@ -284,6 +288,9 @@ pub(super) struct Touch {
     pub(super) impulse_n_s: DVec3,
     /// Its moment about the solid's COM (N m s; zero at a grid collider, which has none).
     pub(super) moment_n_m_s: DVec3,
+    /// The friction impulse the deformable received there (N s): the rest of its impulse, each
+    /// node's or particle's less its part along the solid's normal there.
+    pub(super) friction_n_s: DVec3,
 }
 
 impl Touch {
@@ -295,16 +302,19 @@ impl Touch {
             solid,
             impulse_n_s: -reaction.normal_impulse_n_s,
             moment_n_m_s: -reaction.normal_moment_n_m_s,
+            friction_n_s: reaction.normal_impulse_n_s - reaction.impulse_n_s,
         }
     }
 
-    /// Deformable `object`'s touch of grid collider `c` with normal impulse `impulse_n_s`.
-    fn collider(object: usize, c: usize, impulse_n_s: DVec3) -> Self {
+    /// Deformable `object`'s touch of grid collider `c` with normal impulse `impulse_n_s` and
+    /// friction impulse `friction_n_s`.
+    fn collider(object: usize, c: usize, impulse_n_s: DVec3, friction_n_s: DVec3) -> Self {
         Self {
             object,
             solid: ObstacleOf::Collider(c),
             impulse_n_s,
             moment_n_m_s: DVec3::ZERO,
+            friction_n_s,
         }
     }
 }
@@ -475,7 +485,7 @@ pub(super) fn device_substep(
             b.stats.mpm_wall_s += started.elapsed().as_secs_f64();
             stats.mpm_particle_substeps += b.particles.len() as u64;
             let (j, n) = (&report.impulses_n_s, &report.nodes);
-            return Ok(Some(collider_touches(k, j, n).collect()));
+            return Ok(Some(collider_touches(k, (j, &[]), n).collect()));
         }
     }
     bodies[k].leave_device();

@@ -103,8 +103,12 @@ pub(super) fn per_object(
                 .solver
                 .scatter_and_update(&t.particles, &step.input(&b.materials));
             if t.scattered.is_ok() {
-                let (j, n) = (t.solver.collider_impulses_n_s(), t.solver.collider_nodes());
-                t.touches.extend(collider_touches(t.k, j, n));
+                let j = (
+                    t.solver.collider_impulses_n_s(),
+                    t.solver.collider_friction_n_s(),
+                );
+                t.touches
+                    .extend(collider_touches(t.k, j, t.solver.collider_nodes()));
                 t.boundary = one_way(&mut t.solver, &t.particles, dt_s, step.barrier, &near.0);
             }
             solids.push(near);
