@@ -9,8 +9,8 @@
 //!   reach it);
 //! - [`mpm`]: [`GpuMpm`], the particles kept on the GPU between substeps, read back when asked;
 //!   what the COM layer needs of them (mass, COM, momentum, angular momentum, inertia, bounds,
-//!   largest speed: [`GpuMpm::moments`]; each collider's impulse:
-//!   [`GpuMpm::collider_impulses_n_s`]) summed on the GPU, and the rigid velocity field its laws
+//!   largest speed: [`GpuMpm::moments`]; each collider's normal and friction impulse:
+//!   [`GpuMpm::collider_contacts`]) summed on the GPU, and the rigid velocity field its laws
 //!   add ([`GpuMpm::rigid_field`]) applied there.
 //!
 //! What runs on the GPU: every material model of splatphys-core with its Kelvin–Voigt damping
@@ -36,7 +36,7 @@ pub mod mpm;
 
 pub use backend::GpuBackend;
 pub use context::GpuContext;
-pub use mpm::{GpuMpm, Profile, RoundTrip};
+pub use mpm::{ColliderSums, GpuMpm, Profile, RoundTrip};
 
 /// What can go wrong on the GPU path.
 #[derive(Debug, thiserror::Error)]

@@ -21,13 +21,14 @@ mod run;
 mod upload;
 
 use kernels::Kernels;
+pub use moments::ColliderSums;
 pub use profile::{Profile, RoundTrip};
 
 /// f32 values per set of moments in the shader's `moments` buffer (`sums.wgsl`).
 const MOMENTS: u32 = 28;
-/// u32 words per collider after the nodes in the shader's `grid_sum` (its impulse: three 64-bit
-/// sums; the nodes with mass inside it).
-pub(crate) const COLLIDER_WORDS: u64 = 7;
+/// u32 words per collider after the nodes in the shader's `grid_sum` (its normal and friction
+/// impulses: three 64-bit sums each; the nodes with mass inside it).
+pub(crate) const COLLIDER_WORDS: u64 = 13;
 /// u32 words per grid node in the shader's `grid_sum` (the mass and each momentum component's
 /// positive and negative parts as sums of two words, and the node gap).
 pub(crate) const NODE_WORDS: u64 = 15;

@@ -99,10 +99,10 @@ struct Collider {
 // bitwise NOT of an order-preserving u32 form of the f32, so that 0 is "no particle's column
 // reaches it" and atomicMax takes the smallest gap, with the code of the normal there in its
 // low bits: encode_gap).
-// After the nodes, per collider 7 words: the normal impulse it gave the grid in the substep,
-// n n·Δp summed over its nodes (grid_update.rs's collider impulses), as three 64-bit sums at the
-// momentum scale, then the count of nodes with mass inside it (whether or not they took its
-// rule).
+// After the nodes, per collider 13 words: the normal impulse it gave the grid in the substep,
+// n n·Δp summed over its nodes (grid_update.rs's collider impulses), as three 64-bit sums at
+// the momentum scale, its friction impulse (Δp − n n·Δp) as three more, then the count of
+// nodes with mass inside it (whether or not they took its rule).
 @group(0) @binding(6) var<storage, read_write> grid_sum: array<atomic<u32>>;
 // Per node: velocity (m/s), mass (kg).
 @group(0) @binding(7) var<storage, read_write> grid_v: array<vec4<f32>>;
@@ -125,7 +125,9 @@ const TWO_32: f32 = 4294967296.0;
 // each), the gap (1 word).
 const NODE_WORDS: u32 = 15u;
 const NODE_GAP: u32 = 14u;
-const COLLIDER_WORDS: u32 = 7u;
+const COLLIDER_WORDS: u32 = 13u;
+// The word of a collider's sums that counts its nodes.
+const COLLIDER_NODES: u32 = 12u;
 // A node counts as reached when the gap is within this fraction of the particle's size
 // (mpm/reach.rs REACH_TOLERANCE).
 const REACH_TOLERANCE: f32 = 0.25;
@@ -641,10 +643,11 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
         if !collider_active(c, t) {
             continue;
         }
+        let sums = n_nodes * NODE_WORDS + COLLIDER_WORDS * k;
         var n = contact_normal(c, x - collider_offset(c, t));
         let inside = dot(n, n) > 0.0;
         if inside {
-            atomicAdd(&grid_sum[n_nodes * NODE_WORDS + COLLIDER_WORDS * k + 6u], 1u);
+            atomicAdd(&grid_sum[sums + COLLIDER_NODES], 1u);
             // Past the middle of a thin box, as seen from the material that reaches it.
             if c.gated != 0u && dot(node_gap_normal(slot), n) < -0.5 {
                 n = -n;
@@ -667,16 +670,21 @@ fn grid_update(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             if !inside {
                 // It holds material at the surface: a contact, as a node inside is.
-                atomicAdd(&grid_sum[n_nodes * NODE_WORDS + COLLIDER_WORDS * k + 6u], 1u);
+                atomicAdd(&grid_sum[sums + COLLIDER_NODES], 1u);
             }
             let before = v;
             v = apply_surface(v - vc, n, c.surface, c.friction) + vc;
             let dp = n * (dot(v - before, n) * m * params.scale_p);
+            let friction = (v - before) * (m * params.scale_p) - dp;
             if any(dp != vec3<f32>(0.0)) {
-                let slot = n_nodes * NODE_WORDS + COLLIDER_WORDS * k;
-                add_fixed(slot, dp.x);
-                add_fixed(slot + 2u, dp.y);
-                add_fixed(slot + 4u, dp.z);
+                add_fixed(sums, dp.x);
+                add_fixed(sums + 2u, dp.y);
+                add_fixed(sums + 4u, dp.z);
+            }
+            if any(friction != vec3<f32>(0.0)) {
+                add_fixed(sums + 6u, friction.x);
+                add_fixed(sums + 8u, friction.y);
+                add_fixed(sums + 10u, friction.z);
             }
         }
     }

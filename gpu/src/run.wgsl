@@ -4,8 +4,8 @@
 // at once (`halted`), so the host reads the state after the substep it has to see.
 //
 // The log, from status word RUN_HEADER, one entry a substep: the largest particle speed at its
-// end (f32 bits), then each collider's COLLIDER_WORDS words of grid_sum (its normal impulse and
-// nodes in the substep).
+// end (f32 bits), then each collider's COLLIDER_WORDS words of grid_sum (its normal and
+// friction impulses and nodes in the substep).
 
 const RUN_HEADER: u32 = 8u;
 // run_flags: halt after any substep that touches a collider.
@@ -32,7 +32,7 @@ fn run_check() {
     for (var c = 0u; c < params.n_colliders; c++) {
         let at = sums + COLLIDER_WORDS * c;
         var touched = false;
-        var w: array<u32, 7>;
+        var w: array<u32, 13>;
         for (var k = 0u; k < COLLIDER_WORDS; k++) {
             w[k] = atomicLoad(&grid_sum[at + k]);
             atomicStore(&status[entry + 1u + COLLIDER_WORDS * c + k], w[k]);

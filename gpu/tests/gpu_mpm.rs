@@ -400,6 +400,40 @@ fn the_impulse_a_plane_gives_a_cube_resting_on_it_is_the_cpus() {
 }
 
 #[test]
+fn the_friction_a_plane_gives_a_sliding_cube_is_the_cpus() {
+    // A jelly cube thrown along a plane at 0.5 m/s from 1 cm above it (μ = 0.3), 0.1 s on
+    // (landed, sliding): the GPU's sum of the plane's friction impulse in the last substep is the
+    // CPU's, and it brakes the slide (along −x, of the order of μ times the normal impulse).
+    let Some(ctx) = context() else { return };
+    let g = Vec3A::new(0.0, 0.0, -9.8);
+    let mut cpu = cube(8, 1.0 / 32.0, Vec3A::new(0.5, 0.0, 0.0), g, jelly());
+    let plane = Plane::new(Vec3A::new(0.0, 0.0, 0.29), Vec3A::Z).unwrap();
+    cpu.colliders
+        .push(Collider::fixed(Shape::Plane(plane), Surface::Separate, 0.3));
+    let mut gpu = GpuMpm::new(ctx, &cpu).expect("supported");
+    gpu.substeps(500, DT_S);
+    let on_gpu = gpu.collider_contacts().unwrap();
+    for _ in 0..500 {
+        cpu.substep(1.0).unwrap();
+    }
+    let (normal, friction) = (
+        cpu.solver.collider_impulses_n_s()[1],
+        cpu.solver.collider_friction_n_s()[1],
+    );
+    println!(
+        "plane's friction in the last substep: GPU {:?}, CPU {friction:?} N s; normal {normal:?}",
+        on_gpu.friction_n_s[1]
+    );
+    assert_eq!(on_gpu.friction_n_s.len(), 2);
+    assert_eq!(on_gpu.friction_n_s[0], glam::DVec3::ZERO);
+    assert!((on_gpu.friction_n_s[1] - friction).length() < 1e-3 * friction.length());
+    assert!(
+        friction.x < -0.1 * 0.3 * normal.z && friction.x > -1.01 * 0.3 * normal.z,
+        "friction {friction:?}, normal {normal:?}"
+    );
+}
+
+#[test]
 fn a_moving_plane_lifts_and_drags_a_cube_as_on_the_cpu() {
     let Some(ctx) = context() else { return };
     let g = Vec3A::new(0.0, 0.0, -9.8);

@@ -1,6 +1,7 @@
 //! A `World` whose deformable objects run on the GPU where nothing but grid colliders can reach
-//! them, against the same world on the CPU: the trajectory, the restitution law, a command, and
-//! the hand-over to the CPU when a solid object comes near.
+//! them, against the same world on the CPU: the trajectory, the restitution law (with its
+//! friction bound on an oblique impact), a command, and the hand-over to the CPU when a solid
+//! object comes near.
 //!
 //! Needs a wgpu adapter (a GPU, or Mesa's lavapipe); without one every test prints why and
 //! passes, unless `SPLATPHYS_REQUIRE_GPU` is set (CI sets it).
@@ -8,7 +9,9 @@
 use std::sync::Arc;
 
 use splatphys_core::material::MaterialSpec;
-use splatphys_core::scene::{ColliderSpec, Command, Device, ObjectKind, Scene, SceneObject};
+use splatphys_core::scene::{
+    ColliderSpec, Command, Device, ObjectKind, Scene, SceneObject, Surface,
+};
 use splatphys_core::world::World;
 use splatphys_gpu::GpuBackend;
 
@@ -216,4 +219,46 @@ fn runs_of_substeps_in_one_wait_follow_one_substep_at_a_time() {
     let top = |v: &[[f64; 3]]| v.iter().map(|v| v[2]).fold(f64::MIN, f64::max);
     assert!((top(&vel_a) - top(&vel_r)).abs() < 0.02);
     assert!((vel_a[7][1] - vel_r[7][1]).abs() < 1e-3);
+}
+
+#[test]
+fn an_oblique_jelly_keeps_coulombs_sliding_speed_on_the_gpu_as_on_the_cpu() {
+    // No gravity: a 10 cm jelly cube at (1, 0, −1) m/s onto a "separate" plane with μ = 0.3,
+    // e = 0. The restitution law holds the impact's friction to μ times the normal impulse it
+    // keeps, from the friction impulse the device sums: it leaves sliding at 1 − μ = 0.7 m/s
+    // along the plane, as on the CPU.
+    let Some(gpu) = backend() else {
+        return;
+    };
+    let scene = Scene::builder()
+        .grid_dx_m(0.01)
+        .duration_s(0.3)
+        .frame_rate_hz(100.0)
+        .gravity_m_s2([0.0; 3])
+        .sleep(false)
+        .device(Device::Gpu)
+        .collider(
+            ColliderSpec::plane("table", [0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+                .surface(Surface::Separate)
+                .friction(0.3),
+        )
+        .object(
+            SceneObject::cuboid("jelly", [-0.05, -0.05, 0.01], [0.05, 0.05, 0.11])
+                .spacing_m(0.005)
+                .material(MaterialSpec::jelly(2e5, 0.3, 1000.0))
+                .restitution(0.0)
+                .friction(0.3)
+                .velocity([1.0, 0.0, -1.0]),
+        )
+        .build()
+        .expect("scene");
+    let (cpu, on_gpu) = pair(&scene, gpu);
+    let (_, vel_c, _) = run(cpu, None);
+    let (_, vel_g, w) = run(on_gpu, None);
+    let b = &w.bodies()[0];
+    assert_eq!(b.device_substeps(), b.stats().substeps_taken);
+    let (c, g) = (vel_c.last().unwrap(), vel_g.last().unwrap());
+    eprintln!("leaves at {c:.4?} m/s on the CPU, {g:.4?} on the GPU");
+    assert!((g[0] - 0.7).abs() < 0.01 && g[2].abs() < 0.01, "{g:?}");
+    assert!(distance(*c, *g) < 0.01, "CPU {c:?}, GPU {g:?}");
 }

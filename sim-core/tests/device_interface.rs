@@ -87,6 +87,7 @@ impl DeviceMpm for OnStandIn {
                 .copied()
                 .fold(f32::MAX, f32::min),
             impulses_n_s: self.sys.solver.collider_impulses_n_s().to_vec(),
+            friction_n_s: self.sys.solver.collider_friction_n_s().to_vec(),
             nodes: self.sys.solver.collider_nodes().to_vec(),
         })
     }

@@ -1,7 +1,7 @@
 //! What the COM layer needs of an object whose particles stay on the GPU, as small buffers
-//! instead of the particles: its moments summed on the GPU (`sums.wgsl`), the normal impulse
-//! each collider gave it in the last substep (summed in the grid update), and the rigid velocity
-//! field the COM layer's laws add to it.
+//! instead of the particles: its moments summed on the GPU (`sums.wgsl`), the normal and
+//! friction impulses each collider gave it in the last substep (summed in the grid update), and
+//! the rigid velocity field the COM layer's laws add to it.
 
 use glam::{DVec3, Vec3A};
 use splatphys_core::world::measure::inertia_from_second_moments;
@@ -9,6 +9,18 @@ use splatphys_core::world::{BodyState, DeviceReport};
 
 use crate::mpm::{COLLIDER_WORDS, MOMENTS, NODE_WORDS, dispatch};
 use crate::{GpuError, GpuMpm};
+
+/// What each grid collider gave an object's grid in the last substep, one entry per collider in
+/// the system's order ([`GpuMpm::collider_contacts`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ColliderSums {
+    /// The normal impulse, n n·Δp summed over its nodes (N s).
+    pub impulses_n_s: Vec<DVec3>,
+    /// The friction impulse, Δp − n n·Δp summed over its nodes (N s).
+    pub friction_n_s: Vec<DVec3>,
+    /// Its grid nodes with mass inside it, whether or not they took its rule.
+    pub nodes: Vec<u64>,
+}
 
 impl GpuMpm {
     /// The particles' state as `splatphys_core::world::measure` computes it from them on the
@@ -35,19 +47,30 @@ impl GpuMpm {
     /// # Errors
     /// [`GpuError::Readback`].
     pub fn collider_impulses_n_s(&self) -> Result<Vec<DVec3>, GpuError> {
-        Ok(self.collider_contacts()?.0)
+        Ok(self.collider_contacts()?.impulses_n_s)
     }
 
-    /// [`GpuMpm::collider_impulses_n_s`] and each collider's grid nodes with mass inside it in
-    /// the last substep, whether or not they took its rule (`MpmSolver::collider_nodes` on the
-    /// CPU), from one read-back.
+    /// The friction impulse each collider gave the particles in the last substep (N s, one per
+    /// collider): each node's impulse less its part along the collider's normal, summed as
+    /// [`GpuMpm::collider_impulses_n_s`] is (`MpmSolver::collider_friction_n_s` on the CPU).
+    /// Waits for the GPU.
     ///
     /// # Errors
     /// [`GpuError::Readback`].
-    pub fn collider_contacts(&self) -> Result<(Vec<DVec3>, Vec<u64>), GpuError> {
+    pub fn collider_friction_n_s(&self) -> Result<Vec<DVec3>, GpuError> {
+        Ok(self.collider_contacts()?.friction_n_s)
+    }
+
+    /// [`GpuMpm::collider_impulses_n_s`], [`GpuMpm::collider_friction_n_s`] and each
+    /// collider's grid nodes with mass inside it in the last substep, whether or not they took
+    /// its rule (`MpmSolver::collider_nodes` on the CPU), from one read-back.
+    ///
+    /// # Errors
+    /// [`GpuError::Readback`].
+    pub fn collider_contacts(&self) -> Result<ColliderSums, GpuError> {
         let (offset, size) = self.collider_range();
         if size == 0 {
-            return Ok((Vec::new(), Vec::new()));
+            return Ok(ColliderSums::default());
         }
         let bytes = self.read_range(&self.buffers.grid_sum, offset, size)?;
         Ok(self.contacts_of(bytemuck::cast_slice(&bytes)))
@@ -63,21 +86,21 @@ impl GpuMpm {
     }
 
     /// The colliders' sums read back (`words`) as impulses (N s) and node counts.
-    pub(super) fn contacts_of(&self, words: &[u32]) -> (Vec<DVec3>, Vec<u64>) {
+    pub(super) fn contacts_of(&self, words: &[u32]) -> ColliderSums {
         let scale = 1.0 / f64::from(self.params.scale_p);
         let value = |k: usize| {
             let bits = u64::from(words[k]) | (u64::from(words[k + 1]) << 32);
             bits as i64 as f64 * scale
         };
-        (0..self.params.n_colliders as usize)
-            .map(|c| {
-                let k = c * COLLIDER_WORDS as usize;
-                (
-                    DVec3::new(value(k), value(k + 2), value(k + 4)),
-                    u64::from(words[k + 6]),
-                )
-            })
-            .unzip()
+        let vector = |k: usize| DVec3::new(value(k), value(k + 2), value(k + 4));
+        let mut sums = ColliderSums::default();
+        for c in 0..self.params.n_colliders as usize {
+            let k = c * COLLIDER_WORDS as usize;
+            sums.impulses_n_s.push(vector(k));
+            sums.friction_n_s.push(vector(k + 6));
+            sums.nodes.push(u64::from(words[k + 12]));
+        }
+        sums
     }
 
     /// What a `World`'s substep takes back after the substeps queued, in one wait: the failure
@@ -106,16 +129,17 @@ impl GpuMpm {
         }
         let (status, report) = self.read_after(encoder, &ranges, |bytes| {
             let s: &[f32] = bytemuck::cast_slice(bytes[1]);
-            let (impulses_n_s, nodes) = match bytes.get(2) {
+            let sums = match bytes.get(2) {
                 Some(b) => self.contacts_of(bytemuck::cast_slice(b)),
-                None => (Vec::new(), Vec::new()),
+                None => ColliderSums::default(),
             };
             let report = DeviceReport {
                 state: self.state_of(s, reference),
                 max_speed_m_s: s[26],
                 min_plastic: -s[27],
-                impulses_n_s,
-                nodes,
+                impulses_n_s: sums.impulses_n_s,
+                friction_n_s: sums.friction_n_s,
+                nodes: sums.nodes,
             };
             (bytemuck::pod_read_unaligned::<[u32; 4]>(bytes[0]), report)
         })?;

@@ -100,11 +100,12 @@ impl GpuMpm {
         let mut steps: Vec<RunStep> = (0..ran)
             .map(|i| {
                 let at = RUN_HEADER + i * entry;
-                let (impulses_n_s, nodes) = self.contacts_of(&status[at + 1..at + entry]);
+                let sums = self.contacts_of(&status[at + 1..at + entry]);
                 RunStep {
                     max_speed_m_s: f32::from_bits(status[at]),
-                    impulses_n_s,
-                    nodes,
+                    impulses_n_s: sums.impulses_n_s,
+                    friction_n_s: sums.friction_n_s,
+                    nodes: sums.nodes,
                 }
             })
             .collect();
@@ -114,6 +115,7 @@ impl GpuMpm {
             max_speed_m_s: moments[26],
             min_plastic: -moments[27],
             impulses_n_s: last.impulses_n_s.clone(),
+            friction_n_s: last.friction_n_s.clone(),
             nodes: last.nodes.clone(),
         };
         steps.push(last);

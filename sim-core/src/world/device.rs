@@ -159,6 +159,8 @@ pub struct RunStep {
     pub max_speed_m_s: f32,
     /// Each grid collider's normal impulse on the object in it (N s).
     pub impulses_n_s: Vec<DVec3>,
+    /// Each grid collider's friction impulse on the object in it (N s; empty: none reported).
+    pub friction_n_s: Vec<DVec3>,
     /// Each grid collider's nodes with mass inside it.
     pub nodes: Vec<u64>,
 }
@@ -185,6 +187,10 @@ pub struct DeviceReport {
     /// Each grid collider's normal impulse on it in the substep (N s), in order
     /// (`MpmSolver::collider_impulses_n_s` on the CPU).
     pub impulses_n_s: Vec<DVec3>,
+    /// Each grid collider's friction impulse on it in the substep (N s), in order
+    /// (`MpmSolver::collider_friction_n_s` on the CPU; empty: none reported, and the
+    /// restitution law then leaves the impact's friction as the grid gave it).
+    pub friction_n_s: Vec<DVec3>,
     /// Each grid collider's nodes with mass inside it (`MpmSolver::collider_nodes`).
     pub nodes: Vec<u64>,
 }

@@ -113,6 +113,7 @@ impl World {
             max_speed_m_s: step.max_speed_m_s,
             min_plastic,
             impulses_n_s: step.impulses_n_s,
+            friction_n_s: step.friction_n_s,
             nodes: step.nodes,
         });
         for report in before_last.chain(std::iter::once(report)) {

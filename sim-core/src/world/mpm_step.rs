@@ -484,8 +484,8 @@ pub(super) fn device_substep(
         if let Some(report) = report {
             b.stats.mpm_wall_s += started.elapsed().as_secs_f64();
             stats.mpm_particle_substeps += b.particles.len() as u64;
-            let (j, n) = (&report.impulses_n_s, &report.nodes);
-            return Ok(Some(collider_touches(k, (j, &[]), n).collect()));
+            let j = (&report.impulses_n_s[..], &report.friction_n_s[..]);
+            return Ok(Some(collider_touches(k, j, &report.nodes).collect()));
         }
     }
     bodies[k].leave_device();
