@@ -26,19 +26,19 @@
 //! times the normal impulse the object keeps, the excess given back at the contact point
 //! (`impact_friction.rs`): the grid's friction acted on the elastic rebound too.
 //!
-//! The normal change leaves the object's deformation and angular momentum alone, and the law
-//! only ever removes energy; a rigid solid takes the opposite momentum (a kinematic or static one counts it in its
-//! contact force). Against an awake rigid solid the excess is removed between the two, with the
-//! effective mass at the contact, 1 / (1/m + 1/M + (r × n)·I⁻¹(r × n)), the solid taking its
-//! impulse at the contact point, so it turns (the impulse of Mirtich 1996): the object's share
+//! The normal change leaves the object's deformation and angular momentum alone, and the law only
+//! ever removes energy; a rigid solid takes the opposite momentum (a kinematic or static one counts
+//! it in its contact force). Against an awake rigid solid the excess is removed between the two,
+//! with the effective mass at the contact, 1 / (1/m + 1/M + (r × n)·I⁻¹(r × n)), the solid taking
+//! its impulse at the contact point, so it turns (the impulse of Mirtich 1996): the object's share
 //! alone would throw a solid lighter than it, and against the solid's COM velocity alone a jelly
-//! ball landing at e = 0 on the end of a free plank left with the plank's end falling away at
-//! 2.5 times its speed. But where the solid leans on others along n (a floor, a box under it),
-//! they gave the rebound: up to what they pushed it with along n over the contact (its momentum
-//! change less the object's impulse and gravity's), the excess goes back to them, the solid held
-//! as immovable (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly
-//! ball landing on it at e = 0). Held, its contact point keeps the velocity it had at first
-//! touch, so only the object's separation from that is taken back this way.
+//! ball landing at e = 0 on the end of a free plank left with the plank's end falling away at 2.5
+//! times its speed. But where the solid leans on others along n (a floor, a box under it), they
+//! gave the rebound: up to what they pushed it with along n over the contact (its momentum change
+//! less the object's impulse and gravity's), the excess goes back to them, the solid held as
+//! immovable (shared with it, a 154 g box lying on a floor was thrown 16 cm up by a jelly ball
+//! landing on it at e = 0). Held, its contact point keeps the velocity it had at first touch, so
+//! only the object's separation from that is taken back this way.
 //!
 //! Until the contact ends the grid's impact is nearly elastic, so a light solid that meets a
 //! third body during it does so with the elastic kick (a see-saw's end striking the floor).
@@ -117,9 +117,10 @@ fn solid_velocity(env: &Env, bodies: &[Body], solid: SolidOf, lever_m: DVec3) ->
 }
 
 /// The friction impulse the law gives back to deformable `k` as its impact `imp` on `solid`
-/// ends (N s, on the object; `impact_friction.rs`), and the contact point (m) where that and
-/// the law's normal impulse act, after the law took normal impulse `j` (N s) off the object,
-/// `j_shared` of it shared with an awake rigid solid. The contact point lies on the normal
+/// ends (N s, on the object; `impact_friction.rs`), the object's change of angular velocity
+/// from it (rad/s), and the contact point (m) where that and the law's normal impulse act,
+/// after the law took normal impulse `j` (N s) off the object, `j_shared` of it shared with an
+/// awake rigid solid. The contact point lies on the normal
 /// impulses' line of action ([`lever_m`]; through the object's COM at a collider or the
 /// background), where the object's bounding box reaches furthest toward the solid.
 fn friction_given_back(
@@ -128,7 +129,7 @@ fn friction_given_back(
     (k, solid): (usize, SolidOf),
     imp: &Impact,
     (j, j_shared): (f64, f64),
-) -> (DVec3, DVec3) {
+) -> (DVec3, DVec3, DVec3) {
     let normal = imp.impulse_n_s.normalize_or_zero();
     let state = bodies[k].measured();
     let (lo, hi) = state.aabb_m;
@@ -166,7 +167,7 @@ fn friction_given_back(
         }
     };
     let Some(mu) = pair_friction(env, bodies, k, solid) else {
-        return (DVec3::ZERO, point);
+        return (DVec3::ZERO, DVec3::ZERO, point);
     };
     let object = Side {
         inverse_mass: 1.0 / state.mass_kg,
@@ -198,7 +199,8 @@ fn friction_given_back(
         imp.touch_velocity_m_s,
         removed,
     );
-    (friction, point)
+    let turn = object.inverse_inertia * object.arm_m.cross(friction);
+    (friction, turn, point)
 }
 
 /// The friction μ the grid's rule applied between deformable `k` and `solid` (the surface's
@@ -368,12 +370,9 @@ pub(super) fn boundary_restitution(
             _ => (excess * s.mass_kg, 0.0),
         };
         let j = j_held + j_shared;
-        let (friction, point) = friction_given_back(env, bodies, (k, solid), &imp, (j, j_shared));
-        let (dv, dw) = {
-            let full = bodies[k].measured();
-            let dw = inverse_or_zero(full.inertia) * (point - full.com_m).cross(friction);
-            (normal * -(j / s.mass_kg) + friction / s.mass_kg, dw)
-        };
+        let (friction, dw, point) =
+            friction_given_back(env, bodies, (k, solid), &imp, (j, j_shared));
+        let dv = normal * -(j / s.mass_kg) + friction / s.mass_kg;
         let b = &mut bodies[k];
         if b.on_device() {
             b.device_rigid_field(dv, dw, s.com_m);

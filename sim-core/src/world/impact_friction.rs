@@ -9,7 +9,7 @@
 //! 0.46 m/s; a rigid one leaves at 0.7). When the law acts, the friction impulse the object
 //! received over the contact, across the contact normal n, is held to μ times the normal
 //! impulse it keeps, |J_t| ≤ μ J_n (Coulomb's law for impulses: Stronge 2000, "Impact
-//! Mechanics", section 3.2). The excess goes back at the contact point along the sliding
+//! Mechanics"). The excess goes back at the contact point along the sliding
 //! direction, so the object's spin and a movable solid's motion follow as from a rigid contact
 //! impulse, and never so much that
 //! - the object's COM slides faster relative to the solid's contact point than at first touch
