@@ -82,7 +82,7 @@ pub enum BenchCommand {
     /// The static sag of a deformable object resting under gravity at several grid cells and
     /// physics spacings, against the finest (JSON lines, `sag.csv` in --out-dir).
     #[command(
-        after_help = "Examples:\n  splatphys bench sag\n  splatphys bench sag --levels 0.005,0.01:0.005,0.02:0.01 --youngs-modulus-pa 2e5 --out-dir out/sag"
+        after_help = "Examples:\n  splatphys bench sag\n  splatphys bench sag --levels 0.005,0.01:0.005,0.02:0.01 --youngs-modulus-pa 2e5 --out-dir out/sag\n  splatphys bench sag --levels 0.005:0.0025,0.02:0.01 --shift-m 0,0.005,0.01,0.015 --out-dir out/sag"
     )]
     Sag(crate::sag::SagBenchArgs),
     /// Objects out of each other's reach stepped apart, each island at its own substep, against
