@@ -391,13 +391,20 @@ path = "capture.ply"
 translation_m = [1.0, 2.0, 3.0]
 [[object]]
 name = "picked"
-select = {{ source = "capture", box_m = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]], sphere = {{ center_m = [0.5, 0.5, 0.5], radius_m = 0.1 }} }}
+[object.select]
+source = "capture"
+box_m = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]
+sphere = {{ center_m = [0.5, 0.5, 0.5], radius_m = 0.1 }}
 [[object]]
 name = "ball"
 shape = {{ sphere = {{ center_m = [0.0, 0.0, 0.2], radius_m = 0.05 }} }}
 [[object]]
 name = "post"
-shape = {{ cylinder = {{ base_m = [0.1, 0.0, 0.0], axis = [0.0, 0.0, 1.0], radius_m = 0.01, height_m = 0.1 }} }}
+[object.shape.cylinder]
+base_m = [0.1, 0.0, 0.0]
+axis = [0.0, 0.0, 1.0]
+radius_m = 0.01
+height_m = 0.1
 [[collider]]
 name = "table"
 plane = {{ point_m = [0.0, 0.0, 0.1], normal = [0.0, 0.0, 1.0] }}
