@@ -5,8 +5,9 @@
 //! h` (none: every Gaussian and fill point a particle), then averages over the last `--window-s`
 //! of the run, along gravity, for the first deformable object:
 //! - **sag**: the drop of (COM height − lowest particle height) from the undeformed start. It
-//!   does not see where the grid boundary lets the object rest (about half a cell above a
-//!   collider, growing with dx), only how far the object deforms;
+//!   does not see where the grid boundary lets the object rest (above a collider or in it by up
+//!   to half a cell, depending on where its surface lies in a cell), only how far the object
+//!   deforms;
 //! - **height loss**: the drop of (highest − lowest particle height);
 //! - the COM's swing (max − min) over the window, to tell a settled run from one still moving;
 //! - **bottom**: the mean height of the object's lowest 2 % of particles (at least one) over the
