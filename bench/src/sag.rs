@@ -230,10 +230,10 @@ fn heights(w: &World, k: usize, up: DVec3) -> Heights {
         hi = hi.max(h);
     }
     let com = mh / m.max(f64::MIN_POSITIVE);
-    let n = (all.len() / 50).max(1).min(all.len());
-    let bottom = if n == 0 {
+    let bottom = if all.is_empty() {
         lo
     } else {
+        let n = (all.len() / 50).max(1);
         all.select_nth_unstable_by(n - 1, f64::total_cmp);
         all[..n].iter().sum::<f64>() / n as f64
     };
