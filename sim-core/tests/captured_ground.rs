@@ -1,0 +1,162 @@
+//! Objects on captured ground (release build): the background's collision surface leaves out
+//! the cells objects occupy at the start, but not the ground under them. An object placed just
+//! above a captured table rests on it, one sunk into it rests in a dimple, and Gaussians a
+//! segmentation left under an object in the air go with it.
+
+use splatphys_core::formats::ply::write_ply;
+use splatphys_core::gaussians::GaussianCloud;
+use splatphys_core::scene::load_scene_str;
+use splatphys_core::world::World;
+
+/// Gaussian spacing of the captured table (m).
+const H_M: f32 = 0.005;
+
+/// Writes `ground.ply` to `dir`: a captured table, 0.6 m × 0.6 m of opaque Gaussians `H_M` apart
+/// in two layers, the top layer's centres at z = −2.5 mm (its level set's top face is z = 0 on
+/// 5 mm and 1 cm cells), and `extra` Gaussians.
+fn write_ground(dir: &std::path::Path, extra: &[[f32; 3]]) {
+    let mut cloud = GaussianCloud::with_capacity(0, 0);
+    let mut push = |p: [f32; 3]| {
+        cloud.positions.push(p);
+        cloud.sh_dc.push([0.5; 3]);
+        cloud.opacity_logit.push(5.0);
+        cloud.log_scales.push([(0.5 * H_M).ln(); 3]);
+        cloud.rotations_wxyz.push([1.0, 0.0, 0.0, 0.0]);
+    };
+    for i in 0..120 {
+        for j in 0..120 {
+            for k in 0..2 {
+                push([
+                    -0.3 + (i as f32 + 0.5) * H_M,
+                    -0.3 + (j as f32 + 0.5) * H_M,
+                    -0.5 * H_M - k as f32 * H_M,
+                ]);
+            }
+        }
+    }
+    for p in extra {
+        push(*p);
+    }
+    write_ply(dir.join("ground.ply"), &cloud, &[]).expect("ply");
+}
+
+/// Runs `object` (a TOML `[[object]]` table) over the ground of [`write_ground`] in `dir` for
+/// `duration_s` on 1 cm cells; returns the object's lowest and highest COM height (m) over the
+/// frames and its last one.
+fn run(dir: &std::path::Path, object: &str, duration_s: f64) -> (f64, f64, f64) {
+    let text = format!(
+        r#"
+[simulation]
+duration_s = {duration_s}
+frame_rate_hz = 20.0
+grid_dx_m = 0.01
+sleep = false
+
+[[source]]
+name = "ground"
+path = "ground.ply"
+
+{object}
+"#
+    );
+    let scene = load_scene_str(&text, dir).expect("scene");
+    let mut w = World::from_scene(&scene).expect("world");
+    let (mut lo, mut hi, mut last) = (f64::MAX, f64::MIN, 0.0);
+    while !w.is_finished() {
+        w.advance_frame().expect("step");
+        last = w.objects()[0].com_m[2];
+        lo = lo.min(last);
+        hi = hi.max(last);
+    }
+    (lo, hi, last)
+}
+
+const JELLY: &str =
+    r#"{ model = "jelly", youngs_modulus_pa = 2e5, poisson_ratio = 0.3, density_kg_m3 = 1000.0 }"#;
+
+#[test]
+fn objects_placed_just_above_captured_ground_rest_on_it() {
+    // Bases 0.5 mm above the table: their cells, grown by one, hold the table's top Gaussians.
+    // Carved out with them, the ground had a hole under each object, and a jelly ball fell into
+    // it at g.
+    let dir = tempfile::tempdir().expect("tempdir");
+    write_ground(dir.path(), &[]);
+    let jelly = format!(
+        r#"[[object]]
+name = "ball"
+shape = {{ sphere = {{ center_m = [0.0, 0.0, 0.0405], radius_m = 0.04 }} }}
+spacing_m = 0.005
+material = {JELLY}"#
+    );
+    let rigid = r#"[[object]]
+name = "box"
+shape = { box = { min_m = [-0.05, -0.05, 0.0005], max_m = [0.05, 0.05, 0.1005] } }
+kind = "rigid"
+spacing_m = 0.005"#;
+    for (what, object, rest_m) in [
+        ("jelly ball", jelly.as_str(), 0.04),
+        ("rigid box", rigid, 0.05),
+    ] {
+        let (lo, hi, last) = run(dir.path(), object, 0.6);
+        println!("{what}: COM {lo:.4}-{hi:.4} m, last {last:.4} m, at rest on the table {rest_m}");
+        // On the table within a fifth of a cell (the jelly squashes a few mm under its weight).
+        assert!(
+            lo > rest_m - 0.006 && (last - rest_m).abs() < 0.004,
+            "{what}: COM {lo:.4}-{hi:.4} m, last {last:.4} m; on the table {rest_m} m"
+        );
+    }
+}
+
+#[test]
+fn an_object_sunk_into_captured_ground_rests_in_a_dimple() {
+    // A rigid box whose base lies 4 mm below the table's top face: the table's Gaussians beside
+    // its base go (the object is not shot out), but the ground thickened below it stays, so it
+    // settles into a dimple a cell or two deep and stays there.
+    let dir = tempfile::tempdir().expect("tempdir");
+    write_ground(dir.path(), &[]);
+    let sunk = r#"[[object]]
+name = "box"
+shape = { box = { min_m = [-0.05, -0.05, -0.004], max_m = [0.05, 0.05, 0.096] } }
+kind = "rigid"
+spacing_m = 0.005"#;
+    let (lo, hi, last) = run(dir.path(), sunk, 0.6);
+    println!("sunk box: COM {lo:.4}-{hi:.4} m, last {last:.4} m (placed at 0.046)");
+    assert!(
+        lo > 0.046 - 0.03,
+        "the box sank through the ground: lowest COM {lo:.4} m"
+    );
+    assert!(
+        hi < 0.046 + 0.005,
+        "the box was thrown up: highest COM {hi:.4} m"
+    );
+}
+
+#[test]
+fn gaussians_left_under_an_object_in_the_air_go_with_it() {
+    // A disc of background Gaussians (6 cm across) 2 mm under a ball held 20 cm above the table:
+    // what a segmentation leaves of an object's underside. It joins no ground beyond the
+    // object, so it goes, and the ball falls onto the table.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut disc = Vec::new();
+    for i in -6..=6 {
+        for j in -6..=6 {
+            let (x, y) = (i as f32 * H_M, j as f32 * H_M);
+            if x.hypot(y) <= 0.03 {
+                disc.push([x, y, 0.2 - 0.04 - 0.002]);
+            }
+        }
+    }
+    write_ground(dir.path(), &disc);
+    let ball = r#"[[object]]
+name = "ball"
+shape = { sphere = { center_m = [0.0, 0.0, 0.2], radius_m = 0.04 } }
+kind = "rigid"
+spacing_m = 0.005
+restitution = 0.0"#;
+    let (lo, _, last) = run(dir.path(), ball, 0.6);
+    println!("ball over a left-over disc: lowest COM {lo:.4} m, last {last:.4} m");
+    assert!(
+        (last - 0.04).abs() < 0.005,
+        "the ball did not fall onto the table: COM {last:.4} m"
+    );
+}
