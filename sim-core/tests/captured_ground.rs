@@ -78,7 +78,8 @@ const JELLY: &str =
 fn objects_placed_just_above_captured_ground_rest_on_it() {
     // Bases 0.5 mm above the table: their cells, grown by one, hold the table's top Gaussians.
     // Carved out with them, the ground had a hole under each object, and a jelly ball fell into
-    // it at g.
+    // it at g. Both rest on the table as on a procedural box: the jelly ball's COM within 1 mm
+    // of its radius in every frame (measured 39.8-40.2 mm; on a static box 39.8-40.2 mm).
     let dir = tempfile::tempdir().expect("tempdir");
     write_ground(dir.path(), &[]);
     let jelly = format!(
@@ -99,9 +100,8 @@ spacing_m = 0.005"#;
     ] {
         let (lo, hi, last) = run(dir.path(), object, 0.6);
         println!("{what}: COM {lo:.4}-{hi:.4} m, last {last:.4} m, at rest on the table {rest_m}");
-        // On the table within a fifth of a cell (the jelly squashes a few mm under its weight).
         assert!(
-            lo > rest_m - 0.006 && (last - rest_m).abs() < 0.004,
+            lo > rest_m - 0.001 && hi < rest_m + 0.001,
             "{what}: COM {lo:.4}-{hi:.4} m, last {last:.4} m; on the table {rest_m} m"
         );
     }

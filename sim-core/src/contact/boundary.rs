@@ -60,7 +60,7 @@ use crate::collider::{Surface, apply_surface};
 use crate::mpm::Particles;
 use crate::mpm::binning::{BLOCK, BLOCK_NODES};
 use crate::mpm::grid::SparseGrid;
-use crate::mpm::reach::NodeGaps;
+use crate::mpm::reach::{NodeGaps, ON_SURFACE};
 
 /// A solid as a grid boundary.
 #[derive(Debug, Clone, Copy)]
@@ -156,10 +156,10 @@ impl Reaction {
 /// returns each obstacle's reaction, in order. Immovable obstacles are applied first, in order
 /// at each node; then the movable ones, two-way, over Jacobi sweeps
 /// ([`super::coupling`]). With `reach` (the node gaps of the grid's particles, [`gaps`], and the
-/// substep dt in s), a node inside an immovable procedural obstacle that lets material leave
-/// takes the rule only where material meets the surface within the substep
-/// ([`crate::mpm::reach`]); inside any other obstacle (awake rigid, sticky, a sampled level set)
-/// every node takes it, and with `sides` (the node gaps against the thin solids that hold every
+/// substep dt in s), a node inside an immovable obstacle (procedural or sampled) that lets
+/// material leave takes the rule only where material meets the surface within the substep
+/// ([`crate::mpm::reach`]); inside any other obstacle (awake rigid, sticky, clamp) every node
+/// takes it, and with `sides` (the node gaps against the thin solids that hold every
 /// node, [`sides`]) so does a node behind one ([`NodeGaps::behind_normal`]).
 pub fn apply(
     grid: &mut SparseGrid,
@@ -247,6 +247,16 @@ pub fn apply_one_way(
                     }
                     let pose = o.placed.pose;
                     let (phi, n0) = o.placed.geometry.distance(pose.to_rest(x));
+                    // A sampled surface's faces lie on the grid's node layers (both are anchored
+                    // at the world's origin), and its φ at a node on a face is round-off either
+                    // side of 0: such a node lies inside (counted outside, the layer below held
+                    // the material, and a jelly ball rested 3.3 mm deeper in captured ground
+                    // than on a box, 1 cm cells).
+                    let phi = if o.placed.geometry.is_exact() || phi.abs() >= ON_SURFACE * dx_m {
+                        phi
+                    } else {
+                        0.0
+                    };
                     // Where the rule acts only where material reaches the surface, a node up to
                     // half a cell outside it takes the rule too, and one past a thin solid's
                     // middle or beyond its far face holds the material on the near side

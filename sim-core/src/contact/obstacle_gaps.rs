@@ -10,7 +10,7 @@ use crate::mpm::grid::SparseGrid;
 use crate::mpm::reach::{BARRIER_REACH, BEHIND, NODE_REACH, NodeGaps};
 
 /// The node gaps ([`NodeGaps`]) of `particles` on `grid` (cell `dx_m`) against those of
-/// `obstacles` whose nodes take the rule only where material reaches them (immovable, exact,
+/// `obstacles` whose nodes take the rule only where material reaches them (immovable,
 /// not sticky); `None` when there is none. With `barrier`, the particles met the obstacles that
 /// take it through the particle barrier first ([`super::barrier`]), and those obstacles' nodes
 /// wait until particle centres pass a quarter of their size inside them.
@@ -72,15 +72,16 @@ fn node_gaps(
 }
 
 /// Whether a node inside `o` takes its rule only where material reaches it (`apply`'s
-/// `reach`): an immovable solid with an exact surface whose rule lets material leave and does not
-/// grip. A clamp holds every node inside it (it holds the material it encloses: gated, a clamped
-/// bar's period and damping were off), so does a sticky one (as a sticky collider,
-/// [`crate::collider::Collider::is_gated`]), and a movable solid meets the grid two-way over its
-/// whole band (gated, a 1.6 kg block sank 7.4 mm into a jelly that carries it 0.8 mm down).
+/// `reach`): an immovable solid, exact or sampled (captured ground), whose rule lets material
+/// leave and does not grip. Taken at every node inside it, captured ground held a jelly ball
+/// thrown along it over a band of nodes, which stopped it within 0.15 s and rocked it, where on
+/// a procedural slab it rolls. A clamp holds every node inside it (it holds the material it
+/// encloses: gated, a clamped bar's period and damping were off), so does a sticky one (as a
+/// sticky collider, [`crate::collider::Collider::is_gated`]), and a movable solid meets the grid
+/// two-way over its whole band (gated, a 1.6 kg block sank 7.4 mm into a jelly that carries it
+/// 0.8 mm down).
 pub(super) fn gated(o: &Obstacle) -> bool {
-    o.placed.geometry.is_exact()
-        && !o.is_movable()
-        && !matches!(o.surface, Surface::Clamp | Surface::Sticky)
+    !o.is_movable() && !matches!(o.surface, Surface::Clamp | Surface::Sticky)
 }
 
 /// Whether `o` holds every node inside it (sticky, clamp, or movable: an awake rigid solid) and

@@ -67,7 +67,7 @@ pub const BEHIND: f32 = 1.5;
 /// normal is any feature's: it is not taken as outside (at a support's edge, a node at
 /// φ = 1.1e-8 m took a side face's normal, and a block landing on two supports at e = 0
 /// bounced off at 0.06 m/s).
-const ON_SURFACE: f32 = 1e-3;
+pub const ON_SURFACE: f32 = 1e-3;
 
 /// Per grid node, the smallest gap (m) between a particle whose column holds the node and the
 /// solid (+∞ where none does): module docs.
