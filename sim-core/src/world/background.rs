@@ -5,7 +5,7 @@
 //! size dx holding opaque Gaussians with no other such cell within [`FLOATER_REACH_CELLS`]);
 //! not in a cell an object occupies at t = 0, dilated by one cell, so an object standing on or
 //! sunk into the captured ground is not shot out of it, unless the cell lies below the object
-//! and joins the ground beyond it ([`carve`]). The solid is thickened by [`THICKEN_CELLS`]
+//! and joins the ground beyond it (`carve`). The solid is thickened by [`THICKEN_CELLS`]
 //! along gravity: a capture holds only the skin of the ground.
 
 use std::collections::{HashMap, HashSet};
@@ -85,7 +85,8 @@ pub struct BackgroundReport {
     pub opaque: usize,
     /// Opaque ones dropped as floaters.
     pub floaters: usize,
-    /// Opaque ones dropped because an object occupies their cell at t = 0.
+    /// Opaque ones dropped because an object lies within a cell of theirs at t = 0 and they are
+    /// not ground under it.
     pub under_objects: usize,
     /// Gaussians in the collision surface.
     pub solid: usize,
