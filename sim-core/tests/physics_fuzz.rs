@@ -1,6 +1,7 @@
 //! A physics fuzzer (release build): proptest draws small scenes of a jelly and a rigid box on a
 //! floor (light solids on dense jellies and the other way round, thrown at each other or laid
-//! one on the other, sticky, slip and frictional floors, collider planes and static boxes) and
+//! one on the other, sticky, slip and frictional floors, collider planes, static boxes and
+//! captured ground: a quarter of the static floors are a capture's Gaussians instead) and
 //! at most one command mid-run (the box made deformable or the jelly made rigid while in
 //! contact, a density edit, a velocity); in a third of them a kinematic pusher drives into the
 //! pair at constant velocity, low or high, smooth or rough.
@@ -8,7 +9,8 @@
 //! gravitational above the floor and strain, Σ V₀ ψ(F), and what the particle barrier holds)
 //! must not grow by more than 1 %
 //! beyond the work the pusher did (its velocity against the contact force it reports, which is
-//! the frame's mean), and every state must stay finite.
+//! the frame's mean), every state must stay finite, and neither object's COM may pass below
+//! the floor.
 //!
 //! Every other scene meets "separate" surfaces through the particle barrier
 //! (`surface_contact = "barrier"`), whose stored energy counts.
@@ -21,6 +23,7 @@ use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use rayon::prelude::*;
+use splatphys_core::gaussians::GaussianCloud;
 use splatphys_core::material::MaterialSpec;
 use splatphys_core::mpm::Diagnostics;
 use splatphys_core::scene::{
@@ -137,9 +140,31 @@ fn case() -> impl Strategy<Value = Case> {
         )
 }
 
+/// A captured floor: two layers of opaque Gaussians 1 cm apart over 30 × 30 cm, at z = −5 and
+/// −15 mm, so that its level set's top face (cells of the grid's 2 cm) is z = 0.
+fn captured_floor() -> GaussianCloud {
+    let mut cloud = GaussianCloud::with_capacity(0, 0);
+    for i in 0..30 {
+        for j in 0..30 {
+            for z in [-0.005, -0.015] {
+                cloud
+                    .positions
+                    .push([-0.145 + i as f32 * 0.01, -0.145 + j as f32 * 0.01, z]);
+                cloud.sh_dc.push([0.5; 3]);
+                cloud.opacity_logit.push(5.0);
+                cloud.log_scales.push([0.005f32.ln(); 3]);
+                cloud.rotations_wxyz.push([1.0, 0.0, 0.0, 0.0]);
+            }
+        }
+    }
+    cloud
+}
+
 /// The case's world: a 6 cm jelly cube (object 0) and a 5 cm rigid box (object 1) stacked on a
 /// floor at z = 0, on a 2 cm grid, 6 frames at 60 Hz; the pusher, if any, is the last object.
-fn world(c: &Case, barrier: bool) -> World {
+/// With `captured`, a static floor is the background of [`captured_floor`] (its surface rule
+/// and friction the background's own).
+fn world(c: &Case, barrier: bool, captured: bool) -> World {
     let mut b = Scene::builder()
         .grid_dx_m(0.02)
         .duration_s(0.1)
@@ -177,7 +202,9 @@ fn world(c: &Case, barrier: bool) -> World {
         jelly = jelly.velocity(c.velocity_m_s);
     }
     b = b.object(jelly).object(solid);
-    b = if c.static_floor {
+    b = if captured {
+        b
+    } else if c.static_floor {
         b.object(
             // Wide enough for 0.1 s of sliding at 1 m/s; coarse, since building a static
             // object's particles and surface is most of a small world's set-up.
@@ -205,7 +232,11 @@ fn world(c: &Case, barrier: bool) -> World {
                 .restitution(c.restitution),
         );
     }
-    World::from_scene(&b.build().expect("scene")).expect("world")
+    let mut scene = b.build().expect("scene");
+    if captured {
+        scene.background = captured_floor();
+    }
+    World::from_scene(&scene).expect("world")
 }
 
 /// The work (J) the pusher of `c` did on the rest of `w` over the frame just stepped: its
@@ -248,8 +279,8 @@ fn energy(w: &World) -> f64 {
 }
 
 /// Runs case `c`; `Err` names the first frame that gained energy or went non-finite.
-fn run(c: &Case, barrier: bool) -> Result<(), TestCaseError> {
-    let mut w = world(c, barrier);
+fn run(c: &Case, barrier: bool, captured: bool) -> Result<(), TestCaseError> {
+    let mut w = world(c, barrier, captured);
     let mut before = energy(&w);
     for frame in 0..6 {
         let commanded = frame == c.event_frame;
@@ -271,6 +302,15 @@ fn run(c: &Case, barrier: bool) -> Result<(), TestCaseError> {
         }
         w.advance_frame()
             .map_err(|e| TestCaseError::fail(format!("frame {frame}: {e}")))?;
+        // Nothing passes the floor (falling through it would keep the energy).
+        for o in w.objects().iter().take(2) {
+            prop_assert!(
+                o.com_m[2] > 0.0,
+                "frame {frame}: {} at z = {:.4} m, below the floor",
+                o.name,
+                o.com_m[2]
+            );
+        }
         let after = energy(&w);
         let work = pusher_work(c, &w);
         prop_assert!(
@@ -312,9 +352,10 @@ fn no_frame_without_a_command_gains_energy() {
         .filter(|(i, _)| only.is_none_or(|k| k == *i))
         .filter_map(|(i, c)| {
             let barrier = i % 2 == 1;
-            run(c, barrier)
+            let captured = c.static_floor && (i / 2) % 2 == 0;
+            run(c, barrier, captured)
                 .err()
-                .map(|e| format!("case {i} (barrier {barrier}): {e}\n  {c:?}"))
+                .map(|e| format!("case {i} (barrier {barrier}, captured {captured}): {e}\n  {c:?}"))
         })
         .collect();
     println!(
