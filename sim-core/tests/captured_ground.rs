@@ -6,9 +6,10 @@
 
 use rayon::prelude::*;
 use splatphys_core::formats::ply::write_ply;
-use splatphys_core::gaussians::GaussianCloud;
 use splatphys_core::scene::load_scene_str;
 use splatphys_core::world::World;
+
+mod support;
 
 /// Gaussian spacing of the captured table (m).
 const H_M: f32 = 0.005;
@@ -17,28 +18,7 @@ const H_M: f32 = 0.005;
 /// in two layers, the top layer's centres at z = `lift_m` − 2.5 mm (its level set's top face is
 /// z = 0 on 5 mm and 1 cm cells with no lift), and `extra` Gaussians.
 fn write_ground(dir: &std::path::Path, lift_m: f32, extra: &[[f32; 3]]) {
-    let mut cloud = GaussianCloud::with_capacity(0, 0);
-    let mut push = |p: [f32; 3]| {
-        cloud.positions.push(p);
-        cloud.sh_dc.push([0.5; 3]);
-        cloud.opacity_logit.push(5.0);
-        cloud.log_scales.push([(0.5 * H_M).ln(); 3]);
-        cloud.rotations_wxyz.push([1.0, 0.0, 0.0, 0.0]);
-    };
-    for i in 0..120 {
-        for j in 0..120 {
-            for k in 0..2 {
-                push([
-                    -0.3 + (i as f32 + 0.5) * H_M,
-                    -0.3 + (j as f32 + 0.5) * H_M,
-                    lift_m - 0.5 * H_M - k as f32 * H_M,
-                ]);
-            }
-        }
-    }
-    for p in extra {
-        push(*p);
-    }
+    let cloud = support::flat_capture([-0.3, -0.3], [120, 120], H_M, lift_m, extra);
     write_ply(dir.join("ground.ply"), &cloud, &[]).expect("ply");
 }
 

@@ -18,6 +18,8 @@ use splatphys_core::scene::{
 };
 use splatphys_core::world::World;
 
+mod support;
+
 /// The throw (m/s) and the rolling speed a uniform ball reaches, 5/7 of it.
 const V0_M_S: f64 = 0.4;
 const ROLLING_M_S: f64 = V0_M_S * 5.0 / 7.0;
@@ -301,26 +303,8 @@ fn a_jelly_ball_landing_obliquely_rolls_on_at_five_sevenths_of_its_sliding_speed
 /// two layers, the top layer's centres at z = −2.5 mm, so that its level set's top face is
 /// z = 0.
 fn write_captured_table(dir: &std::path::Path) {
-    use splatphys_core::formats::ply::write_ply;
-    use splatphys_core::gaussians::GaussianCloud;
-    let h = 0.005f32;
-    let mut table = GaussianCloud::with_capacity(0, 0);
-    for i in 0..200 {
-        for j in 0..80 {
-            for k in 0..2 {
-                table.positions.push([
-                    -0.3 + (i as f32 + 0.5) * h,
-                    -0.2 + (j as f32 + 0.5) * h,
-                    -0.5 * h - k as f32 * h,
-                ]);
-                table.sh_dc.push([0.5; 3]);
-                table.opacity_logit.push(5.0);
-                table.log_scales.push([(0.5 * h).ln(); 3]);
-                table.rotations_wxyz.push([1.0, 0.0, 0.0, 0.0]);
-            }
-        }
-    }
-    write_ply(dir.join("table.ply"), &table, &[]).expect("ply");
+    let table = support::flat_capture([-0.3, -0.2], [200, 80], 0.005, 0.0, &[]);
+    splatphys_core::formats::ply::write_ply(dir.join("table.ply"), &table, &[]).expect("ply");
 }
 
 /// [`throw`] on the captured table of [`write_captured_table`] (the scene's background, its

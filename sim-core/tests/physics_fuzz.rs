@@ -32,6 +32,8 @@ use splatphys_core::scene::{
 use splatphys_core::world::World;
 use splatphys_types::MaterialEdit;
 
+mod support;
+
 const GRAVITY_M_S2: f64 = 9.81;
 
 /// What happens mid-run.
@@ -143,21 +145,7 @@ fn case() -> impl Strategy<Value = Case> {
 /// A captured floor: two layers of opaque Gaussians 1 cm apart over 30 × 30 cm, at z = −5 and
 /// −15 mm, so that its level set's top face (cells of the grid's 2 cm) is z = 0.
 fn captured_floor() -> GaussianCloud {
-    let mut cloud = GaussianCloud::with_capacity(0, 0);
-    for i in 0..30 {
-        for j in 0..30 {
-            for z in [-0.005, -0.015] {
-                cloud
-                    .positions
-                    .push([-0.145 + i as f32 * 0.01, -0.145 + j as f32 * 0.01, z]);
-                cloud.sh_dc.push([0.5; 3]);
-                cloud.opacity_logit.push(5.0);
-                cloud.log_scales.push([0.005f32.ln(); 3]);
-                cloud.rotations_wxyz.push([1.0, 0.0, 0.0, 0.0]);
-            }
-        }
-    }
-    cloud
+    support::flat_capture([-0.15, -0.15], [30, 30], 0.01, 0.0, &[])
 }
 
 /// The case's world: a 6 cm jelly cube (object 0) and a 5 cm rigid box (object 1) stacked on a

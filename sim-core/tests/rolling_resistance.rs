@@ -5,12 +5,13 @@
 //! without it comes to rest with it.
 
 use splatphys_core::formats::ply::write_ply;
-use splatphys_core::gaussians::GaussianCloud;
 use splatphys_core::material::MaterialSpec;
 use splatphys_core::scene::{
     ObjectBuilder, ObjectKind, Scene, SceneObject, Surface, load_scene_str,
 };
 use splatphys_core::world::World;
+
+mod support;
 
 /// The static table, top at z = 0, its surface rule `surface`.
 fn table(surface: Surface) -> ObjectBuilder {
@@ -100,23 +101,7 @@ fn check_rolling(
 /// Writes `table.ply` to `dir`: a captured table, 1 m × 0.3 m of opaque Gaussians 5 mm apart in
 /// two layers, top layer at z = −2.5 mm (so its level set's top face is z = 0).
 fn write_captured_table(dir: &std::path::Path) {
-    let h = 0.005f32;
-    let mut table = GaussianCloud::with_capacity(0, 0);
-    for i in 0..200 {
-        for j in 0..60 {
-            for k in 0..2 {
-                table.positions.push([
-                    -0.5 + (i as f32 + 0.5) * h,
-                    -0.15 + (j as f32 + 0.5) * h,
-                    -0.5 * h - k as f32 * h,
-                ]);
-                table.sh_dc.push([0.5; 3]);
-                table.opacity_logit.push(5.0);
-                table.log_scales.push([(0.5 * h).ln(); 3]);
-                table.rotations_wxyz.push([1.0, 0.0, 0.0, 0.0]);
-            }
-        }
-    }
+    let table = support::flat_capture([-0.5, -0.15], [200, 60], 0.005, 0.0, &[]);
     write_ply(dir.join("table.ply"), &table, &[]).expect("ply");
 }
 
