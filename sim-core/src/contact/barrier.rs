@@ -1,6 +1,6 @@
 //! Contact at the surface: deformable material against an immovable solid whose rule lets it
-//! leave (a "separate" plane or box collider, a static or kinematic procedural solid), as a
-//! barrier on the particles that touch it, not as a rule on the grid nodes around them.
+//! leave (a "separate" plane or box collider, a static or kinematic solid, procedural or captured,
+//! and the captured ground), as a barrier on the particles that touch it, not as a rule on the grid nodes around them.
 //!
 //! The grid-node rule (Hu et al. 2018, section 4) stops each node's approach in one substep: an
 //! inelastic impact of every bit of material that reaches the surface. A ball rolling on a
@@ -90,15 +90,16 @@ pub struct Motion {
 pub enum Wall<'a> {
     /// A grid collider at a time (s).
     Collider(&'a Collider, f64),
-    /// An immovable procedural solid.
+    /// An immovable solid, procedural or sampled (captured).
     Obstacle(&'a Obstacle<'a>),
 }
 
 impl Wall<'_> {
     /// Whether an obstacle meets deformable material through the barrier (as a collider does,
-    /// [`Collider::takes_barrier`]): immovable, exact, "separate".
+    /// [`Collider::takes_barrier`]): immovable and "separate", procedural or sampled (captured
+    /// ground, a captured static object).
     pub fn takes_obstacle(o: &Obstacle) -> bool {
-        o.placed.geometry.is_exact() && !o.is_movable() && matches!(o.surface, Surface::Separate)
+        !o.is_movable() && matches!(o.surface, Surface::Separate)
     }
 
     /// Signed distance (m) and outward normal at `x`; `None` where it is not defined (an

@@ -4,7 +4,7 @@
 //!
 //! | pair | mechanism |
 //! |---|---|
-//! | deformable – static, rigid, background, collider | boundary nodes on the deformable's grid ([`boundary`]; colliders in the grid update); a rigid object gets the reaction; with `surface_contact = "barrier"`, "separate" colliders and static and kinematic procedural objects first push the touching particles ([`barrier`]) |
+//! | deformable – static, rigid, background, collider | boundary nodes on the deformable's grid ([`boundary`]; colliders in the grid update); a rigid object gets the reaction; with `surface_contact = "barrier"`, "separate" colliders, static and kinematic objects (procedural or captured) and the background first push the touching particles ([`barrier`]) |
 //! | rigid – rigid, static, background, collider | the contact solver ([`solver`]) on manifolds ([`manifold`]) |
 //! | deformable – deformable | one COM-level impulse per pair and substep with the restitution law (the paper's stage 2; `world::deformable_pair`) |
 //!

@@ -25,8 +25,8 @@ impl ContactSolver {
 }
 
 /// How deformable material meets an immovable solid whose rule lets it leave: a "separate"
-/// plane or box collider, a static or kinematic procedural object (scene file:
-/// `[simulation] surface_contact`).
+/// plane or box collider, a static or kinematic object (procedural or captured), the captured
+/// ground (scene file: `[simulation] surface_contact`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SurfaceContact {
