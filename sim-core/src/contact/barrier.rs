@@ -1,6 +1,7 @@
 //! Contact at the surface: deformable material against an immovable solid whose rule lets it
-//! leave (a "separate" plane or box collider, a static or kinematic solid, procedural or captured,
-//! and the captured ground), as a barrier on the particles that touch it, not as a rule on the grid nodes around them.
+//! leave (a "separate" plane or box collider, a static or kinematic solid, procedural or
+//! captured, and the captured ground), as a barrier on the particles that touch it, not as a rule
+//! on the grid nodes around them.
 //!
 //! The grid-node rule (Hu et al. 2018, section 4) stops each node's approach in one substep: an
 //! inelastic impact of every bit of material that reaches the surface. A ball rolling on a
