@@ -494,8 +494,9 @@ fn a_finger_pushing_a_jelly_box_across_a_sticky_floor_never_gives_it_more_than_i
     assert!(fastest < 0.3, "the box reached {fastest} m/s");
 }
 
-/// The captured finger of the barrier test below: a block from x = −0.04 to −0.01, y ±0.02, z 0.005 to 0.035 (m), filled with opaque
-/// Gaussians 5 mm apart whose level set's faces are the block's.
+/// The captured finger of the barrier test below: a block from x = −0.04 to −0.01, y ±0.02,
+/// z 0.005 to 0.035 (m), filled with opaque Gaussians 5 mm apart whose level set's faces are the
+/// block's.
 fn write_captured_finger(dir: &std::path::Path) {
     let h = 0.005;
     let extra: Vec<[f32; 3]> = (0..6)
