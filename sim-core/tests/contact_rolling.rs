@@ -88,6 +88,15 @@ fn throw(
     out
 }
 
+/// A run of [`throw`] as "t: v_x/ω_y R" pairs, for the tests' output.
+fn frames(run: &[(f64, f64, f64)]) -> String {
+    let line: Vec<String> = run
+        .iter()
+        .map(|(t, v, wr)| format!("{t:.2}: {v:.3}/{wr:.3}"))
+        .collect();
+    line.join(", ")
+}
+
 #[test]
 fn a_jelly_ball_thrown_along_a_solid_rolls_and_never_rolls_back() {
     let runs = [
@@ -104,11 +113,7 @@ fn a_jelly_ball_thrown_along_a_solid_rolls_and_never_rolls_back() {
         "captured table",
     );
     for (run, what) in runs.into_iter().chain([captured]) {
-        let line: Vec<String> = run
-            .iter()
-            .map(|(t, v, wr)| format!("{t:.2}: {v:.3}/{wr:.3}"))
-            .collect();
-        println!("{what}: t: v_x/ω_y R (m/s) {}", line.join(", "));
+        println!("{what}: t: v_x/ω_y R (m/s) {}", frames(&run));
         for &(t, v, wr) in &run {
             assert!(
                 v > 0.0,
@@ -192,11 +197,7 @@ fn through_the_particle_barrier_a_thrown_jelly_ball_rolls_on_at_five_sevenths() 
         "captured table",
     );
     for (run, what) in procedural.into_iter().chain([captured]) {
-        let line: Vec<String> = run
-            .iter()
-            .map(|(t, v, wr)| format!("{t:.2}: {v:.3}/{wr:.3}"))
-            .collect();
-        println!("{what}, barrier: t: v_x/ω_y R (m/s) {}", line.join(", "));
+        println!("{what}, barrier: t: v_x/ω_y R (m/s) {}", frames(&run));
         let late: Vec<(f64, f64, f64)> =
             run.iter().copied().filter(|r| r.0 >= 0.2 - 1e-9).collect();
         for &(t, v, wr) in &run {
@@ -268,14 +269,7 @@ fn through_the_particle_barrier_on_a_5_mm_grid_a_thrown_jelly_ball_rolls_within_
         })
         .collect();
     for (run, what) in runs {
-        let line: Vec<String> = run
-            .iter()
-            .map(|(t, v, wr)| format!("{t:.2}: {v:.3}/{wr:.3}"))
-            .collect();
-        println!(
-            "{what}, barrier, 5 mm: t: v_x/ω_y R (m/s) {}",
-            line.join(", ")
-        );
+        println!("{what}, barrier, 5 mm: t: v_x/ω_y R (m/s) {}", frames(&run));
         for &(t, v, wr) in &run {
             assert!(v > 0.0, "{what}: rolled back at {t:.2} s ({v:.3} m/s)");
             if t >= 0.2 - 1e-9 {
