@@ -45,7 +45,9 @@
 //! centres pass a quarter of their size inside the surface within the substep
 //! ([`crate::mpm::reach::BARRIER_REACH`]), and
 //! the particles' sweep and push-out after G2P stay ([`super::crossing`],
-//! [`super::boundary::project_particles`]).
+//! [`super::boundary::project_particles`]). A node deeper than three quarters of a cell inside
+//! the solid takes neither: it is tied to the node above it ([`crate::mpm::deep_nodes`]), so
+//! the light tails of the bottom layer's stencils there do not pull that layer apart.
 
 use glam::{DMat3, DVec3, Vec3A};
 use rayon::prelude::*;

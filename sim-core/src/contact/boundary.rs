@@ -288,7 +288,10 @@ pub fn apply_one_way(
                     if let Some((gaps, dt_s)) = gate {
                         let solid_v = o.velocity_m_s + o.omega_rad_s.cross(r);
                         let v_n = (vel[l] + v_ref - solid_v).dot(normal);
-                        if !gaps.reaches(node, v_n, dt_s) {
+                        // Deep inside a barrier's surface (gated and "separate": the barrier's
+                        // `Wall::takes_obstacle`): tied after the update (`deep_nodes`).
+                        let separate = matches!(o.surface, Surface::Separate);
+                        if gaps.tied(separate, phi, dx_m) || !gaps.reaches(node, v_n, dt_s) {
                             continue;
                         }
                     }

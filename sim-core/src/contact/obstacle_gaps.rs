@@ -49,26 +49,29 @@ fn node_gaps(
     if !obstacles.iter().any(&which) {
         return None;
     }
-    Some(NodeGaps::new(grid, dx_m, particles, |x| {
-        obstacles
-            .iter()
-            .filter(|o| which(o))
-            .filter_map(|o| {
-                let (lo, hi) = o.placed.bounds_m;
-                let margin = 2.0 * dx_m;
-                if !(x.cmpge(lo - margin).all() && x.cmple(hi + margin).all()) {
-                    return None;
-                }
-                let (phi, n) = o.placed.surface_at(x);
-                let reach = if barrier && Wall::takes_obstacle(o) {
-                    BARRIER_REACH
-                } else {
-                    NODE_REACH
-                };
-                Some((phi, n, reach))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-    }))
+    Some(
+        NodeGaps::new(grid, dx_m, particles, |x| {
+            obstacles
+                .iter()
+                .filter(|o| which(o))
+                .filter_map(|o| {
+                    let (lo, hi) = o.placed.bounds_m;
+                    let margin = 2.0 * dx_m;
+                    if !(x.cmpge(lo - margin).all() && x.cmple(hi + margin).all()) {
+                        return None;
+                    }
+                    let (phi, n) = o.placed.surface_at(x);
+                    let reach = if barrier && Wall::takes_obstacle(o) {
+                        BARRIER_REACH
+                    } else {
+                        NODE_REACH
+                    };
+                    Some((phi, n, reach))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        })
+        .with_barrier(barrier),
+    )
 }
 
 /// Whether a node inside `o` takes its rule only where material reaches it (`apply`'s

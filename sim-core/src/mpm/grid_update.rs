@@ -166,7 +166,14 @@ pub fn update(
                                 };
                                 let vc = collider.velocity_at(time_s);
                                 if let Some(g) = gate {
-                                    if !g.reaches(i, (v + v_ref - vc).dot(n), dt_s) {
+                                    // Deep inside a barrier's surface: tied after the update
+                                    // (`deep_nodes`), not held.
+                                    let tied = g.barrier
+                                        && collider.takes_barrier()
+                                        && collider
+                                            .signed_distance(node, time_s)
+                                            .is_some_and(|(phi, _)| g.tied(true, phi, dx_m));
+                                    if tied || !g.reaches(i, (v + v_ref - vc).dot(n), dt_s) {
                                         continue;
                                     }
                                     if inside.is_none() {

@@ -11,6 +11,7 @@
 
 pub mod binning;
 pub mod bspline;
+pub mod deep_nodes;
 pub mod diagnostics;
 pub mod g2p;
 pub mod grid;

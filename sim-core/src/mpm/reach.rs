@@ -77,6 +77,10 @@ pub struct NodeGaps {
     pub gap_m: Vec<f32>,
     /// `[blocks × 64]`: the outward normal of the solid at the particle that gave the gap.
     pub normal: Vec<Vec3A>,
+    /// Whether the gaps were taken with the particle barrier on: a node deeper than
+    /// [`super::deep_nodes::HELD_DEPTH`] inside a surface that takes it is then tied to the node
+    /// above it instead of taking the rule ([`Self::tied`]).
+    pub barrier: bool,
 }
 
 impl NodeGaps {
@@ -153,7 +157,27 @@ impl NodeGaps {
                 normal[i] = n;
             }
         }
-        Self { gap_m, normal }
+        Self {
+            gap_m,
+            normal,
+            barrier: false,
+        }
+    }
+
+    /// The same gaps, marked as taken with the particle barrier on (`on`) or off.
+    pub fn with_barrier(self, on: bool) -> Self {
+        Self {
+            barrier: on,
+            ..self
+        }
+    }
+
+    /// Whether a node at signed distance `phi_m` (m) inside a surface that takes the particle
+    /// barrier (`takes_barrier`), on a grid of cell `dx_m`, is left to
+    /// [`super::deep_nodes::tie`] rather than the rule.
+    #[inline]
+    pub fn tied(&self, takes_barrier: bool, phi_m: f32, dx_m: f32) -> bool {
+        self.barrier && takes_barrier && phi_m < -super::deep_nodes::HELD_DEPTH * dx_m
     }
 
     /// The outward normal along which node `i` takes a gated solid's rule, given the solid's

@@ -12,10 +12,10 @@ use glam::Vec3A;
 use super::binning::Binning;
 use super::g2p;
 use super::grid::SparseGrid;
-use super::grid_update;
 use super::p2g::{self, Region};
 use super::particles::Particles;
 use super::reach::{BARRIER_REACH, NODE_REACH, NodeGaps};
+use super::{deep_nodes, grid_update};
 use crate::collider::Collider;
 use crate::material::Material;
 
@@ -180,7 +180,7 @@ impl MpmSolver {
             self.v_ref,
             &mut self.scratch,
         );
-        match grid_update::update(
+        if let Some(block) = grid_update::update(
             &mut self.grid,
             &self.scratch,
             self.dx_m,
@@ -192,9 +192,20 @@ impl MpmSolver {
             &mut self.collider_impulses,
             (gaps.as_ref(), sides.as_ref()),
         ) {
-            Some(block) => Err(MpmError::NonFiniteGrid { block }),
-            None => Ok(()),
+            return Err(MpmError::NonFiniteGrid { block });
         }
+        let (t, colliders) = (input.time_s, input.colliders);
+        let barrier = |c: &&Collider| c.takes_barrier() && c.is_active(t);
+        if input.barrier && colliders.iter().any(|c| barrier(&c)) {
+            deep_nodes::tie(&mut self.grid, dx, |x| {
+                colliders
+                    .iter()
+                    .filter(barrier)
+                    .filter_map(|c| c.signed_distance(x, t))
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+            });
+        }
+        Ok(())
     }
 
     /// Second half of a substep: G2P from the current grid, advecting `particles` (which must be
@@ -293,6 +304,7 @@ fn collider_gaps(
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0))
         })
+        .with_barrier(input.barrier)
     })
 }
 

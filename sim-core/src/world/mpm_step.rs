@@ -18,7 +18,9 @@ use crate::contact::boundary::{self, Obstacle, Reaction};
 use crate::contact::crossing;
 use crate::contact::mix_friction;
 use crate::material::Material;
-use crate::mpm::{MpmError, MpmSolver, Particles, SubstepInput, SubstepReport, multi_field};
+use crate::mpm::{
+    MpmError, MpmSolver, Particles, SubstepInput, SubstepReport, deep_nodes, multi_field,
+};
 use crate::scene::ObjectKind;
 
 /// Whether `b` runs MPM this substep.
@@ -140,6 +142,19 @@ fn apply_obstacles(
         reach,
         sides.as_ref(),
     );
+    if barrier && obstacles.iter().any(Wall::takes_obstacle) {
+        deep_nodes::tie(solver.grid_mut(), dx, |x| {
+            obstacles
+                .iter()
+                .filter(|o| Wall::takes_obstacle(o))
+                .filter(|o| {
+                    let (lo, hi) = o.placed.bounds_m;
+                    x.cmpge(lo - dx).all() && x.cmple(hi + dx).all()
+                })
+                .map(|o| o.placed.surface_at(x))
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+        });
+    }
     let mut touched = Vec::new();
     for ((r, &k), o) in r.iter().zip(of.iter()).zip(obstacles.iter_mut()) {
         o.receive(r);
