@@ -141,9 +141,9 @@ mod tests {
             (after - before).length() < 1e-5 * before.length(),
             "{before} -> {after}"
         );
-        // The node 1 cell deep (local z = 3 of the lower block) was tied last to the surface
-        // node (local z = 0 of the upper block): the mass-weighted mean of their normal
-        // velocities, -2.0 × 0.1 and 0.1 × 1 over 1.1 (the deeper ones were tied first, to it).
+        // The node 1 cell deep (local z = 3 of the lower block), tied in turn to the ones below
+        // it, was tied last to the surface node (local z = 0 of the upper block): they share a
+        // normal velocity between the light nodes' -2 m/s and the heavy node's 0.1 m/s.
         let (deep, top) = (3 * 16, BLOCK_NODES);
         let dz = g.velocity_m_s[deep].z;
         assert!((dz - g.velocity_m_s[top].z).abs() < 1e-6);
