@@ -244,7 +244,7 @@ fn through_the_particle_barrier_on_a_5_mm_grid_a_thrown_jelly_ball_rolls_within_
     // every frame within 10 % of 5/7 v0 and rolling (ω R = v within a tenth), never back, on a
     // collider plane, on a static slab whose top lies half-way between node layers and on the
     // captured table. Measured 2026-11-29 (frames every 0.01 s): means 0.273-0.278 m/s (5/7 v0
-    // = 0.286), frames 0.268-0.285 m/s; on 1 cm cells the means are 8-11 % below (the test
+    // = 0.286), frames 0.269-0.286 m/s; on 1 cm cells the means are 8-12 % below (the test
     // above): what the barrier loses is a matter of resolution.
     let dx = 0.005;
     // The three runs side by side (each world is mostly serial).

@@ -47,7 +47,7 @@ pub fn tie(
         velocity_m_s,
         ..
     } = grid;
-    let deep: Vec<(usize, IVec3)> = keys
+    let deep: Vec<(usize, IVec3, IVec3)> = keys
         .par_iter()
         .zip(mass_kg.par_chunks(BLOCK_NODES))
         .enumerate()
@@ -62,12 +62,15 @@ pub fn tie(
                 let node = origin + local;
                 let (phi, n) = surface(node.as_vec3a() * dx_m)?;
                 let up = n.round().as_ivec3();
-                (phi < depth && n.is_finite() && up != IVec3::ZERO)
-                    .then_some((b * BLOCK_NODES + l, node + up))
+                (phi < depth && n.is_finite() && up != IVec3::ZERO).then_some((
+                    b * BLOCK_NODES + l,
+                    node + up,
+                    up,
+                ))
             })
         })
         .collect();
-    for (i, above) in deep {
+    for (i, above, up) in deep {
         let key = IVec3::new(
             above.x.div_euclid(BLOCK),
             above.y.div_euclid(BLOCK),
@@ -83,18 +86,12 @@ pub fn tie(
             continue;
         }
         // The normal along the lattice step between them: both take the same component.
-        let n = (above - node_of(keys, i)).as_vec3a().normalize();
+        let n = up.as_vec3a().normalize();
         let (vi, vj) = (velocity_m_s[i].dot(n), velocity_m_s[j].dot(n));
         let shared = (mi * vi + mj * vj) / (mi + mj);
         velocity_m_s[i] += n * (shared - vi);
         velocity_m_s[j] += n * (shared - vj);
     }
-}
-
-/// The integer coordinates of node `i` (in the grid's node order) of a grid with block `keys`.
-fn node_of(keys: &[IVec3], i: usize) -> IVec3 {
-    let l = (i % BLOCK_NODES) as i32;
-    keys[i / BLOCK_NODES] * BLOCK + IVec3::new(l % 4, (l / 4) % 4, l / 16)
 }
 
 #[cfg(test)]
